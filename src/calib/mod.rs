@@ -1,0 +1,1 @@
+//! Camera models, checkerboard calibration and undistortion.

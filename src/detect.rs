@@ -1,0 +1,2 @@
+//! Marker detection: HSV red mask, hole fill, speck removal, connected components and
+//! sub-pixel centroids.

@@ -1,0 +1,1 @@
+//! Finite-element model of the PneuNets actuator.

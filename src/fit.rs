@@ -1,0 +1,1 @@
+//! Fits on marker centroids: circles (Pratt), bending angle, power-law curves.

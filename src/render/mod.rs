@@ -1,0 +1,1 @@
+//! Synthetic camera images with known ground truth.

@@ -1,0 +1,1 @@
+//! Reports: CSV tables, plots and QA overlays.

@@ -1,0 +1,1 @@
+//! Scale: millimetres per undistorted pixel.

@@ -1,0 +1,1 @@
+//! Sessions: batches of videos with a pressure manifest, and their aggregation.

@@ -1,0 +1,1 @@
+//! Frame sources: streaming video decode.
