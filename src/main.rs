@@ -1,1 +1,27 @@
-fn main() {}
+//! The `bendscope` binary: parses the command line and dispatches to the library.
+
+mod cli;
+
+use std::process::ExitCode;
+
+use clap::Parser;
+
+fn main() -> ExitCode {
+    let args = cli::Cli::parse();
+    let result = match &args.command {
+        cli::Command::Calibrate(a) => cli::calibrate::run(a),
+        cli::Command::Scale(a) => cli::scale::run(a),
+    };
+    match result {
+        Ok(code) => ExitCode::from(code),
+        Err(e) => {
+            // One line: the error and its causes.
+            let mut msg = format!("error: {e}");
+            for cause in e.chain().skip(1) {
+                msg.push_str(&format!(": {cause}"));
+            }
+            eprintln!("{msg}");
+            ExitCode::from(cli::EXIT_BAD_INPUT)
+        }
+    }
+}

@@ -1,1 +1,191 @@
-//! Scale: millimetres per undistorted pixel.
+//! Scale: millimetres per undistorted pixel in the actuator plane.
+//!
+//! From a checkerboard lying in the actuator plane: its corners are found in the raw photo,
+//! undistorted into the same undistorted pixel space the markers are measured in
+//! ([`crate::calib::Undistorter`]), and the mean corner spacing along every row and column
+//! (first to last corner, the longest baselines) gives mm per px. The spread between rows
+//! and columns tells whether the board was parallel to the image plane.
+//!
+//! Or, the published manual method: a field of view of `fov_mm` across the frame width,
+//! radius_mm = radius_px x fov_mm / frame_width_px.
+
+use std::path::{Path, PathBuf};
+
+use nalgebra::Point2;
+use serde::{Deserialize, Serialize};
+
+use crate::calib::corners::{find_corners, read_gray, DEFAULT_MAX_DETECT_PX};
+use crate::calib::{Board, CalibError, Calibration, UndistortSettings, Undistorter};
+
+/// Spread (relative standard deviation of the row/column spacings) above which the scale
+/// board is reported as probably tilted.
+pub const TILT_WARNING_SPREAD: f64 = 0.01;
+
+/// Errors of the scale measurement.
+#[derive(Debug, thiserror::Error)]
+pub enum ScaleError {
+    /// Calibration or image problem.
+    #[error(transparent)]
+    Calib(#[from] CalibError),
+    /// No board in the scale photo.
+    #[error("{path}: no {board} board found: check --board (inner corners, columns x rows) and that the whole board is in the photo")]
+    NoBoard {
+        /// The photo.
+        path: PathBuf,
+        /// The board looked for.
+        board: String,
+    },
+    /// A nonsense number.
+    #[error("{what} must be a positive finite number, got {value}")]
+    NotPositive {
+        /// Which quantity.
+        what: &'static str,
+        /// The value given.
+        value: f64,
+    },
+}
+
+/// How the scale was obtained.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ScaleMethod {
+    /// A checkerboard in the actuator plane.
+    Board,
+    /// A field of view in mm across the frame width.
+    FieldOfView,
+}
+
+/// Millimetres per undistorted pixel, with its provenance.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Scale {
+    /// mm per undistorted px.
+    pub mm_per_px: f64,
+    /// How it was measured.
+    pub method: ScaleMethod,
+    /// Relative standard deviation of the row/column spacings (board method), else 0.
+    pub spread: f64,
+    /// Frame width the scale applies to, px.
+    pub image_width: u32,
+    /// Frame height the scale applies to, px.
+    pub image_height: u32,
+}
+
+impl Scale {
+    /// True when the board looked tilted (see [`TILT_WARNING_SPREAD`]).
+    pub fn looks_tilted(&self) -> bool {
+        self.spread > TILT_WARNING_SPREAD
+    }
+}
+
+/// mm per px from a field of view across the frame width (the published manual method).
+pub fn scale_from_fov(fov_mm: f64, width_px: u32, height_px: u32) -> Result<Scale, ScaleError> {
+    if !(fov_mm.is_finite() && fov_mm > 0.0) {
+        return Err(ScaleError::NotPositive {
+            what: "field of view (mm)",
+            value: fov_mm,
+        });
+    }
+    if width_px == 0 {
+        return Err(ScaleError::NotPositive {
+            what: "frame width (px)",
+            value: 0.0,
+        });
+    }
+    Ok(Scale {
+        mm_per_px: fov_mm / width_px as f64,
+        method: ScaleMethod::FieldOfView,
+        spread: 0.0,
+        image_width: width_px,
+        image_height: height_px,
+    })
+}
+
+/// mm per undistorted px from corners of `board` already undistorted (row-major).
+pub fn scale_from_corners(
+    undistorted: &[Point2<f64>],
+    board: &Board,
+) -> Result<(f64, f64), ScaleError> {
+    let (cols, rows) = (board.cols as usize, board.rows as usize);
+    if undistorted.len() != cols * rows {
+        return Err(ScaleError::NotPositive {
+            what: "corner count",
+            value: undistorted.len() as f64,
+        });
+    }
+    let mut spacings = Vec::with_capacity(cols + rows);
+    for r in 0..rows {
+        let d = (undistorted[r * cols + cols - 1] - undistorted[r * cols]).norm();
+        spacings.push(d / (cols - 1) as f64);
+    }
+    for c in 0..cols {
+        let d = (undistorted[(rows - 1) * cols + c] - undistorted[c]).norm();
+        spacings.push(d / (rows - 1) as f64);
+    }
+    let n = spacings.len() as f64;
+    let mean = spacings.iter().sum::<f64>() / n;
+    let sd = (spacings.iter().map(|s| (s - mean).powi(2)).sum::<f64>() / n).sqrt();
+    if !(mean.is_finite() && mean > 0.0) {
+        return Err(ScaleError::NotPositive {
+            what: "corner spacing (px)",
+            value: mean,
+        });
+    }
+    Ok((board.square_mm / mean, sd / mean))
+}
+
+/// mm per undistorted px from a photo of `board` lying in the actuator plane.
+pub fn scale_from_board_photo(
+    path: &Path,
+    calib: &Calibration,
+    board: &Board,
+    undistort: UndistortSettings,
+) -> Result<Scale, ScaleError> {
+    let gray = read_gray(path)?;
+    let (w, h) = (
+        opencv::prelude::MatTraitConst::cols(&gray) as u32,
+        opencv::prelude::MatTraitConst::rows(&gray) as u32,
+    );
+    let calib = calib.for_resolution(w, h)?;
+    let und = Undistorter::new(&calib, undistort)?;
+    let corners = find_corners(&gray, board, DEFAULT_MAX_DETECT_PX)
+        .map_err(|e| CalibError::cv("corner search", e))?
+        .ok_or_else(|| ScaleError::NoBoard {
+            path: path.to_path_buf(),
+            board: board.to_string(),
+        })?;
+    let flat = und.undistort_points(&corners)?;
+    let (mm_per_px, spread) = scale_from_corners(&flat, board)?;
+    Ok(Scale {
+        mm_per_px,
+        method: ScaleMethod::Board,
+        spread,
+        image_width: w,
+        image_height: h,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fov_formula() {
+        let s = scale_from_fov(300.0, 1920, 1080).unwrap();
+        assert!((s.mm_per_px - 0.15625).abs() < 1e-12);
+        assert!(scale_from_fov(-1.0, 1920, 1080).is_err());
+        assert!(scale_from_fov(f64::NAN, 1920, 1080).is_err());
+    }
+
+    #[test]
+    fn spacing_of_an_exact_grid() {
+        let b = Board::new(4, 3, 25.0).unwrap();
+        let pts: Vec<_> = (0..3)
+            .flat_map(|r| {
+                (0..4).map(move |c| Point2::new(10.0 + 50.0 * c as f64, 7.0 + 50.0 * r as f64))
+            })
+            .collect();
+        let (mm, spread) = scale_from_corners(&pts, &b).unwrap();
+        assert!((mm - 0.5).abs() < 1e-12);
+        assert!(spread < 1e-12);
+    }
+}

@@ -1,0 +1,288 @@
+//! Checkerboard corner detection.
+//!
+//! OpenCV's `findChessboardCorners` (adaptive threshold, normalized image, fast check)
+//! finds the board; `cornerSubPix` refines every corner at full resolution. Photos larger
+//! than [`DetectSettings::max_detect_px`] are searched on a downscaled copy (the search
+//! cost grows with the pixel count; a 4000x3000 GoPro still is ~9x slower than its
+//! 1333x1000 copy) and the corners are then refined on the full image with a window large
+//! enough to absorb the downscaling error. Views are processed in parallel (rayon).
+
+use std::path::{Path, PathBuf};
+
+use nalgebra::Point2;
+use opencv::core::{Mat, Point2f, Size, TermCriteria, TermCriteria_Type, Vector};
+use opencv::prelude::*;
+use opencv::{calib3d, imgcodecs, imgproc};
+use rayon::prelude::*;
+
+use super::{Board, CalibError, RejectedView};
+
+/// Longest side, px, at which the board is searched; larger views are downscaled first.
+pub const DEFAULT_MAX_DETECT_PX: u32 = 1280;
+/// Largest half-window of the sub-pixel refinement (OpenCV's calibration sample uses 11).
+pub const MAX_SUBPIX_HALF_WINDOW: i32 = 11;
+/// Half-window as a fraction of the smallest corner spacing: keeps the window inside
+/// one square so neighbouring corners do not pull the estimate.
+pub const SUBPIX_WINDOW_FRACTION: f64 = 0.5;
+/// Iterations and accuracy of the sub-pixel refinement (as in OpenCV's sample).
+pub const SUBPIX_MAX_ITER: i32 = 30;
+/// See [`SUBPIX_MAX_ITER`].
+pub const SUBPIX_EPS: f64 = 1e-4;
+
+/// How corners are searched.
+#[derive(Debug, Clone, Copy)]
+pub struct DetectSettings {
+    /// Views whose longest side exceeds this are searched on a downscaled copy.
+    pub max_detect_px: u32,
+    /// Search views in parallel.
+    pub parallel: bool,
+}
+
+impl Default for DetectSettings {
+    fn default() -> Self {
+        Self {
+            max_detect_px: DEFAULT_MAX_DETECT_PX,
+            parallel: true,
+        }
+    }
+}
+
+/// Where a view comes from.
+#[derive(Debug, Clone)]
+pub enum ViewSource {
+    /// An image file, read with OpenCV's `imread`.
+    Image(PathBuf),
+    /// A frame already in memory (from a video), 8-bit grey.
+    Frame {
+        /// Name used in reports, e.g. `calib.mp4#frame120`.
+        name: String,
+        /// The frame.
+        gray: image::GrayImage,
+    },
+}
+
+impl ViewSource {
+    /// The name used in reports: the file name, or the frame's name.
+    pub fn name(&self) -> String {
+        match self {
+            ViewSource::Image(p) => display_name(p),
+            ViewSource::Frame { name, .. } => name.clone(),
+        }
+    }
+}
+
+/// File name for reports (the whole path when it has none).
+pub fn display_name(path: &Path) -> String {
+    path.file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| path.display().to_string())
+}
+
+/// A view with a detected board.
+#[derive(Debug, Clone)]
+pub struct BoardView {
+    /// Name for reports.
+    pub name: String,
+    /// Frame width, px.
+    pub width: u32,
+    /// Frame height, px.
+    pub height: u32,
+    /// Inner corners, row-major as [`Board::object_points_mm`], px.
+    pub corners: Vec<Point2<f64>>,
+}
+
+/// The outcome of searching all views.
+#[derive(Debug, Clone, Default)]
+pub struct Detections {
+    /// Views with a board, in input order.
+    pub views: Vec<BoardView>,
+    /// Views without a usable board, with the reason.
+    pub rejected: Vec<RejectedView>,
+}
+
+/// Searches `board` in every view (in parallel), refining corners to sub-pixel accuracy.
+/// A view that cannot be read or shows no board is listed in `rejected`, never an error.
+/// `on_done` is called once per view as it finishes (e.g. to advance a progress bar).
+pub fn detect_views(
+    sources: &[ViewSource],
+    board: &Board,
+    settings: &DetectSettings,
+    on_done: &(dyn Fn() + Sync),
+) -> Detections {
+    let run = |s: &ViewSource| -> Result<BoardView, RejectedView> {
+        let name = s.name();
+        let r = detect_view(s, board, settings).map_err(|reason| RejectedView { name, reason });
+        on_done();
+        r
+    };
+    let results: Vec<Result<BoardView, RejectedView>> = if settings.parallel {
+        sources.par_iter().map(run).collect()
+    } else {
+        sources.iter().map(run).collect()
+    };
+    let mut out = Detections::default();
+    for r in results {
+        match r {
+            Ok(v) => out.views.push(v),
+            Err(r) => out.rejected.push(r),
+        }
+    }
+    out
+}
+
+/// Reads a view as 8-bit grey, or says why it cannot.
+fn load_gray(source: &ViewSource) -> Result<Mat, String> {
+    match source {
+        ViewSource::Image(path) => {
+            let m = imgcodecs::imread(path, imgcodecs::IMREAD_GRAYSCALE)
+                .map_err(|e| format!("unreadable image ({})", e.message))?;
+            if m.empty() {
+                return Err("not a readable image (corrupt or not an image file)".to_string());
+            }
+            Ok(m)
+        }
+        ViewSource::Frame { gray, .. } => super::cv::mat_from_gray(gray)
+            .map_err(|e| format!("frame conversion failed ({})", e.message)),
+    }
+}
+
+/// Detects the board in one view.
+fn detect_view(
+    source: &ViewSource,
+    board: &Board,
+    settings: &DetectSettings,
+) -> Result<BoardView, String> {
+    let gray = load_gray(source)?;
+    let corners = find_corners(&gray, board, settings.max_detect_px)
+        .map_err(|e| format!("corner search failed ({})", e.message))?
+        .ok_or_else(|| format!("no {board} board found"))?;
+    Ok(BoardView {
+        name: source.name(),
+        width: gray.cols() as u32,
+        height: gray.rows() as u32,
+        corners,
+    })
+}
+
+/// Finds and refines the inner corners of `board` in an 8-bit grey image.
+/// `Ok(None)` when the board is not (completely) visible.
+pub fn find_corners(
+    gray: &Mat,
+    board: &Board,
+    max_detect_px: u32,
+) -> opencv::Result<Option<Vec<Point2<f64>>>> {
+    let pattern = Size::new(board.cols as i32, board.rows as i32);
+    let flags = calib3d::CALIB_CB_ADAPTIVE_THRESH
+        | calib3d::CALIB_CB_NORMALIZE_IMAGE
+        | calib3d::CALIB_CB_FAST_CHECK;
+    let longest = gray.cols().max(gray.rows()) as f64;
+    let scale = if longest > max_detect_px as f64 {
+        max_detect_px as f64 / longest
+    } else {
+        1.0
+    };
+    let mut corners = Vector::<Point2f>::new();
+    let found = if scale < 1.0 {
+        let mut small = Mat::default();
+        imgproc::resize(
+            gray,
+            &mut small,
+            Size::new(0, 0),
+            scale,
+            scale,
+            imgproc::INTER_AREA,
+        )?;
+        let found = calib3d::find_chessboard_corners(&small, pattern, &mut corners, flags)?;
+        // Back to full-resolution pixel coordinates (pixel centres at integers).
+        let inv = 1.0 / scale;
+        let mut full = Vector::<Point2f>::with_capacity(corners.len());
+        for p in corners.iter() {
+            full.push(Point2f::new(
+                ((p.x as f64 + 0.5) * inv - 0.5) as f32,
+                ((p.y as f64 + 0.5) * inv - 0.5) as f32,
+            ));
+        }
+        corners = full;
+        found
+    } else {
+        calib3d::find_chessboard_corners(gray, pattern, &mut corners, flags)?
+    };
+    if !found || corners.len() != board.corner_count() {
+        return Ok(None);
+    }
+    let spacing = min_corner_spacing(&corners, board);
+    let mut half =
+        ((SUBPIX_WINDOW_FRACTION * spacing).round() as i32).clamp(2, MAX_SUBPIX_HALF_WINDOW);
+    if scale < 1.0 {
+        // The downscaled estimate can be off by about one small pixel: the window must
+        // reach that far at full resolution.
+        let needed = (2.0 / scale).ceil() as i32;
+        half = half.max(needed.min((0.45 * spacing) as i32)).max(2);
+    }
+    let criteria = TermCriteria::new(
+        TermCriteria_Type::EPS as i32 + TermCriteria_Type::COUNT as i32,
+        SUBPIX_MAX_ITER,
+        SUBPIX_EPS,
+    )?;
+    imgproc::corner_sub_pix(
+        gray,
+        &mut corners,
+        Size::new(half, half),
+        Size::new(-1, -1),
+        criteria,
+    )?;
+    Ok(Some(
+        corners
+            .iter()
+            .map(|p| Point2::new(p.x as f64, p.y as f64))
+            .collect(),
+    ))
+}
+
+/// Smallest distance between neighbouring corners along rows and columns, px.
+fn min_corner_spacing(corners: &Vector<Point2f>, board: &Board) -> f64 {
+    let (cols, rows) = (board.cols as usize, board.rows as usize);
+    let at = |r: usize, c: usize| corners.get(r * cols + c).unwrap_or_default();
+    let mut best = f64::INFINITY;
+    for r in 0..rows {
+        for c in 0..cols {
+            let p = at(r, c);
+            if c + 1 < cols {
+                let q = at(r, c + 1);
+                best = best.min(((p.x - q.x) as f64).hypot((p.y - q.y) as f64));
+            }
+            if r + 1 < rows {
+                let q = at(r + 1, c);
+                best = best.min(((p.x - q.x) as f64).hypot((p.y - q.y) as f64));
+            }
+        }
+    }
+    best
+}
+
+/// Reads every view's size cheaply and checks they agree; returns (width, height).
+pub fn common_size(views: &[BoardView]) -> Result<(u32, u32), CalibError> {
+    let first = views.first().ok_or(CalibError::NoViews {
+        paths: String::new(),
+    })?;
+    for v in views {
+        if v.width != first.width || v.height != first.height {
+            return Err(CalibError::MixedResolution {
+                path: v.name.clone(),
+                width: v.width,
+                height: v.height,
+                expected_width: first.width,
+                expected_height: first.height,
+            });
+        }
+    }
+    Ok((first.width, first.height))
+}
+
+/// Loads an image file as 8-bit grey (for the scale photo and similar single views).
+pub fn read_gray(path: &Path) -> Result<Mat, CalibError> {
+    load_gray(&ViewSource::Image(path.to_path_buf())).map_err(|why| CalibError::Unreadable {
+        path: path.to_path_buf(),
+        why,
+    })
+}

@@ -1,0 +1,219 @@
+//! `bendscope calibrate`: camera intrinsics from checkerboard views.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use bendscope::calib::corners::{detect_views, display_name, DetectSettings, ViewSource};
+use bendscope::calib::file::write_calibration;
+use bendscope::calib::{
+    calibrate, Board, BoardSize, CalibError, Calibration, CalibrationSettings, CameraModel,
+    RejectedView,
+};
+use clap::Args;
+
+use super::EXIT_OK;
+
+/// Image file extensions read as calibration photos.
+pub const IMAGE_EXTENSIONS: &[&str] = &["jpg", "jpeg", "png", "bmp", "tif", "tiff", "webp"];
+/// Video file extensions sampled for calibration frames.
+pub const VIDEO_EXTENSIONS: &[&str] = &["mp4", "mov", "m4v", "mkv", "avi", "webm"];
+
+/// Calibrate a camera from checkerboard views.
+#[derive(Debug, Args)]
+pub struct CalibrateArgs {
+    /// Images, folders of images, or videos of a checkerboard.
+    #[arg(required = true, value_name = "PATH")]
+    pub paths: Vec<PathBuf>,
+    /// Inner corners of the board, columns x rows (a 10x7-square board has 9x6).
+    #[arg(long, default_value = "9x6", value_parser = parse_board_size)]
+    pub board: BoardSize,
+    /// Side of one square, mm.
+    #[arg(long, default_value_t = 25.0, value_parser = parse_positive)]
+    pub square_mm: f64,
+    /// Lens model: fisheye (GoPro, Kannala-Brandt) or pinhole (RGB-D colour, 5 Brown coefficients).
+    #[arg(long, value_enum, default_value_t = CameraModel::Fisheye)]
+    pub model: CameraModel,
+    /// Pinhole only: keep fx = fy.
+    #[arg(long)]
+    pub fix_aspect_ratio: bool,
+    /// Frames sampled evenly from each video.
+    #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u32).range(3..))]
+    pub frames: u32,
+    /// Output file [default: calibration/<folder-or-camera-name>.yaml].
+    #[arg(short, long, value_name = "FILE")]
+    pub output: Option<PathBuf>,
+    /// Longest side (px) at which boards are searched; larger views are downscaled first.
+    #[arg(long, default_value_t = 1280, value_parser = clap::value_parser!(u32).range(320..))]
+    pub detect_px: u32,
+}
+
+fn parse_board_size(s: &str) -> Result<BoardSize, String> {
+    s.parse::<BoardSize>().map_err(|e| e.to_string())
+}
+
+/// A positive, finite number.
+pub fn parse_positive(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("`{s}` is not a positive number")),
+    }
+}
+
+fn has_extension(path: &Path, exts: &[&str]) -> bool {
+    path.extension()
+        .map(|e| exts.contains(&e.to_string_lossy().to_ascii_lowercase().as_str()))
+        .unwrap_or(false)
+}
+
+/// Turns the command-line paths into views; files in folders that are not images or
+/// videos are listed as skipped.
+fn collect_sources(
+    paths: &[PathBuf],
+    frames: u32,
+) -> Result<(Vec<ViewSource>, Vec<RejectedView>), CalibError> {
+    let mut sources = Vec::new();
+    let mut skipped = Vec::new();
+    for path in paths {
+        if path.is_dir() {
+            let mut entries: Vec<PathBuf> = std::fs::read_dir(path)
+                .map_err(|source| CalibError::Io {
+                    path: path.clone(),
+                    source,
+                })?
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|p| p.is_file())
+                .collect();
+            entries.sort();
+            for p in entries {
+                if has_extension(&p, IMAGE_EXTENSIONS) {
+                    sources.push(ViewSource::Image(p));
+                } else if has_extension(&p, VIDEO_EXTENSIONS) {
+                    sources.extend(video_frames(&p, frames)?);
+                } else {
+                    skipped.push(RejectedView {
+                        name: display_name(&p),
+                        reason: "not an image or video file".to_string(),
+                    });
+                }
+            }
+        } else if path.is_file() {
+            if has_extension(path, VIDEO_EXTENSIONS) {
+                sources.extend(video_frames(path, frames)?);
+            } else if has_extension(path, IMAGE_EXTENSIONS) {
+                sources.push(ViewSource::Image(path.clone()));
+            } else {
+                return Err(CalibError::NotAnInput { path: path.clone() });
+            }
+        } else {
+            return Err(CalibError::Io {
+                path: path.clone(),
+                source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file or folder"),
+            });
+        }
+    }
+    Ok((sources, skipped))
+}
+
+/// Frames sampled evenly from a video, as grey views.
+fn video_frames(path: &Path, frames: u32) -> Result<Vec<ViewSource>, CalibError> {
+    let _ = frames;
+    Err(CalibError::Video {
+        path: path.to_path_buf(),
+        message: "calibration from video is not available in this build: extract photos"
+            .to_string(),
+    })
+}
+
+/// Default output: calibration/<name>.yaml, name from the first path's folder or stem.
+fn default_output(paths: &[PathBuf]) -> PathBuf {
+    let first = &paths[0];
+    let name = if first.is_dir() {
+        std::fs::canonicalize(first)
+            .ok()
+            .and_then(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+    } else if has_extension(first, VIDEO_EXTENSIONS) {
+        first.file_stem().map(|n| n.to_string_lossy().into_owned())
+    } else {
+        std::fs::canonicalize(first).ok().and_then(|p| {
+            p.parent()
+                .and_then(|d| d.file_name())
+                .map(|n| n.to_string_lossy().into_owned())
+        })
+    };
+    PathBuf::from("calibration").join(format!("{}.yaml", name.unwrap_or_else(|| "camera".into())))
+}
+
+/// Runs `bendscope calibrate`.
+pub fn run(args: &CalibrateArgs) -> Result<u8> {
+    let board = Board::new(args.board.cols, args.board.rows, args.square_mm)?;
+    let (sources, skipped) = collect_sources(&args.paths, args.frames)?;
+    if sources.is_empty() {
+        return Err(CalibError::NoViews {
+            paths: args
+                .paths
+                .iter()
+                .map(|p| p.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", "),
+        }
+        .into());
+    }
+    let bar = super::progress_bar(sources.len() as u64, "finding corners");
+    let settings = DetectSettings {
+        max_detect_px: args.detect_px,
+        parallel: true,
+    };
+    let mut detections = detect_views(&sources, &board, &settings, &|| bar.inc(1));
+    bar.finish_and_clear();
+    detections.rejected.extend(skipped);
+    let calib = calibrate(
+        &detections,
+        &CalibrationSettings {
+            model: args.model,
+            board,
+            fix_aspect_ratio: args.fix_aspect_ratio,
+        },
+    )?;
+    let out = args
+        .output
+        .clone()
+        .unwrap_or_else(|| default_output(&args.paths));
+    write_calibration(&out, &calib).with_context(|| format!("writing {}", out.display()))?;
+    print_summary(&calib, &out);
+    Ok(EXIT_OK)
+}
+
+fn print_summary(c: &Calibration, out: &Path) {
+    println!(
+        "{} calibration of {}x{} from {} view(s), {} rejected",
+        c.model.name(),
+        c.image_width,
+        c.image_height,
+        c.views_used.len(),
+        c.views_rejected.len()
+    );
+    println!(
+        "  fx = {:.2}  fy = {:.2}  cx = {:.2}  cy = {:.2} px",
+        c.fx(),
+        c.fy(),
+        c.cx(),
+        c.cy()
+    );
+    let d: Vec<String> = c.distortion.iter().map(|v| format!("{v:.5}")).collect();
+    println!("  distortion = [{}]", d.join(", "));
+    println!(
+        "  RMS reprojection error = {:.4} px",
+        c.avg_reprojection_error
+    );
+    if let Some(worst) = c
+        .per_view_errors
+        .iter()
+        .max_by(|a, b| a.rms_px.total_cmp(&b.rms_px))
+    {
+        println!("  worst view: {} ({:.3} px)", worst.name, worst.rms_px);
+    }
+    for r in &c.views_rejected {
+        println!("  rejected {}: {}", r.name, r.reason);
+    }
+    println!("  written to {}", out.display());
+}

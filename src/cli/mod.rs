@@ -1,0 +1,50 @@
+//! Command-line interface: flags parsed once into checked settings, then dispatched to the
+//! library. Data goes to files and stdout; logs and progress bars go to stderr.
+
+pub mod calibrate;
+pub mod scale;
+
+use clap::{Parser, Subcommand};
+
+/// Exit code: everything asked for was done.
+pub const EXIT_OK: u8 = 0;
+/// Exit code: some items failed, the others' results were written.
+pub const EXIT_PARTIAL: u8 = 1;
+/// Exit code: bad input or usage; nothing was done.
+pub const EXIT_BAD_INPUT: u8 = 2;
+/// Exit code: nothing could be measured.
+pub const EXIT_NOTHING: u8 = 3;
+
+/// Measure soft pneumatic bending actuators from video and compare them with a
+/// finite-element model.
+#[derive(Debug, Parser)]
+#[command(name = "bendscope", version, about, long_about = None)]
+#[command(
+    after_help = "Exit codes: 0 all done, 1 some items failed (others kept), 2 bad input or usage, 3 nothing could be measured."
+)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// Subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Calibrate a camera from checkerboard photos, folders of photos or videos.
+    Calibrate(calibrate::CalibrateArgs),
+    /// Measure mm per undistorted pixel from a board lying in the actuator plane.
+    Scale(scale::ScaleArgs),
+}
+
+/// A progress bar on stderr (drawn only when stderr is a terminal).
+pub fn progress_bar(len: u64, what: &str) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(len);
+    if let Ok(style) = indicatif::ProgressStyle::with_template(
+        "{msg:>16} [{bar:30}] {pos}/{len} {elapsed_precise} eta {eta}",
+    ) {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar.set_message(what.to_string());
+    bar
+}

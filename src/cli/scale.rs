@@ -1,0 +1,69 @@
+//! `bendscope scale`: mm per undistorted pixel in the actuator plane.
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Context, Result};
+use bendscope::calib::file::read_calibration;
+use bendscope::calib::{Board, BoardSize, UndistortSettings};
+use bendscope::io::write_atomic;
+use bendscope::scale::{scale_from_board_photo, scale_from_fov, Scale};
+use clap::Args;
+
+use super::calibrate::parse_positive;
+use super::EXIT_OK;
+
+/// Measure mm per undistorted pixel from a board lying in the actuator plane, or from a
+/// known field of view.
+#[derive(Debug, Args)]
+pub struct ScaleArgs {
+    /// Photo of a checkerboard lying in the actuator plane (not needed with --fov-mm).
+    #[arg(value_name = "IMAGE", required_unless_present = "fov_mm")]
+    pub image: Option<PathBuf>,
+    /// Calibration file made by `bendscope calibrate`.
+    #[arg(long, value_name = "FILE", required_unless_present = "fov_mm")]
+    pub calibration: Option<PathBuf>,
+    /// Inner corners of the board, columns x rows.
+    #[arg(long, default_value = "9x6", value_parser = |s: &str| s.parse::<BoardSize>().map_err(|e| e.to_string()))]
+    pub board: BoardSize,
+    /// Side of one square, mm.
+    #[arg(long, default_value_t = 25.0, value_parser = parse_positive)]
+    pub square_mm: f64,
+    /// Manual method: field of view across the frame width, mm (radius_mm = radius_px x FOV_mm / width_px).
+    #[arg(long, value_parser = parse_positive, conflicts_with_all = ["image", "calibration"], requires = "width_px")]
+    pub fov_mm: Option<f64>,
+    /// Manual method: frame width, px.
+    #[arg(long, requires = "fov_mm")]
+    pub width_px: Option<u32>,
+    /// Manual method: frame height, px.
+    #[arg(long, requires = "fov_mm", default_value_t = 0)]
+    pub height_px: u32,
+    /// Save the result as JSON.
+    #[arg(long, value_name = "FILE")]
+    pub save: Option<PathBuf>,
+}
+
+/// Runs `bendscope scale`.
+pub fn run(args: &ScaleArgs) -> Result<u8> {
+    let scale: Scale = match (args.fov_mm, &args.image, &args.calibration) {
+        (Some(fov), _, _) => scale_from_fov(fov, args.width_px.unwrap_or(0), args.height_px)?,
+        (None, Some(image), Some(cal)) => {
+            let calib = read_calibration(cal)?;
+            let board = Board::new(args.board.cols, args.board.rows, args.square_mm)?;
+            scale_from_board_photo(image, &calib, &board, UndistortSettings::default())?
+        }
+        _ => bail!("give IMAGE and --calibration, or --fov-mm and --width-px"),
+    };
+    println!("{:.6} mm/px", scale.mm_per_px);
+    if scale.looks_tilted() {
+        eprintln!(
+            "warning: corner spacing varies by {:.1}% across the board: it is probably not parallel to the image plane",
+            100.0 * scale.spread
+        );
+    }
+    if let Some(out) = &args.save {
+        let json = serde_json::to_string_pretty(&scale)?;
+        write_atomic(out, json.as_bytes()).with_context(|| format!("writing {}", out.display()))?;
+        eprintln!("saved to {}", out.display());
+    }
+    Ok(EXIT_OK)
+}
