@@ -68,6 +68,10 @@ pub struct Scale {
     pub image_width: u32,
     /// Frame height the scale applies to, px.
     pub image_height: u32,
+    /// Set when the calibration was made at another size of the same aspect ratio and
+    /// its camera matrix was scaled to this photo: the calibration's (width, height).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub calibration_rescaled_from: Option<(u32, u32)>,
 }
 
 impl Scale {
@@ -97,6 +101,7 @@ pub fn scale_from_fov(fov_mm: f64, width_px: u32, height_px: u32) -> Result<Scal
         spread: 0.0,
         image_width: width_px,
         image_height: height_px,
+        calibration_rescaled_from: None,
     })
 }
 
@@ -145,6 +150,9 @@ pub fn scale_from_board_photo(
         opencv::prelude::MatTraitConst::cols(&gray) as u32,
         opencv::prelude::MatTraitConst::rows(&gray) as u32,
     );
+    let rescaled = calib
+        .needs_scaling(w, h)
+        .then_some((calib.image_width, calib.image_height));
     let calib = calib.for_resolution(w, h)?;
     let und = Undistorter::new(&calib, undistort)?;
     let corners = find_corners(&gray, board, DEFAULT_MAX_DETECT_PX)
@@ -161,6 +169,7 @@ pub fn scale_from_board_photo(
         spread,
         image_width: w,
         image_height: h,
+        calibration_rescaled_from: rescaled,
     })
 }
 

@@ -58,12 +58,12 @@ pub enum CalibError {
         why: String,
     },
     /// Too few views with a detected board.
-    #[error("only {found} view(s) with a {board} board were found ({rejected} rejected), the {model} model needs at least {needed}: check --board (inner corners, columns x rows) and add more photos")]
+    #[error("only {found} view(s) with a {board} board were found, the {model} model needs at least {needed}: check --board (inner corners, columns x rows) and add more photos{rejected}")]
     TooFewViews {
         /// Views with a board.
         found: usize,
-        /// Views rejected.
-        rejected: usize,
+        /// The rejected views and why, formatted for the message (empty when none).
+        rejected: String,
         /// Minimum needed.
         needed: usize,
         /// Board, e.g. `9x6`.

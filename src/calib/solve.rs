@@ -50,22 +50,22 @@ pub fn calibrate(
         CameraModel::Fisheye => MIN_VIEWS_FISHEYE,
         CameraModel::Pinhole => MIN_VIEWS_PINHOLE,
     };
-    let too_few = |found: usize, rejected: usize| CalibError::TooFewViews {
+    let too_few = |found: usize, rejected: &[RejectedView]| CalibError::TooFewViews {
         found,
-        rejected,
+        rejected: summarize_rejections(rejected),
         needed,
         board: settings.board.to_string(),
         model: settings.model.name().to_string(),
     };
     if views.len() < needed {
-        return Err(too_few(views.len(), rejected.len()));
+        return Err(too_few(views.len(), &rejected));
     }
     let (width, height) = common_size(&views)?;
     let size = Size::new(width as i32, height as i32);
     let object = settings.board.object_points_mm();
     loop {
         if views.len() < needed {
-            return Err(too_few(views.len(), rejected.len()));
+            return Err(too_few(views.len(), &rejected));
         }
         let object_points: Vector<Vector<Point3f>> = views
             .iter()
@@ -113,6 +113,23 @@ pub fn calibrate(
             Err(Failure::Cv(e)) => return Err(CalibError::cv("calibration", e)),
         }
     }
+}
+
+/// The first few rejected views and their reasons, for a one-line message.
+fn summarize_rejections(rejected: &[RejectedView]) -> String {
+    const SHOWN: usize = 4;
+    if rejected.is_empty() {
+        return String::new();
+    }
+    let mut parts: Vec<String> = rejected
+        .iter()
+        .take(SHOWN)
+        .map(|r| format!("{}: {}", r.name, r.reason))
+        .collect();
+    if rejected.len() > SHOWN {
+        parts.push(format!("and {} more", rejected.len() - SHOWN));
+    }
+    format!(" (rejected: {})", parts.join("; "))
 }
 
 /// Raw OpenCV result.

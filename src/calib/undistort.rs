@@ -1,14 +1,16 @@
 //! Undistortion: raw pixel <-> undistorted pixel, full-frame maps and the crop rectangle.
 //!
 //! The undistorted image is a pinhole view with camera matrix
-//! P = [s fx, 0, cx; 0, s fy, cy; 0, 0, 1]: the calibration's principal point kept and its
-//! focal length scaled by `s`. bendscope chooses `s` itself rather than trusting
+//! P = [s f, 0, cx; 0, s f, cy; 0, 0, 1], f = (fx + fy) / 2: the calibration's principal
+//! point kept, square pixels (so a circle in the actuator plane stays a circle and one
+//! mm-per-px holds in both directions), and the focal length scaled by `s`. bendscope chooses `s` itself rather than trusting
 //! `cv::fisheye::estimateNewCameraMatrixForUndistortRectify`, which is known to return
 //! NaN or absurd focal lengths for some calibrations:
 //!
-//! - `balance = 0` (default): the four mid-edge points of the raw frame land on the edges
-//!   of the output frame, so the output is filled everywhere (no black border) and loses
-//!   only the raw corners;
+//! - `balance = 0` (default): the smallest zoom at which the raw frame covers the whole
+//!   output (its four mid-edge points land on or beyond the output edges): no black
+//!   border; the raw corners and, when the principal point is off-centre or the aspect
+//!   ratio differs from the lens's, a strip of one side are lost;
 //! - `balance = 1`: the whole raw frame fits in the output (black border around it);
 //! - in between: `s` interpolated linearly.
 //!
@@ -87,7 +89,8 @@ impl Undistorter {
             calib.image_height as f64 - 1.0,
         );
         let (cx, cy) = (calib.cx(), calib.cy());
-        let (fx, fy) = (calib.fx(), calib.fy());
+        let f = 0.5 * (calib.fx() + calib.fy());
+        let (fx, fy) = (f, f);
         let probe = [
             Point2::new(0.0, cy),
             Point2::new(w, cy),
@@ -99,7 +102,8 @@ impl Undistorter {
             Point2::new(w, h),
         ];
         let n = u.undistort_points(&probe)?;
-        // Scale that puts each mid-edge point on the output edge.
+        // Smallest scale that puts every mid-edge point on or beyond its output edge, so
+        // the raw frame covers the whole output.
         let inner = [
             cx / (fx * n[0].x.abs()),
             (w - cx) / (fx * n[1].x.abs()),
@@ -108,7 +112,7 @@ impl Undistorter {
         ]
         .into_iter()
         .filter(|s| s.is_finite() && *s > 0.0)
-        .fold(f64::INFINITY, f64::min);
+        .fold(0.0, f64::max);
         // Scale that keeps every raw corner inside the output.
         let outer = n[4..]
             .iter()
@@ -133,7 +137,7 @@ impl Undistorter {
         } else {
             inner
         };
-        if !(s.is_finite() && s > 0.0) {
+        if !(s.is_finite() && s > 0.0) || inner == 0.0 {
             return Err(CalibError::Diverged {
                 what: "no finite undistortion scale: the calibration is degenerate".to_string(),
             });
@@ -319,4 +323,81 @@ pub(crate) fn project_rays(
         }
     }
     Ok(points_from_vector(&out))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::fixtures::gopro_like_camera;
+    use proptest::prelude::*;
+
+    fn left_camera() -> Calibration {
+        let mut c = gopro_like_camera(640, 480);
+        c.model = CameraModel::Pinhole;
+        c.camera_matrix = Matrix3::new(535.9, 0.0, 342.3, 0.0, 535.9, 235.6, 0.0, 0.0, 1.0);
+        c.distortion = vec![-0.26637, -0.03859, 0.00178, -0.00028, 0.23839];
+        c
+    }
+
+    #[test]
+    fn balance_zero_leaves_no_black_border() {
+        let u =
+            Undistorter::new(&gopro_like_camera(960, 720), UndistortSettings::default()).unwrap();
+        let (x, y, w, h) = u.crop_rect();
+        assert!(
+            x <= 1 && y <= 1 && w >= 958 && h >= 718,
+            "{:?}",
+            u.crop_rect()
+        );
+        // Square pixels, principal point kept.
+        let p = u.new_camera_matrix();
+        assert_eq!(p[(0, 0)], p[(1, 1)]);
+        assert_eq!(p[(0, 2)], 481.3);
+    }
+
+    #[test]
+    fn balance_one_shows_the_whole_frame_inside_a_border() {
+        let cam = gopro_like_camera(960, 720);
+        let u = Undistorter::new(&cam, UndistortSettings { balance: 1.0 }).unwrap();
+        let corners = [
+            Point2::new(0.0, 0.0),
+            Point2::new(959.0, 0.0),
+            Point2::new(0.0, 719.0),
+            Point2::new(959.0, 719.0),
+        ];
+        for q in u.undistort_points(&corners).unwrap() {
+            assert!(
+                q.x > -0.5 && q.x < 959.5 && q.y > -0.5 && q.y < 719.5,
+                "{q}"
+            );
+        }
+        let (_, _, w, h) = u.crop_rect();
+        assert!(
+            w < 959 && h < 719,
+            "a border remains to crop: {:?}",
+            u.crop_rect()
+        );
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+
+        #[test]
+        fn fisheye_round_trip_is_exact(x in 0.0f64..959.0, y in 0.0f64..719.0) {
+            let u = Undistorter::new(&gopro_like_camera(960, 720), UndistortSettings::default()).unwrap();
+            let p = Point2::new(x, y);
+            let back = u.undistort_points(&u.distort_points(&[p]).unwrap()).unwrap()[0];
+            prop_assert!((back - p).norm() < 1e-6, "{} -> {}", p, back);
+            let raw_back = u.distort_points(&u.undistort_points(&[p]).unwrap()).unwrap()[0];
+            prop_assert!((raw_back - p).norm() < 1e-6, "{} -> {}", p, raw_back);
+        }
+
+        #[test]
+        fn pinhole_round_trip_is_exact(x in 0.0f64..639.0, y in 0.0f64..479.0) {
+            let u = Undistorter::new(&left_camera(), UndistortSettings::default()).unwrap();
+            let p = Point2::new(x, y);
+            let back = u.undistort_points(&u.distort_points(&[p]).unwrap()).unwrap()[0];
+            prop_assert!((back - p).norm() < 1e-6, "{} -> {}", p, back);
+        }
+    }
 }

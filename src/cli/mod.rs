@@ -8,12 +8,8 @@ use clap::{Parser, Subcommand};
 
 /// Exit code: everything asked for was done.
 pub const EXIT_OK: u8 = 0;
-/// Exit code: some items failed, the others' results were written.
-pub const EXIT_PARTIAL: u8 = 1;
 /// Exit code: bad input or usage; nothing was done.
 pub const EXIT_BAD_INPUT: u8 = 2;
-/// Exit code: nothing could be measured.
-pub const EXIT_NOTHING: u8 = 3;
 
 /// Measure soft pneumatic bending actuators from video and compare them with a
 /// finite-element model.

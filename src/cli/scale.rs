@@ -53,6 +53,12 @@ pub fn run(args: &ScaleArgs) -> Result<u8> {
         }
         _ => bail!("give IMAGE and --calibration, or --fov-mm and --width-px"),
     };
+    if let Some((w, h)) = scale.calibration_rescaled_from {
+        eprintln!(
+            "note: the calibration was made at {w}x{h}; its camera matrix was scaled to the photo's {}x{} (same aspect ratio)",
+            scale.image_width, scale.image_height
+        );
+    }
     println!("{:.6} mm/px", scale.mm_per_px);
     if scale.looks_tilted() {
         eprintln!(

@@ -187,7 +187,7 @@ pub fn random_board_poses(
             let tx = ((gx + rng.uniform()) / grid as f64 - 0.5) * (1.0 - pull) + 0.5;
             let ty = ((gy + rng.uniform()) / grid as f64 - 0.5) * (1.0 - pull) + 0.5;
             let target = Point2::new(tx * (w - 1.0), ty * (h - 1.0));
-            let z = z_ref * rng.range(0.8, 1.6) * (1.0 + pull);
+            let z = z_ref * rng.range(0.7, 1.2) * (1.0 + 0.5 * pull);
             let rot = Rotation3::from_euler_angles(
                 rng.range(-0.6, 0.6),
                 rng.range(-0.6, 0.6),

@@ -8,6 +8,7 @@
 //! byte for byte whatever crate versions are resolved.
 
 pub mod board;
+pub mod fixtures;
 pub mod rng;
 
 pub use board::{random_board_poses, render_board_photo, BoardPose, PhotoSettings};

@@ -1,0 +1,338 @@
+//! `bendscope calibrate` and `bendscope scale` on real and synthetic photos, with the
+//! reference numbers of method.md and the ground truth of the synthetic fixtures.
+
+mod common;
+
+use std::fs;
+
+use bendscope::calib::file::read_calibration;
+use bendscope::calib::{UndistortSettings, Undistorter};
+use bendscope::render::fixtures::CalibrationSetTruth;
+use common::{fixture, Run};
+
+/// OpenCV's published calibration of its left*.jpg samples (method.md §5).
+const LEFT_FX: f64 = 535.92;
+const LEFT_RMS: f64 = 0.3926;
+
+fn truth() -> CalibrationSetTruth {
+    let text = fs::read_to_string(fixture("fisheye/truth.json")).unwrap();
+    serde_json::from_str(&text).unwrap()
+}
+
+#[test]
+fn pinhole_on_opencv_samples_matches_the_published_result() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("left.yaml");
+    let run = Run::new(
+        dir.path(),
+        &[
+            "calibrate",
+            fixture("opencv-left").to_str().unwrap(),
+            "--model",
+            "pinhole",
+            "--fix-aspect-ratio",
+            "--board",
+            "9x6",
+            "--square-mm",
+            "25",
+            "-o",
+            out.to_str().unwrap(),
+        ],
+    );
+    assert_eq!(run.code, 0, "{run}");
+    let c = read_calibration(&out).unwrap();
+    assert_eq!(c.views_used.len(), 13, "{run}");
+    assert!(
+        (c.fx() / LEFT_FX - 1.0).abs() < 0.005,
+        "fx {} vs {LEFT_FX}",
+        c.fx()
+    );
+    assert_eq!(c.fx(), c.fy(), "aspect ratio fixed");
+    assert!(
+        (c.avg_reprojection_error - LEFT_RMS).abs() < 0.02,
+        "RMS {} vs {LEFT_RMS}",
+        c.avg_reprojection_error
+    );
+    assert!((c.cx() - 342.28).abs() < 2.0 && (c.cy() - 235.57).abs() < 2.0);
+    // The non-image files in the folder are listed, not fatal.
+    assert!(
+        run.stdout.contains("rejected README.md: not an image"),
+        "{run}"
+    );
+}
+
+#[test]
+fn fisheye_on_synthetic_gopro_photos_recovers_the_camera() {
+    let t = truth();
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("gopro.yaml");
+    let run = Run::new(
+        dir.path(),
+        &[
+            "calibrate",
+            fixture("fisheye/calib").to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ],
+    );
+    assert_eq!(run.code, 0, "{run}");
+    let c = read_calibration(&out).unwrap();
+    let k = t.camera.k;
+    assert!(c.views_used.len() >= 15, "{run}");
+    assert!(
+        (c.fx() / k[0][0] - 1.0).abs() < 0.005,
+        "fx {} vs {}",
+        c.fx(),
+        k[0][0]
+    );
+    assert!(
+        (c.fy() / k[1][1] - 1.0).abs() < 0.005,
+        "fy {} vs {}",
+        c.fy(),
+        k[1][1]
+    );
+    assert!(
+        (c.cx() - k[0][2]).abs() < 2.0,
+        "cx {} vs {}",
+        c.cx(),
+        k[0][2]
+    );
+    assert!(
+        (c.cy() - k[1][2]).abs() < 2.0,
+        "cy {} vs {}",
+        c.cy(),
+        k[1][2]
+    );
+    assert!(
+        c.avg_reprojection_error < 0.5,
+        "RMS {}",
+        c.avg_reprojection_error
+    );
+    // The file is plain OpenCV YAML.
+    let text = fs::read_to_string(&out).unwrap();
+    assert!(text.starts_with("%YAML:1.0"));
+    assert!(text.contains("model: fisheye"));
+    assert!(text.contains("camera_matrix: !!opencv-matrix"));
+}
+
+#[test]
+fn scale_of_an_in_plane_board_is_recovered() {
+    let t = truth();
+    let dir = tempfile::tempdir().unwrap();
+    // With the true camera: the true mm per undistorted px.
+    let true_cal = dir.path().join("true.yaml");
+    bendscope::calib::file::write_calibration(&true_cal, &t.camera.to_calibration()).unwrap();
+    let json = dir.path().join("scale.json");
+    let run = Run::new(
+        dir.path(),
+        &[
+            "scale",
+            fixture("fisheye/scale.jpg").to_str().unwrap(),
+            "--calibration",
+            true_cal.to_str().unwrap(),
+            "--save",
+            json.to_str().unwrap(),
+        ],
+    );
+    assert_eq!(run.code, 0, "{run}");
+    let s: bendscope::scale::Scale =
+        serde_json::from_str(&fs::read_to_string(&json).unwrap()).unwrap();
+    assert!(
+        (s.mm_per_px / t.mm_per_px - 1.0).abs() < 0.002,
+        "mm/px {} vs {}",
+        s.mm_per_px,
+        t.mm_per_px
+    );
+    assert!(!s.looks_tilted(), "spread {}", s.spread);
+}
+
+#[test]
+fn scale_with_an_estimated_calibration_matches_its_own_undistorted_space() {
+    let t = truth();
+    let dir = tempfile::tempdir().unwrap();
+    let cal = dir.path().join("est.yaml");
+    let run = Run::new(
+        dir.path(),
+        &[
+            "calibrate",
+            fixture("fisheye/calib").to_str().unwrap(),
+            "-o",
+            cal.to_str().unwrap(),
+        ],
+    );
+    assert_eq!(run.code, 0, "{run}");
+    let est = read_calibration(&cal).unwrap();
+    let p = Undistorter::new(&est, UndistortSettings::default())
+        .unwrap()
+        .new_camera_matrix();
+    let expected = t.scale_distance_mm / p[(0, 0)];
+    let scale = bendscope::scale::scale_from_board_photo(
+        &fixture("fisheye/scale.jpg"),
+        &est,
+        &bendscope::calib::Board::new(9, 6, 25.0).unwrap(),
+        UndistortSettings::default(),
+    )
+    .unwrap();
+    assert!(
+        (scale.mm_per_px / expected - 1.0).abs() < 0.002,
+        "mm/px {} vs {expected}",
+        scale.mm_per_px
+    );
+}
+
+#[test]
+fn fov_scale_uses_the_published_formula() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = Run::new(
+        dir.path(),
+        &["scale", "--fov-mm", "300", "--width-px", "1920"],
+    );
+    assert_eq!(run.code, 0, "{run}");
+    assert_eq!(run.stdout.trim(), "0.156250 mm/px");
+}
+
+// ---- bad input: one clear line naming the file, exit 2, no panic ----
+
+fn copy_left(dir: &std::path::Path, names: &[&str]) {
+    for n in names {
+        fs::copy(fixture("opencv-left").join(n), dir.join(n)).unwrap();
+    }
+}
+
+#[test]
+fn empty_folder_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let empty = dir.path().join("empty");
+    fs::create_dir(&empty).unwrap();
+    Run::new(dir.path(), &["calibrate", "empty"])
+        .assert_bad_input(&["no calibration images", "empty"]);
+}
+
+#[test]
+fn missing_path_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    Run::new(dir.path(), &["calibrate", "nowhere"]).assert_bad_input(&["nowhere", "no such file"]);
+}
+
+#[test]
+fn corrupt_image_is_named_and_the_others_used() {
+    let dir = tempfile::tempdir().unwrap();
+    let imgs = dir.path().join("imgs");
+    fs::create_dir(&imgs).unwrap();
+    copy_left(
+        &imgs,
+        &["left01.jpg", "left02.jpg", "left03.jpg", "left04.jpg"],
+    );
+    let bytes = fs::read(imgs.join("left04.jpg")).unwrap();
+    fs::write(imgs.join("left05.jpg"), &bytes[..bytes.len() / 3]).unwrap();
+    fs::write(imgs.join("broken.png"), b"this is not a png").unwrap();
+    let run = Run::new(
+        dir.path(),
+        &["calibrate", "imgs", "--model", "pinhole", "-o", "out.yaml"],
+    );
+    assert_eq!(run.code, 0, "{run}");
+    assert!(
+        run.stdout
+            .contains("rejected broken.png: not a readable image"),
+        "{run}"
+    );
+    assert!(dir.path().join("out.yaml").is_file());
+}
+
+#[test]
+fn only_corrupt_images_name_the_files() {
+    let dir = tempfile::tempdir().unwrap();
+    fs::write(dir.path().join("a.jpg"), b"garbage").unwrap();
+    Run::new(dir.path(), &["calibrate", "a.jpg"])
+        .assert_bad_input(&["a.jpg: not a readable image"]);
+}
+
+#[test]
+fn no_board_in_any_view_and_wrong_board_size() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = Run::new(
+        dir.path(),
+        &[
+            "calibrate",
+            fixture("opencv-left").to_str().unwrap(),
+            "--board",
+            "8x5",
+            "--model",
+            "pinhole",
+        ],
+    );
+    run.assert_bad_input(&[
+        "only 0 view(s) with a 8x5 board",
+        "check --board",
+        "left01.jpg: no 8x5 board found",
+    ]);
+    let run = Run::new(dir.path(), &["calibrate", "x", "--board", "9"]);
+    assert_eq!(run.code, 2, "{run}");
+    assert!(run.stderr.contains("COLSxROWS"), "{run}");
+}
+
+#[test]
+fn too_few_views_for_the_model() {
+    let dir = tempfile::tempdir().unwrap();
+    copy_left(dir.path(), &["left01.jpg", "left02.jpg"]);
+    Run::new(
+        dir.path(),
+        &[
+            "calibrate",
+            "left01.jpg",
+            "left02.jpg",
+            "--model",
+            "pinhole",
+        ],
+    )
+    .assert_bad_input(&["only 2 view(s)", "needs at least 3"]);
+}
+
+#[test]
+fn mixed_resolutions_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let imgs = dir.path().join("imgs");
+    fs::create_dir(&imgs).unwrap();
+    copy_left(&imgs, &["left01.jpg", "left02.jpg", "left03.jpg"]);
+    fs::copy(fixture("fisheye/calib/board01.jpg"), imgs.join("zz.jpg")).unwrap();
+    Run::new(dir.path(), &["calibrate", "imgs", "--model", "pinhole"])
+        .assert_bad_input(&["zz.jpg: 960x720 differs", "640x480"]);
+}
+
+#[test]
+fn a_non_image_file_argument_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    fs::write(dir.path().join("notes.txt"), b"hello").unwrap();
+    Run::new(dir.path(), &["calibrate", "notes.txt"])
+        .assert_bad_input(&["notes.txt", "not an image"]);
+}
+
+#[test]
+fn a_yaml_that_is_not_a_calibration_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    fs::write(dir.path().join("other.yaml"), "%YAML:1.0\n---\nfoo: 3\n").unwrap();
+    fs::write(dir.path().join("text.yaml"), "just: [unbalanced\n").unwrap();
+    let scale = fixture("fisheye/scale.jpg");
+    for f in ["other.yaml", "text.yaml"] {
+        Run::new(
+            dir.path(),
+            &["scale", scale.to_str().unwrap(), "--calibration", f],
+        )
+        .assert_bad_input(&[f, "not a bendscope calibration"]);
+    }
+}
+
+#[test]
+fn nonsense_numbers_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    for bad in ["--square-mm=-3", "--square-mm=0", "--square-mm=nan"] {
+        let run = Run::new(dir.path(), &["calibrate", "x", bad]);
+        assert_eq!(run.code, 2, "{run}");
+        assert!(run.stderr.contains("not a positive number"), "{run}");
+    }
+    let run = Run::new(
+        dir.path(),
+        &["scale", "--fov-mm", "abc", "--width-px", "100"],
+    );
+    assert_eq!(run.code, 2, "{run}");
+}

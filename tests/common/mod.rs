@@ -1,0 +1,72 @@
+//! Shared helpers for integration tests: run the real binary, read its outputs.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// The repository root.
+pub fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A fixture path.
+pub fn fixture(rel: &str) -> PathBuf {
+    root().join("fixtures").join(rel)
+}
+
+/// Runs `bendscope` with `args` in `cwd`.
+pub fn bendscope(cwd: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_bendscope"))
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .expect("the bendscope binary runs")
+}
+
+/// Output with a readable dump for assertion messages.
+pub struct Run {
+    /// Exit code (-1 when killed).
+    pub code: i32,
+    /// Standard output.
+    pub stdout: String,
+    /// Standard error.
+    pub stderr: String,
+}
+
+impl Run {
+    /// Runs `bendscope` with `args` in `cwd`.
+    pub fn new(cwd: &Path, args: &[&str]) -> Run {
+        let o = bendscope(cwd, args);
+        Run {
+            code: o.status.code().unwrap_or(-1),
+            stdout: String::from_utf8_lossy(&o.stdout).into_owned(),
+            stderr: String::from_utf8_lossy(&o.stderr).into_owned(),
+        }
+    }
+
+    /// Asserts a bad-input failure: exit code 2, exactly one line on stderr that
+    /// contains every `needle`, no panic.
+    pub fn assert_bad_input(&self, needles: &[&str]) {
+        assert_eq!(self.code, 2, "expected exit 2: {self}");
+        assert!(!self.stderr.contains("panicked"), "panic: {self}");
+        let lines: Vec<&str> = self
+            .stderr
+            .lines()
+            .filter(|l| !l.trim().is_empty())
+            .collect();
+        assert_eq!(lines.len(), 1, "expected one line on stderr: {self}");
+        for n in needles {
+            assert!(self.stderr.contains(n), "stderr lacks `{n}`: {self}");
+        }
+    }
+}
+
+impl std::fmt::Display for Run {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "exit {}\n--- stdout\n{}--- stderr\n{}",
+            self.code, self.stdout, self.stderr
+        )
+    }
+}
