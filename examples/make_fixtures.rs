@@ -1,4 +1,5 @@
-//! Regenerates the synthetic fixtures: `cargo run --example make_fixtures -- OUT_DIR [WIDTH] [VIEWS]`.
+//! Renders a synthetic fisheye calibration set:
+//! `cargo run --example make_fixtures -- OUT_DIR [WIDTH] [VIEWS] [SUPERSAMPLE]`.
 //! Run through `scripts/make-fixtures.sh`.
 
 use std::path::PathBuf;
@@ -16,6 +17,7 @@ fn main() -> anyhow::Result<()> {
     );
     let width: u32 = args.get(2).map(|s| s.parse()).transpose()?.unwrap_or(960);
     let views: usize = args.get(3).map(|s| s.parse()).transpose()?.unwrap_or(20);
+    let supersample: u32 = args.get(4).map(|s| s.parse()).transpose()?.unwrap_or(3);
     let camera = gopro_like_camera(width, width * 3 / 4);
     let spec = CalibrationSetSpec {
         camera,
@@ -23,7 +25,7 @@ fn main() -> anyhow::Result<()> {
         views,
         scale_distance_mm: 400.0,
         photo: PhotoSettings {
-            supersample: 3,
+            supersample,
             blur_sigma_px: 0.8 * width as f32 / 960.0,
             noise_sigma: 2.5,
             seed: 11,
