@@ -17,7 +17,7 @@ fn main() -> anyhow::Result<()> {
     );
     let width: u32 = args.get(2).map(|s| s.parse()).transpose()?.unwrap_or(960);
     let views: usize = args.get(3).map(|s| s.parse()).transpose()?.unwrap_or(20);
-    let supersample: u32 = args.get(4).map(|s| s.parse()).transpose()?.unwrap_or(3);
+    let supersample: u32 = args.get(4).map(|s| s.parse()).transpose()?.unwrap_or(4);
     let camera = gopro_like_camera(width, width * 3 / 4);
     let spec = CalibrationSetSpec {
         camera,

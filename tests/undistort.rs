@@ -35,14 +35,24 @@ fn frame_and_point_undistortion_agree_on_the_scale_photo() {
     // fraction of a pixel.
     assert!(worst < 0.15, "largest disagreement {worst} px");
     // The board is parallel to the image plane: in the undistorted view its rows are
-    // straight lines (lens distortion removed).
-    for r in 0..6 {
-        let row = &expected[r * 9..r * 9 + 9];
+    // straight lines (lens distortion removed); in the raw photo the outer rows bend by
+    // about a pixel.
+    // The tolerance covers corner localization on a supersampled, blurred, noisy JPEG
+    // (about 0.15 px at worst on this fixture).
+    let bend = |pts: &[nalgebra::Point2<f64>], r: usize| {
+        let row = &pts[r * 9..r * 9 + 9];
         let (a, b) = (row[0], row[8]);
         let dir = (b - a).normalize();
-        for p in row {
-            let off = (p - a).perp(&dir).abs();
-            assert!(off < 0.1, "row {r} bends by {off} px");
-        }
+        row.iter()
+            .map(|p| (p - a).perp(&dir).abs())
+            .fold(0.0, f64::max)
+    };
+    for r in [0, 5] {
+        let b = bend(&raw_corners, r);
+        assert!(b > 0.8, "raw row {r} should bend visibly, bends {b} px");
+    }
+    for r in 0..6 {
+        let b = bend(&expected, r);
+        assert!(b < 0.3, "undistorted row {r} bends by {b} px");
     }
 }

@@ -1,7 +1,7 @@
 //! Synthetic checkerboard photos through a calibrated camera (fisheye or pinhole).
 //!
 //! Used to make calibration fixtures with known K and D, and scale photos with a known
-//! mm per px. Each pixel is supersampled on a regular `n x n` grid; every sample's ray
+//! mm per px. Each pixel is supersampled on a jittered `n x n` grid; every sample's ray
 //! comes from the camera model, hits the posed board plane (or misses it and sees the
 //! background), and the samples are averaged. Then a Gaussian blur (optics) and Gaussian
 //! noise (sensor) are applied.
@@ -92,10 +92,17 @@ pub fn render_board_photo(
         .into_par_iter()
         .map(|y| {
             let mut acc = vec![0f32; w as usize];
+            // Jittered (stratified) samples: one random point in each of the n x n cells
+            // of a pixel, so edge aliasing becomes noise instead of a pattern that would
+            // bias corner and centroid positions.
+            let mut jitter = SplitMix64::new(settings.seed ^ (y as u64).wrapping_mul(0x9E37_79B9));
             for sy in 0..n {
-                let py = y as f64 - 0.5 + (sy as f64 + 0.5) / n as f64;
                 let pixels: Vec<Point2<f64>> = (0..w * n)
-                    .map(|i| Point2::new(-0.5 + (i as f64 + 0.5) / n as f64, py))
+                    .map(|i| {
+                        let px = -0.5 + (i as f64 + jitter.uniform()) / n as f64;
+                        let py = y as f64 - 0.5 + (sy as f64 + jitter.uniform()) / n as f64;
+                        Point2::new(px, py)
+                    })
                     .collect();
                 let rays = und.rays_from_pixels(&pixels)?;
                 for (i, ray) in rays.iter().enumerate() {
