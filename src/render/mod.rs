@@ -7,6 +7,7 @@
 //! SplitMix64 generator written here (not the `rand` crate) so fixtures are reproducible
 //! byte for byte whatever crate versions are resolved.
 
+pub mod actuator;
 pub mod board;
 pub mod fixtures;
 pub mod rng;
