@@ -1,1 +1,697 @@
-//! Frame sources: streaming video decode.
+//! Frame sources: streaming video decode and H.264 encode (FFmpeg through ffmpeg-next).
+//!
+//! [`VideoReader`] decodes the best video stream of a file (GoPro telemetry and audio
+//! streams are ignored) one frame at a time, with FFmpeg's frame threading switched on
+//! explicitly (without it ffmpeg-next decodes on one thread), and converts only the
+//! frames the caller asks for to RGB. A whole video is never held in memory. Packets
+//! that fail to decode (corrupt or truncated files) are counted in [`DecodeStats`]
+//! instead of aborting: what decodes is measured, the rest reported.
+//!
+//! [`VideoWriter`] encodes RGB frames to H.264 (libx264, yuv420p) in an MP4 container,
+//! written under a temporary name and renamed on [`VideoWriter::finish`].
+
+use std::path::{Path, PathBuf};
+use std::sync::Once;
+
+use ffmpeg::format::Pixel;
+use ffmpeg::software::scaling;
+use ffmpeg_next as ffmpeg;
+use image::RgbImage;
+
+/// Errors of video decoding and encoding.
+#[derive(Debug, thiserror::Error)]
+pub enum VideoError {
+    /// The file does not exist.
+    #[error("{path}: no such file")]
+    Missing {
+        /// The file.
+        path: PathBuf,
+    },
+    /// FFmpeg cannot read the file as a video.
+    #[error(
+        "{path}: not a video FFmpeg can read ({reason}): check the file, or re-export it as MP4"
+    )]
+    NotAVideo {
+        /// The file.
+        path: PathBuf,
+        /// FFmpeg's reason.
+        reason: String,
+    },
+    /// Encoding failed.
+    #[error("{path}: cannot encode video ({reason})")]
+    Encode {
+        /// The output file.
+        path: PathBuf,
+        /// What failed.
+        reason: String,
+    },
+    /// An RGB frame of the wrong size was given to the writer.
+    #[error("{path}: frame is {got_width}x{got_height}, the video is {width}x{height}")]
+    FrameSize {
+        /// The output file.
+        path: PathBuf,
+        /// Frame width.
+        got_width: u32,
+        /// Frame height.
+        got_height: u32,
+        /// Video width.
+        width: u32,
+        /// Video height.
+        height: u32,
+    },
+}
+
+static INIT: Once = Once::new();
+
+/// Initializes FFmpeg once and keeps its own logging quiet (bendscope reports decode
+/// problems itself, one line per video).
+fn init() {
+    INIT.call_once(|| {
+        let _ = ffmpeg::init();
+        ffmpeg::util::log::set_level(ffmpeg::util::log::Level::Quiet);
+    });
+}
+
+/// What a video holds.
+#[derive(Debug, Clone, PartialEq)]
+pub struct VideoInfo {
+    /// Frame width, px.
+    pub width: u32,
+    /// Frame height, px.
+    pub height: u32,
+    /// Frames per second (average).
+    pub fps: f64,
+    /// Duration, s (0 when unknown).
+    pub duration_s: f64,
+    /// Frame count from the container, or duration x fps.
+    pub frame_count_estimate: u64,
+    /// Codec name, e.g. `h264`, `hevc`.
+    pub codec: String,
+}
+
+/// One decoded frame.
+#[derive(Debug, Clone)]
+pub struct Frame {
+    /// 0-based index in decode (display) order.
+    pub index: u64,
+    /// Presentation time from the stream's timestamps, s (index / fps when missing).
+    pub time_s: f64,
+    /// The frame, RGB.
+    pub image: RgbImage,
+}
+
+/// Decode health of a video.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct DecodeStats {
+    /// Frames decoded.
+    pub frames_decoded: u64,
+    /// Packets the decoder refused (corrupt data).
+    pub packets_failed: u64,
+    /// The demuxer stopped with an error before the end of the file (truncated file).
+    pub read_error: Option<String>,
+}
+
+impl DecodeStats {
+    /// True when anything went wrong.
+    pub fn has_errors(&self) -> bool {
+        self.packets_failed > 0 || self.read_error.is_some()
+    }
+}
+
+/// Streaming decoder of a video file's best video stream.
+pub struct VideoReader {
+    path: PathBuf,
+    input: ffmpeg::format::context::Input,
+    stream_index: usize,
+    decoder: ffmpeg::decoder::Video,
+    scaler: Option<scaling::Context>,
+    time_base: f64,
+    info: VideoInfo,
+    stats: DecodeStats,
+    next_index: u64,
+    eof_sent: bool,
+    finished: bool,
+    decoded: ffmpeg::frame::Video,
+    rgb: ffmpeg::frame::Video,
+}
+
+impl VideoReader {
+    /// Opens `path` and prepares a threaded decoder for its best video stream.
+    pub fn open(path: &Path) -> Result<Self, VideoError> {
+        init();
+        if !path.is_file() {
+            return Err(VideoError::Missing {
+                path: path.to_path_buf(),
+            });
+        }
+        let not_video = |reason: String| VideoError::NotAVideo {
+            path: path.to_path_buf(),
+            reason,
+        };
+        let input = ffmpeg::format::input(&path).map_err(|e| not_video(e.to_string()))?;
+        let stream = input
+            .streams()
+            .best(ffmpeg::media::Type::Video)
+            .ok_or_else(|| not_video("no video stream".to_string()))?;
+        let stream_index = stream.index();
+        let tb = stream.time_base();
+        let time_base = if tb.denominator() != 0 {
+            tb.numerator() as f64 / tb.denominator() as f64
+        } else {
+            0.0
+        };
+        let rate = stream.avg_frame_rate();
+        let mut fps = if rate.denominator() != 0 {
+            rate.numerator() as f64 / rate.denominator() as f64
+        } else {
+            0.0
+        };
+        let mut ctx = ffmpeg::codec::context::Context::from_parameters(stream.parameters())
+            .map_err(|e| not_video(e.to_string()))?;
+        ctx.set_threading(ffmpeg::codec::threading::Config {
+            kind: ffmpeg::codec::threading::Type::Frame,
+            count: 0,
+            ..Default::default()
+        });
+        let decoder = ctx
+            .decoder()
+            .video()
+            .map_err(|e| not_video(format!("no decoder: {e}")))?;
+        if !(fps.is_finite() && fps > 0.0) {
+            let r = decoder.frame_rate().unwrap_or(ffmpeg::Rational(0, 1));
+            fps = if r.denominator() != 0 {
+                r.numerator() as f64 / r.denominator() as f64
+            } else {
+                0.0
+            };
+        }
+        let duration_s = if stream.duration() > 0 {
+            stream.duration() as f64 * time_base
+        } else if input.duration() > 0 {
+            input.duration() as f64 / ffmpeg::ffi::AV_TIME_BASE as f64
+        } else {
+            0.0
+        };
+        let frame_count_estimate = if stream.frames() > 0 {
+            stream.frames() as u64
+        } else {
+            (duration_s * fps).round().max(0.0) as u64
+        };
+        let codec = decoder
+            .codec()
+            .map(|c| c.name().to_string())
+            .unwrap_or_else(|| format!("{:?}", decoder.id()).to_lowercase());
+        if decoder.width() == 0 || decoder.height() == 0 {
+            return Err(not_video("zero frame size".to_string()));
+        }
+        let info = VideoInfo {
+            width: decoder.width(),
+            height: decoder.height(),
+            fps,
+            duration_s,
+            frame_count_estimate,
+            codec,
+        };
+        Ok(Self {
+            path: path.to_path_buf(),
+            input,
+            stream_index,
+            decoder,
+            scaler: None,
+            time_base,
+            info,
+            stats: DecodeStats::default(),
+            next_index: 0,
+            eof_sent: false,
+            finished: false,
+            decoded: ffmpeg::frame::Video::empty(),
+            rgb: ffmpeg::frame::Video::empty(),
+        })
+    }
+
+    /// The stream's properties.
+    pub fn info(&self) -> &VideoInfo {
+        &self.info
+    }
+
+    /// Decode health so far.
+    pub fn stats(&self) -> &DecodeStats {
+        &self.stats
+    }
+
+    /// The file being read.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Decodes up to the next frame; returns its index and time, or `None` at the end.
+    /// The frame stays available to [`Self::current_rgb`] until the next call.
+    pub fn advance(&mut self) -> Option<(u64, f64)> {
+        loop {
+            if self.finished {
+                return None;
+            }
+            if self.decoder.receive_frame(&mut self.decoded).is_ok() {
+                let index = self.next_index;
+                self.next_index += 1;
+                self.stats.frames_decoded += 1;
+                let time_s = match self.decoded.timestamp() {
+                    Some(ts) if self.time_base > 0.0 => ts as f64 * self.time_base,
+                    _ if self.info.fps > 0.0 => index as f64 / self.info.fps,
+                    _ => 0.0,
+                };
+                return Some((index, time_s));
+            }
+            if self.eof_sent {
+                self.finished = true;
+                return None;
+            }
+            self.feed();
+        }
+    }
+
+    /// Sends the next packet of the video stream to the decoder (or end of stream).
+    fn feed(&mut self) {
+        let mut packet = ffmpeg::Packet::empty();
+        loop {
+            match packet.read(&mut self.input) {
+                Ok(()) => {
+                    if packet.stream() != self.stream_index {
+                        continue;
+                    }
+                    if self.decoder.send_packet(&packet).is_err() {
+                        self.stats.packets_failed += 1;
+                    }
+                    return;
+                }
+                Err(ffmpeg::Error::Eof) => break,
+                Err(ffmpeg::Error::Other { errno }) if errno == ffmpeg::util::error::EAGAIN => {
+                    continue
+                }
+                Err(e) => {
+                    self.stats.read_error = Some(e.to_string());
+                    break;
+                }
+            }
+        }
+        let _ = self.decoder.send_eof();
+        self.eof_sent = true;
+    }
+
+    /// The frame last returned by [`Self::advance`], converted to RGB.
+    pub fn current_rgb(&mut self) -> Result<RgbImage, VideoError> {
+        let (w, h) = (self.decoded.width(), self.decoded.height());
+        let fmt = self.decoded.format();
+        let rebuild = match &self.scaler {
+            Some(s) => s.input().width != w || s.input().height != h || s.input().format != fmt,
+            None => true,
+        };
+        let err = |e: ffmpeg::Error| VideoError::NotAVideo {
+            path: self.path.clone(),
+            reason: format!("colour conversion: {e}"),
+        };
+        if rebuild {
+            self.scaler = Some(
+                scaling::Context::get(fmt, w, h, Pixel::RGB24, w, h, scaling::Flags::BILINEAR)
+                    .map_err(err)?,
+            );
+        }
+        if let Some(s) = self.scaler.as_mut() {
+            s.run(&self.decoded, &mut self.rgb).map_err(err)?;
+        }
+        let stride = self.rgb.stride(0);
+        let data = self.rgb.data(0);
+        let row = (w * 3) as usize;
+        let mut buf = Vec::with_capacity(row * h as usize);
+        for y in 0..h as usize {
+            buf.extend_from_slice(&data[y * stride..y * stride + row]);
+        }
+        RgbImage::from_raw(w, h, buf).ok_or_else(|| VideoError::NotAVideo {
+            path: self.path.clone(),
+            reason: "frame buffer size".to_string(),
+        })
+    }
+
+    /// The next frame whose index is a multiple of `stride` (1: every frame), in RGB.
+    /// Skipped frames are decoded (H.264 needs them) but not converted.
+    pub fn next_frame(&mut self, stride: u64) -> Result<Option<Frame>, VideoError> {
+        let stride = stride.max(1);
+        while let Some((index, time_s)) = self.advance() {
+            if index % stride == 0 {
+                let image = self.current_rgb()?;
+                return Ok(Some(Frame {
+                    index,
+                    time_s,
+                    image,
+                }));
+            }
+        }
+        Ok(None)
+    }
+}
+
+/// `n` frames spread evenly over a video (for calibration from a video of a board).
+pub fn sample_evenly(path: &Path, n: usize) -> Result<Vec<Frame>, VideoError> {
+    let mut reader = VideoReader::open(path)?;
+    let total = reader.info().frame_count_estimate.max(1);
+    let n = n.max(1) as u64;
+    let mut wanted: Vec<u64> = (0..n).map(|i| (i * total) / n + total / (2 * n)).collect();
+    wanted.dedup();
+    let mut out = Vec::with_capacity(wanted.len());
+    let mut next = 0;
+    while next < wanted.len() {
+        match reader.advance() {
+            Some((index, time_s)) => {
+                if index == wanted[next] {
+                    out.push(Frame {
+                        index,
+                        time_s,
+                        image: reader.current_rgb()?,
+                    });
+                    next += 1;
+                }
+            }
+            None => break,
+        }
+    }
+    Ok(out)
+}
+
+/// H.264 encoding settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EncodeSettings {
+    /// Frames per second.
+    pub fps: u32,
+    /// Constant rate factor (0 lossless .. 51 worst); ignored when `bitrate_bps` is set.
+    pub crf: u32,
+    /// Target bit rate, bit/s.
+    pub bitrate_bps: Option<u64>,
+    /// x264 preset.
+    pub preset: &'static str,
+}
+
+impl Default for EncodeSettings {
+    fn default() -> Self {
+        Self {
+            fps: 30,
+            crf: 18,
+            bitrate_bps: None,
+            preset: "veryfast",
+        }
+    }
+}
+
+/// Streaming H.264 writer.
+pub struct VideoWriter {
+    path: PathBuf,
+    tmp: PathBuf,
+    output: ffmpeg::format::context::Output,
+    encoder: ffmpeg::encoder::Video,
+    scaler: scaling::Context,
+    width: u32,
+    height: u32,
+    frame_index: i64,
+    encoder_time_base: ffmpeg::Rational,
+    stream_time_base: ffmpeg::Rational,
+    yuv: ffmpeg::frame::Video,
+    rgb: ffmpeg::frame::Video,
+}
+
+impl VideoWriter {
+    /// Creates `path` (MP4, H.264, yuv420p) for `width` x `height` frames (even sizes).
+    pub fn create(
+        path: &Path,
+        width: u32,
+        height: u32,
+        settings: &EncodeSettings,
+    ) -> Result<Self, VideoError> {
+        init();
+        let fail = |reason: String| VideoError::Encode {
+            path: path.to_path_buf(),
+            reason,
+        };
+        if width % 2 != 0 || height % 2 != 0 || width == 0 || height == 0 {
+            return Err(fail(format!(
+                "{width}x{height}: H.264 yuv420p needs even, non-zero sizes"
+            )));
+        }
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(|e| fail(e.to_string()))?;
+        }
+        let name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "video.mp4".into());
+        let tmp = path.with_file_name(format!(".{name}.partial.mp4"));
+        let mut output = ffmpeg::format::output_as(&tmp, "mp4").map_err(|e| fail(e.to_string()))?;
+        let codec = ffmpeg::encoder::find_by_name("libx264")
+            .or_else(|| ffmpeg::encoder::find(ffmpeg::codec::Id::H264))
+            .ok_or_else(|| {
+                fail("no H.264 encoder in this FFmpeg (install libavcodec-extra or libx264)".into())
+            })?;
+        let global_header = output
+            .format()
+            .flags()
+            .contains(ffmpeg::format::Flags::GLOBAL_HEADER);
+        let mut stream = output.add_stream(codec).map_err(|e| fail(e.to_string()))?;
+        let mut enc = ffmpeg::codec::context::Context::new_with_codec(codec)
+            .encoder()
+            .video()
+            .map_err(|e| fail(e.to_string()))?;
+        let time_base = ffmpeg::Rational(1, settings.fps.max(1) as i32);
+        enc.set_width(width);
+        enc.set_height(height);
+        enc.set_format(Pixel::YUV420P);
+        enc.set_time_base(time_base);
+        enc.set_frame_rate(Some(ffmpeg::Rational(settings.fps.max(1) as i32, 1)));
+        if global_header {
+            enc.set_flags(ffmpeg::codec::Flags::GLOBAL_HEADER);
+        }
+        let mut opts = ffmpeg::Dictionary::new();
+        opts.set("preset", settings.preset);
+        match settings.bitrate_bps {
+            Some(b) => {
+                enc.set_bit_rate(b as usize);
+                enc.set_max_bit_rate(b as usize);
+            }
+            None => opts.set("crf", &settings.crf.to_string()),
+        }
+        let encoder = enc.open_with(opts).map_err(|e| fail(e.to_string()))?;
+        stream.set_parameters(&encoder);
+        stream.set_time_base(time_base);
+        output.write_header().map_err(|e| fail(e.to_string()))?;
+        let stream_time_base = output.stream(0).map(|s| s.time_base()).unwrap_or(time_base);
+        let scaler = scaling::Context::get(
+            Pixel::RGB24,
+            width,
+            height,
+            Pixel::YUV420P,
+            width,
+            height,
+            scaling::Flags::BILINEAR,
+        )
+        .map_err(|e| fail(e.to_string()))?;
+        Ok(Self {
+            path: path.to_path_buf(),
+            tmp,
+            output,
+            encoder,
+            scaler,
+            width,
+            height,
+            frame_index: 0,
+            encoder_time_base: time_base,
+            stream_time_base,
+            yuv: ffmpeg::frame::Video::empty(),
+            rgb: ffmpeg::frame::Video::new(Pixel::RGB24, width, height),
+        })
+    }
+
+    /// Encodes one frame.
+    pub fn write(&mut self, frame: &RgbImage) -> Result<(), VideoError> {
+        if frame.width() != self.width || frame.height() != self.height {
+            return Err(VideoError::FrameSize {
+                path: self.path.clone(),
+                got_width: frame.width(),
+                got_height: frame.height(),
+                width: self.width,
+                height: self.height,
+            });
+        }
+        let stride = self.rgb.stride(0);
+        let row = (self.width * 3) as usize;
+        let src = frame.as_raw();
+        let dst = self.rgb.data_mut(0);
+        for y in 0..self.height as usize {
+            dst[y * stride..y * stride + row].copy_from_slice(&src[y * row..(y + 1) * row]);
+        }
+        let path = self.path.clone();
+        let fail = move |e: ffmpeg::Error| VideoError::Encode {
+            path: path.clone(),
+            reason: e.to_string(),
+        };
+        self.scaler.run(&self.rgb, &mut self.yuv).map_err(&fail)?;
+        self.yuv.set_pts(Some(self.frame_index));
+        self.frame_index += 1;
+        self.encoder.send_frame(&self.yuv).map_err(&fail)?;
+        self.drain()
+    }
+
+    fn drain(&mut self) -> Result<(), VideoError> {
+        let mut packet = ffmpeg::Packet::empty();
+        while self.encoder.receive_packet(&mut packet).is_ok() {
+            packet.set_stream(0);
+            // One frame interval each, so the container's duration and average frame
+            // rate come out exact.
+            packet.set_duration(1);
+            packet.rescale_ts(self.encoder_time_base, self.stream_time_base);
+            packet
+                .write_interleaved(&mut self.output)
+                .map_err(|e| VideoError::Encode {
+                    path: self.path.clone(),
+                    reason: e.to_string(),
+                })?;
+        }
+        Ok(())
+    }
+
+    /// Flushes the encoder, writes the trailer and moves the file to its final name.
+    pub fn finish(mut self) -> Result<PathBuf, VideoError> {
+        let path = self.path.clone();
+        let fail = |e: String| VideoError::Encode {
+            path: path.clone(),
+            reason: e,
+        };
+        self.encoder.send_eof().map_err(|e| fail(e.to_string()))?;
+        self.drain()?;
+        self.output
+            .write_trailer()
+            .map_err(|e| fail(e.to_string()))?;
+        std::fs::rename(&self.tmp, &self.path).map_err(|e| fail(e.to_string()))?;
+        Ok(self.path.clone())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn moving_square(i: u32, w: u32, h: u32) -> RgbImage {
+        RgbImage::from_fn(w, h, |x, y| {
+            let sx = 10 + 4 * i;
+            if x >= sx && x < sx + 16 && (16..32).contains(&y) {
+                image::Rgb([220, 30, 30])
+            } else {
+                image::Rgb([40, 120, 200])
+            }
+        })
+    }
+
+    fn write_test_video(path: &Path, frames: u32) {
+        let mut w = VideoWriter::create(
+            path,
+            96,
+            64,
+            &EncodeSettings {
+                fps: 25,
+                crf: 10,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        for i in 0..frames {
+            w.write(&moving_square(i, 96, 64)).unwrap();
+        }
+        w.finish().unwrap();
+    }
+
+    #[test]
+    fn round_trip_frames_times_and_colours() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("a.mp4");
+        write_test_video(&p, 10);
+        assert!(!dir.path().join(".a.mp4.partial.mp4").exists());
+        let mut r = VideoReader::open(&p).unwrap();
+        assert_eq!((r.info().width, r.info().height), (96, 64));
+        assert!((r.info().fps - 25.0).abs() < 1e-6);
+        assert_eq!(r.info().codec, "h264");
+        let mut n = 0;
+        while let Some(f) = r.next_frame(1).unwrap() {
+            assert!(
+                (f.time_s - f.index as f64 / 25.0).abs() < 1e-3,
+                "t {}",
+                f.time_s
+            );
+            // Centre of the square and the background, within compression error.
+            let sq = f.image.get_pixel(10 + 4 * f.index as u32 + 8, 24);
+            assert!(sq[0] > 180 && sq[1] < 80 && sq[2] < 80, "{sq:?}");
+            let bg = f.image.get_pixel(90, 60);
+            assert!((bg[2] as i32 - 200).abs() < 20, "{bg:?}");
+            n += 1;
+        }
+        assert_eq!(n, 10);
+        assert!(!r.stats().has_errors());
+    }
+
+    #[test]
+    fn stride_and_even_sampling() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("b.mp4");
+        write_test_video(&p, 12);
+        let mut r = VideoReader::open(&p).unwrap();
+        let mut idx = vec![];
+        while let Some(f) = r.next_frame(3).unwrap() {
+            idx.push(f.index);
+        }
+        assert_eq!(idx, vec![0, 3, 6, 9]);
+        let s = sample_evenly(&p, 4).unwrap();
+        let idx: Vec<u64> = s.iter().map(|f| f.index).collect();
+        assert_eq!(idx, vec![1, 4, 7, 10]);
+    }
+
+    #[test]
+    fn truncated_and_corrupt_videos_do_not_panic() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("c.mp4");
+        write_test_video(&p, 30);
+        let bytes = std::fs::read(&p).unwrap();
+        // MP4 writes its index (moov) at the end: a truncated recording cannot be opened
+        // and must say so.
+        let cut = dir.path().join("cut.mp4");
+        std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+        assert!(matches!(
+            VideoReader::open(&cut),
+            Err(VideoError::NotAVideo { .. })
+        ));
+        // Garbage inside the frame data: the video opens and decodes what it can.
+        let mut bad = bytes.clone();
+        let (a, b) = (bad.len() / 3, bad.len() / 2);
+        for (i, x) in bad[a..b].iter_mut().enumerate() {
+            *x = (i * 7919 % 251) as u8;
+        }
+        let corrupt = dir.path().join("corrupt.mp4");
+        std::fs::write(&corrupt, &bad).unwrap();
+        let mut r = VideoReader::open(&corrupt).unwrap();
+        let mut n = 0;
+        while r.next_frame(1).unwrap().is_some() {
+            n += 1;
+        }
+        assert!(n >= 1 && n <= 30, "decoded {n}");
+        assert_eq!(r.stats().frames_decoded, n);
+    }
+
+    #[test]
+    fn text_file_is_not_a_video_and_missing_is_missing() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("x.mp4");
+        std::fs::write(&p, "hello, not a video").unwrap();
+        assert!(matches!(
+            VideoReader::open(&p),
+            Err(VideoError::NotAVideo { .. })
+        ));
+        assert!(matches!(
+            VideoReader::open(&dir.path().join("none.mp4")),
+            Err(VideoError::Missing { .. })
+        ));
+    }
+}

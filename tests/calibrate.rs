@@ -116,6 +116,76 @@ fn fisheye_on_synthetic_gopro_photos_recovers_the_camera() {
 }
 
 #[test]
+fn fisheye_from_a_video_of_the_board() {
+    use bendscope::video::{EncodeSettings, VideoWriter};
+    let t = truth();
+    let dir = tempfile::tempdir().unwrap();
+    let video = dir.path().join("GX010001.MP4");
+    let mut w = VideoWriter::create(
+        &video,
+        t.camera.width,
+        t.camera.height,
+        &EncodeSettings {
+            fps: 10,
+            crf: 12,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let mut names: Vec<_> = fs::read_dir(fixture("fisheye/calib"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    names.sort();
+    for p in &names {
+        let img = image::open(p).unwrap().into_rgb8();
+        // Three frames per pose, as a slow sweep would give.
+        for _ in 0..3 {
+            w.write(&img).unwrap();
+        }
+    }
+    w.finish().unwrap();
+    let out = dir.path().join("v.yaml");
+    let run = Run::new(
+        dir.path(),
+        &[
+            "calibrate",
+            "GX010001.MP4",
+            "--frames",
+            "20",
+            "-o",
+            out.to_str().unwrap(),
+        ],
+    );
+    assert_eq!(run.code, 0, "{run}");
+    let c = read_calibration(&out).unwrap();
+    assert!(c.views_used.len() >= 15, "{run}");
+    assert!(
+        c.views_used[0].starts_with("GX010001.MP4#frame"),
+        "{:?}",
+        c.views_used
+    );
+    let k = t.camera.k;
+    assert!(
+        (c.fx() / k[0][0] - 1.0).abs() < 0.005,
+        "fx {} vs {}",
+        c.fx(),
+        k[0][0]
+    );
+    assert!(
+        (c.fy() / k[1][1] - 1.0).abs() < 0.005,
+        "fy {} vs {}",
+        c.fy(),
+        k[1][1]
+    );
+    assert!((c.cx() - k[0][2]).abs() < 2.0 && (c.cy() - k[1][2]).abs() < 2.0);
+    // A corrupt video is named with what to do.
+    fs::write(dir.path().join("bad.mp4"), b"not a video").unwrap();
+    Run::new(dir.path(), &["calibrate", "bad.mp4"])
+        .assert_bad_input(&["bad.mp4", "not a video FFmpeg can read"]);
+}
+
+#[test]
 fn scale_of_an_in_plane_board_is_recovered() {
     let t = truth();
     let dir = tempfile::tempdir().unwrap();

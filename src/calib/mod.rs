@@ -128,7 +128,7 @@ pub enum CalibError {
         calib_height: u32,
     },
     /// A decoded video could not provide frames for calibration.
-    #[error("{path}: {message}")]
+    #[error("{message}")]
     Video {
         /// The video.
         path: PathBuf,

@@ -116,12 +116,19 @@ fn collect_sources(
 
 /// Frames sampled evenly from a video, as grey views.
 fn video_frames(path: &Path, frames: u32) -> Result<Vec<ViewSource>, CalibError> {
-    let _ = frames;
-    Err(CalibError::Video {
-        path: path.to_path_buf(),
-        message: "calibration from video is not available in this build: extract photos"
-            .to_string(),
-    })
+    let sampled =
+        bendscope::video::sample_evenly(path, frames as usize).map_err(|e| CalibError::Video {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
+    let stem = display_name(path);
+    Ok(sampled
+        .into_iter()
+        .map(|f| ViewSource::Frame {
+            name: format!("{stem}#frame{}", f.index),
+            gray: image::DynamicImage::ImageRgb8(f.image).into_luma8(),
+        })
+        .collect())
 }
 
 /// Default output: calibration/<name>.yaml, name from the first path's folder or stem.
