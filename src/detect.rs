@@ -13,10 +13,15 @@
 //! label for each of the two million pixels of a 1080p frame. The tests check it against
 //! imageproc on random masks.
 //!
-//! Centroids are coverage-weighted: pixels of the filled blob count 1; the ring of
-//! pixels around it counts by its redness between the background's and the blob's, so
-//! partly covered edge pixels contribute their fraction. This removes most of the
-//! pixel-quantization error of a binary centroid on small (3 mm, ~8 px) markers.
+//! Centroids are coverage-weighted: over the blob's box grown by [`RING_PX`], each pixel
+//! counts by where its luma lies between the background's and the marker's (filled
+//! holes count 1), so partly covered edge pixels contribute their fraction. This removes
+//! most of the pixel-quantization error of a binary centroid on small (3 mm, ~8 px)
+//! markers. Luma rather than redness: video is 4:2:0, its chroma has half the
+//! resolution, and redness-weighted centroids of H.264 frames were measured to jump by
+//! ~0.2 px with the marker's position on the chroma grid (0.4% radius bias at R = 200
+//! mm); redness is the fallback when a marker is not darker or brighter than its
+//! surroundings.
 
 use image::{GrayImage, RgbImage};
 use nalgebra::Point2;
@@ -35,9 +40,9 @@ pub const DEFAULT_V_MIN: u8 = 60;
 pub const DEFAULT_MIN_AREA_PX: u32 = 6;
 /// Default largest blob kept, px (larger are other red objects).
 pub const DEFAULT_MAX_AREA_PX: u32 = 20_000;
-/// Smallest redness difference (r - max(g, b)) between a marker and its surroundings for
-/// coverage weighting; below it, binary centroids are used.
-pub const MIN_REDNESS_CONTRAST: f64 = 30.0;
+/// Smallest difference of the coverage cue (luma or redness, 0..255) between a marker
+/// and its surroundings for coverage weighting; below it, binary centroids are used.
+pub const MIN_COVERAGE_CONTRAST: f64 = 30.0;
 
 /// Thresholds of the red mask (OpenCV HSV scale).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -307,48 +312,59 @@ fn filled_component(runs: &[Run], fill: bool) -> (u32, u32, u32, u32, Vec<bool>)
     (x0, y0, x1, y1, inside)
 }
 
-/// Redness r - max(g, b) of a pixel.
+/// Redness r - max(g, b) of a pixel (carried by chroma).
 #[inline]
 fn redness(p: &image::Rgb<u8>) -> f64 {
     p[0] as f64 - (p[1].max(p[2])) as f64
 }
 
-/// Redness of the background around a blob (median of the surrounding ring) and of the
-/// fully covered marker (80th percentile inside the blob); `None` when they do not
-/// differ enough to weight by.
-fn redness_levels(
+/// Luma (Rec. 601) of a pixel: full resolution in 4:2:0 video, where chroma (and so
+/// redness) has half the resolution in both directions.
+#[inline]
+fn luma(p: &image::Rgb<u8>) -> f64 {
+    0.299 * p[0] as f64 + 0.587 * p[1] as f64 + 0.114 * p[2] as f64
+}
+
+/// Pixels of the ring around a blob used to weigh edge coverage.
+pub const RING_PX: u32 = 2;
+
+/// Levels of a cue (`value` of a pixel) for coverage weighting: the background around a
+/// blob (median of the surrounding ring) and the fully covered marker (median of the
+/// blob's inner half, the pixels farthest from the background level); `None` when they
+/// differ by less than [`MIN_COVERAGE_CONTRAST`].
+fn cue_levels(
     img: &RgbImage,
     inside: &[bool],
-    x0: u32,
-    y0: u32,
-    x1: u32,
-    y1: u32,
+    bbox: (u32, u32, u32, u32),
+    value: fn(&image::Rgb<u8>) -> f64,
 ) -> Option<(f64, f64)> {
+    let (x0, y0, x1, y1) = bbox;
     let (w, h) = img.dimensions();
     let bw = (x1 - x0) as usize;
     let mut inner: Vec<f64> = Vec::new();
     let mut ring: Vec<f64> = Vec::new();
-    let (ex0, ey0) = (x0.saturating_sub(1), y0.saturating_sub(1));
-    let (ex1, ey1) = ((x1 + 1).min(w), (y1 + 1).min(h));
+    let (ex0, ey0) = (x0.saturating_sub(RING_PX), y0.saturating_sub(RING_PX));
+    let (ex1, ey1) = ((x1 + RING_PX).min(w), (y1 + RING_PX).min(h));
     for y in ey0..ey1 {
         for x in ex0..ex1 {
             let in_box = x >= x0 && x < x1 && y >= y0 && y < y1;
-            let r = redness(img.get_pixel(x, y));
+            let v = value(img.get_pixel(x, y));
             if in_box && inside[(y - y0) as usize * bw + (x - x0) as usize] {
-                inner.push(r);
+                inner.push(v);
             } else if !in_box {
-                ring.push(r);
+                ring.push(v);
             }
         }
     }
     if inner.is_empty() || ring.is_empty() {
         return None;
     }
-    inner.sort_by(f64::total_cmp);
     ring.sort_by(f64::total_cmp);
-    let full = inner[(inner.len() * 4) / 5];
     let bg = ring[ring.len() / 2];
-    (full - bg > MIN_REDNESS_CONTRAST).then_some((bg, full))
+    inner.sort_by(|a, b| (b - bg).abs().total_cmp(&(a - bg).abs()));
+    let core = &inner[..inner.len().div_ceil(2)];
+    let full = core[core.len() / 2];
+    ((full - bg).abs() > MIN_COVERAGE_CONTRAST).then_some((bg, full))
 }
 
 /// Blobs of a red mask, with coverage-weighted centroids from `img` (the frame the mask
@@ -379,13 +395,22 @@ pub fn blobs_from_mask(
             sx += c * x as f64;
             sy += c * y as f64;
         };
-        let levels = img.and_then(|img| redness_levels(img, &inside, x0, y0, x1, y1));
-        match (img, levels) {
-            (Some(img), Some((bg, full))) => {
-                // Coverage from redness over the blob's box grown by one pixel; filled
-                // holes count fully.
-                let (ex0, ey0) = (x0.saturating_sub(1), y0.saturating_sub(1));
-                let (ex1, ey1) = ((x1 + 1).min(w), (y1 + 1).min(h));
+        // Coverage cue: luma (full resolution even in 4:2:0 video) when the marker
+        // stands out from its surroundings in brightness, else redness.
+        let cue = img.and_then(|img| {
+            let bbox = (x0, y0, x1, y1);
+            cue_levels(img, &inside, bbox, luma)
+                .map(|l| (img, l, luma as fn(&image::Rgb<u8>) -> f64))
+                .or_else(|| {
+                    cue_levels(img, &inside, bbox, redness)
+                        .map(|l| (img, l, redness as fn(&image::Rgb<u8>) -> f64))
+                })
+        });
+        match cue {
+            Some((img, (bg, full), value)) => {
+                // Coverage over the blob's box grown by the ring; filled holes count fully.
+                let (ex0, ey0) = (x0.saturating_sub(RING_PX), y0.saturating_sub(RING_PX));
+                let (ex1, ey1) = ((x1 + RING_PX).min(w), (y1 + RING_PX).min(h));
                 for y in ey0..ey1 {
                     for x in ex0..ex1 {
                         let in_box = x >= x0 && x < x1 && y >= y0 && y < y1;
@@ -393,7 +418,7 @@ pub fn blobs_from_mask(
                         let c = if filled && mask.get_pixel(x, y)[0] == 0 {
                             1.0
                         } else {
-                            ((redness(img.get_pixel(x, y)) - bg) / (full - bg)).clamp(0.0, 1.0)
+                            ((value(img.get_pixel(x, y)) - bg) / (full - bg)).clamp(0.0, 1.0)
                         };
                         add(x, y, c);
                     }

@@ -11,6 +11,7 @@ fn main() -> ExitCode {
     let result = match &args.command {
         cli::Command::Calibrate(a) => cli::calibrate::run(a),
         cli::Command::Scale(a) => cli::scale::run(a),
+        cli::Command::Process(a) => cli::process::run(a),
     };
     match result {
         Ok(code) => ExitCode::from(code),

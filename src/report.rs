@@ -146,14 +146,15 @@ pub struct VideoRow {
     pub status: String,
 }
 
-/// Writes per_video.csv with polars.
+/// Writes per_video.csv with polars (a `pressure_<unit>` column follows `pressure_kpa`
+/// when the manifest used another unit).
 pub fn write_per_video_csv(path: &Path, rows: &[VideoRow], unit: &str) -> Result<(), ReportError> {
     let f = |g: fn(&VideoRow) -> f64| -> Vec<Option<f64>> {
         rows.iter()
             .map(|r| Some(g(r)).filter(|v| !v.is_nan()))
             .collect()
     };
-    let cols = vec![
+    let mut cols = vec![
         Column::new(
             "file".into(),
             rows.iter().map(|r| r.file.clone()).collect::<Vec<_>>(),
@@ -183,6 +184,10 @@ pub fn write_per_video_csv(path: &Path, rows: &[VideoRow], unit: &str) -> Result
             rows.iter().map(|r| r.status.clone()).collect::<Vec<_>>(),
         ),
     ];
+    if unit == "kpa" {
+        // pressure_kpa is already there.
+        cols.remove(2);
+    }
     let render = |e: PolarsError| ReportError::Render {
         path: path.to_path_buf(),
         message: e.to_string(),
@@ -305,6 +310,9 @@ pub fn plot_xy(
     };
     pad(&mut x0, &mut x1);
     pad(&mut y0, &mut y1);
+    if let Some(dir) = stem.parent() {
+        std::fs::create_dir_all(dir).map_err(io(dir))?;
+    }
     let png = stem.with_extension("png");
     let svg = stem.with_extension("svg");
     for (target, is_png) in [(&png, true), (&svg, false)] {

@@ -2,14 +2,19 @@
 //! library. Data goes to files and stdout; logs and progress bars go to stderr.
 
 pub mod calibrate;
+pub mod process;
 pub mod scale;
 
 use clap::{Parser, Subcommand};
 
 /// Exit code: everything asked for was done.
 pub const EXIT_OK: u8 = 0;
+/// Exit code: some items failed, the others' results were written.
+pub const EXIT_PARTIAL: u8 = 1;
 /// Exit code: bad input or usage; nothing was done.
 pub const EXIT_BAD_INPUT: u8 = 2;
+/// Exit code: nothing could be measured.
+pub const EXIT_NOTHING: u8 = 3;
 
 /// Measure soft pneumatic bending actuators from video and compare them with a
 /// finite-element model.
@@ -31,6 +36,8 @@ pub enum Command {
     Calibrate(calibrate::CalibrateArgs),
     /// Measure mm per undistorted pixel from a board lying in the actuator plane.
     Scale(scale::ScaleArgs),
+    /// Measure radius of curvature, curvature and bending angle vs pressure from session folders.
+    Process(process::ProcessArgs),
 }
 
 /// A progress bar on stderr (drawn only when stderr is a terminal).

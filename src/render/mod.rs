@@ -11,6 +11,7 @@ pub mod actuator;
 pub mod board;
 pub mod fixtures;
 pub mod rng;
+pub mod session;
 
 pub use board::{random_board_poses, render_board_photo, BoardPose, PhotoSettings};
 

@@ -1,0 +1,655 @@
+//! `bendscope process`: radius of curvature, curvature and bending angle vs pressure
+//! from session folders of videos.
+
+use std::collections::hash_map::DefaultHasher;
+use std::hash::{Hash, Hasher};
+use std::path::{Path, PathBuf};
+use std::sync::mpsc::sync_channel;
+
+use anyhow::{anyhow, Context, Result};
+use bendscope::calib::corners::{detect_views, DetectSettings as CornerSettings, ViewSource};
+use bendscope::calib::file::{calibration_to_yaml, read_calibration, write_calibration};
+use bendscope::calib::{
+    calibrate, Board, Calibration, CalibrationSettings, UndistortSettings, Undistorter,
+};
+use bendscope::detect::{mask_from_rgb, ChainStart};
+use bendscope::report::{
+    fit_session, plot_xy, write_json, write_overlay, write_per_frame_csv, write_per_video_csv,
+    FrameRow, Series, VideoRow,
+};
+use bendscope::scale::scale_from_board_photo;
+use bendscope::session::{
+    find_scale_image, measure_frame, read_manifest, summarize, FrameStatus, ManifestEntry,
+    SessionConfig,
+};
+use bendscope::video::VideoReader;
+use clap::Args;
+use opencv::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use super::{EXIT_BAD_INPUT, EXIT_NOTHING, EXIT_OK, EXIT_PARTIAL};
+
+/// Measure bending vs pressure from session folders.
+#[derive(Debug, Args)]
+pub struct ProcessArgs {
+    /// Session folders (pressures.csv, videos, scale photo, calib/).
+    #[arg(required = true, value_name = "SESSION")]
+    pub sessions: Vec<PathBuf>,
+    /// Output folder [default: SESSION/bendscope-out; with several sessions OUT/<session>].
+    #[arg(short, long, value_name = "OUT")]
+    pub output: Option<PathBuf>,
+    /// Calibration file (else the session's setting, else calib/ is calibrated and cached in OUT).
+    #[arg(long, value_name = "FILE")]
+    pub calibration: Option<PathBuf>,
+    /// Settings file [default: SESSION/bendscope.toml when present].
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Reprocess videos whose results are current.
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// Cached result of one video.
+#[derive(Debug, Serialize, Deserialize)]
+struct Cached {
+    fingerprint: u64,
+    video: VideoRow,
+    frames: Vec<CachedFrame>,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+struct CachedFrame {
+    frame: u64,
+    time_s: f64,
+    n_markers: usize,
+    radius_px: f64,
+    radius_mm: f64,
+    curvature_per_m: f64,
+    bending_angle_deg: f64,
+    fit_rms_px: f64,
+    status: String,
+}
+
+/// Runs `bendscope process`.
+pub fn run(args: &ProcessArgs) -> Result<u8> {
+    let several = args.sessions.len() > 1;
+    let (mut measured, mut failed, mut bad_input) = (0usize, 0usize, 0usize);
+    for session in &args.sessions {
+        let name = session
+            .canonicalize()
+            .ok()
+            .and_then(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+            .unwrap_or_else(|| "session".into());
+        let out = match (&args.output, several) {
+            (Some(o), true) => o.join(&name),
+            (Some(o), false) => o.clone(),
+            (None, _) => session.join("bendscope-out"),
+        };
+        match process_session(session, &out, args) {
+            Ok(s) => {
+                measured += s.measured;
+                failed += s.failed;
+                println!(
+                    "{}: {} video(s) measured, {} failed -> {}",
+                    session.display(),
+                    s.measured,
+                    s.failed,
+                    out.display()
+                );
+            }
+            Err(e) => {
+                eprintln!("error: {}: {e:#}", session.display());
+                bad_input += 1;
+            }
+        }
+    }
+    Ok(if measured == 0 {
+        if bad_input > 0 && failed == 0 {
+            EXIT_BAD_INPUT
+        } else {
+            EXIT_NOTHING
+        }
+    } else if failed > 0 || bad_input > 0 {
+        EXIT_PARTIAL
+    } else {
+        EXIT_OK
+    })
+}
+
+struct SessionOutcome {
+    measured: usize,
+    failed: usize,
+}
+
+fn session_calibration(
+    session: &Path,
+    out: &Path,
+    config: &SessionConfig,
+    args: &ProcessArgs,
+) -> Result<Calibration> {
+    if let Some(c) = &args.calibration {
+        return Ok(read_calibration(c)?);
+    }
+    if let Some(c) = &config.calibration {
+        return Ok(read_calibration(&session.join(c))?);
+    }
+    let cached = out.join("calibration.yaml");
+    if cached.is_file() && !args.force {
+        return Ok(read_calibration(&cached)?);
+    }
+    let dir = session.join("calib");
+    if !dir.is_dir() {
+        return Err(anyhow!(
+            "no calibration: give --calibration FILE, set `calibration` in bendscope.toml, or put checkerboard photos in {}",
+            dir.display()
+        ));
+    }
+    let mut photos: Vec<PathBuf> = std::fs::read_dir(&dir)?
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| {
+            p.extension()
+                .map(|e| {
+                    bendscope::session::IMAGE_EXTENSIONS
+                        .contains(&e.to_string_lossy().to_ascii_lowercase().as_str())
+                })
+                .unwrap_or(false)
+        })
+        .collect();
+    photos.sort();
+    let sources: Vec<ViewSource> = photos.into_iter().map(ViewSource::Image).collect();
+    let b = config.calib_board;
+    let board = Board::new(b.cols, b.rows, b.square_mm)?;
+    let det = detect_views(&sources, &board, &CornerSettings::default(), &|| {});
+    let calib = calibrate(
+        &det,
+        &CalibrationSettings {
+            model: config.model,
+            board,
+            fix_aspect_ratio: false,
+        },
+    )
+    .with_context(|| format!("calibrating {}", dir.display()))?;
+    write_calibration(&cached, &calib)?;
+    eprintln!(
+        "calibrated {} from {} views (RMS {:.3} px) -> {}",
+        config.model.name(),
+        calib.views_used.len(),
+        calib.avg_reprojection_error,
+        cached.display()
+    );
+    Ok(calib)
+}
+
+fn process_session(session: &Path, out: &Path, args: &ProcessArgs) -> Result<SessionOutcome> {
+    let config = match &args.config {
+        Some(p) => SessionConfig::read(p)?,
+        None => SessionConfig::for_session(session)?,
+    };
+    let manifest = read_manifest(session)?;
+    if manifest.entries.is_empty() && manifest.issues.is_empty() {
+        return Err(anyhow!(
+            "{} lists no videos: add one row per video",
+            bendscope::session::MANIFEST
+        ));
+    }
+    let calib = session_calibration(session, out, &config, args)?;
+    let mm_per_px = match config.mm_per_px {
+        Some(m) => m,
+        None => {
+            let img = find_scale_image(session, &config).ok_or_else(|| {
+                anyhow!("no scale photo: put scale.jpg (a board lying in the actuator plane) in the session, or set mm_per_px in bendscope.toml")
+            })?;
+            let b = config.scale_board;
+            let board = Board::new(b.cols, b.rows, b.square_mm)?;
+            let s = scale_from_board_photo(&img, &calib, &board, UndistortSettings::default())
+                .with_context(|| format!("scale from {}", img.display()))?;
+            if s.looks_tilted() {
+                eprintln!(
+                    "warning: {}: board spacing varies by {:.1}%: not parallel to the image plane?",
+                    img.display(),
+                    100.0 * s.spread
+                );
+            }
+            s.mm_per_px
+        }
+    };
+    let fingerprint_base = {
+        let mut h = DefaultHasher::new();
+        toml::to_string(&config).unwrap_or_default().hash(&mut h);
+        calibration_to_yaml(&calib).unwrap_or_default().hash(&mut h);
+        mm_per_px.to_bits().hash(&mut h);
+        h.finish()
+    };
+    std::fs::create_dir_all(out.join("cache"))
+        .with_context(|| format!("creating {}", out.display()))?;
+    let bar = super::progress_bar(manifest.entries.len() as u64, "videos");
+    let mut videos: Vec<VideoRow> = Vec::new();
+    let mut frames: Vec<FrameRow> = Vec::new();
+    let mut per_video_frames: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
+    for entry in &manifest.entries {
+        bar.set_message(entry.file.clone());
+        let fp = fingerprint(session, entry, fingerprint_base);
+        let cache_path = out.join("cache").join(format!("{}.json", entry.file));
+        let cached: Option<Cached> = (!args.force)
+            .then(|| std::fs::read_to_string(&cache_path).ok())
+            .flatten()
+            .and_then(|t| serde_json::from_str(&t).ok())
+            .filter(|c: &Cached| c.fingerprint == fp);
+        let result = match cached {
+            Some(c) => c,
+            None => {
+                let c = measure_video(
+                    session,
+                    out,
+                    entry,
+                    &calib,
+                    mm_per_px,
+                    &config,
+                    manifest.unit.name(),
+                    fp,
+                );
+                write_json(&cache_path, &c)?;
+                c
+            }
+        };
+        for f in &result.frames {
+            frames.push(FrameRow {
+                file: entry.file.clone(),
+                frame: f.frame,
+                time_s: f.time_s,
+                pressure_kpa: entry.pressure_kpa,
+                n_markers: f.n_markers,
+                radius_px: f.radius_px,
+                radius_mm: f.radius_mm,
+                curvature_per_m: f.curvature_per_m,
+                bending_angle_deg: f.bending_angle_deg,
+                fit_rms_px: f.fit_rms_px,
+                status: f.status.clone(),
+            });
+        }
+        per_video_frames.push((
+            entry.file.clone(),
+            result
+                .frames
+                .iter()
+                .map(|f| (f.time_s, f.radius_mm))
+                .collect(),
+        ));
+        if result.video.frames_used == 0 {
+            bar.suspend(|| eprintln!("warning: {}: {}", entry.file, result.video.status));
+        }
+        videos.push(result.video);
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    for issue in &manifest.issues {
+        eprintln!(
+            "warning: {}{}: {}",
+            issue.file,
+            issue
+                .line
+                .map(|l| format!(" (line {l})"))
+                .unwrap_or_default(),
+            issue.message
+        );
+        videos.push(VideoRow {
+            file: issue.file.clone(),
+            pressure_kpa: f64::NAN,
+            pressure: f64::NAN,
+            radius_mm: f64::NAN,
+            radius_mm_median: f64::NAN,
+            radius_mm_std: f64::NAN,
+            curvature_per_m: f64::NAN,
+            bending_angle_deg: f64::NAN,
+            fit_rms_px: f64::NAN,
+            frames_used: 0,
+            frames_rejected: 0,
+            status: issue.message.clone(),
+        });
+    }
+    let unit = manifest.unit.name();
+    write_per_frame_csv(&out.join("per_frame.csv"), &frames)?;
+    write_per_video_csv(&out.join("per_video.csv"), &videos, unit)?;
+    let fits = fit_session(&videos, unit);
+    write_json(&out.join("fit.json"), &fits)?;
+    write_plots(out, &videos, &fits, &per_video_frames)?;
+    let measured = videos.iter().filter(|v| v.frames_used > 0).count();
+    Ok(SessionOutcome {
+        measured,
+        failed: videos.len() - measured,
+    })
+}
+
+fn fingerprint(session: &Path, entry: &ManifestEntry, base: u64) -> u64 {
+    let mut h = DefaultHasher::new();
+    base.hash(&mut h);
+    entry.pressure_kpa.to_bits().hash(&mut h);
+    for f in std::iter::once(&entry.file).chain(&entry.chapters) {
+        f.hash(&mut h);
+        if let Ok(m) = std::fs::metadata(session.join(f)) {
+            m.len().hash(&mut h);
+            m.modified().ok().hash(&mut h);
+        }
+    }
+    h.finish()
+}
+
+/// Measures every frame of one video item (all its chapters), streaming: a decoder
+/// thread feeds frames through a bounded channel to the measuring thread.
+#[allow(clippy::too_many_arguments)]
+fn measure_video(
+    session: &Path,
+    out: &Path,
+    entry: &ManifestEntry,
+    calib: &Calibration,
+    mm_per_px: f64,
+    config: &SessionConfig,
+    _unit: &str,
+    fingerprint: u64,
+) -> Cached {
+    let mut rows: Vec<CachedFrame> = Vec::new();
+    let mut measurements = Vec::new();
+    let mut problems: Vec<String> = Vec::new();
+    let mut overlay_done = false;
+    let mut start = ChainStart::Side(config.detect.clamp_side);
+    let mut time_offset = 0.0;
+    let mut index_offset = 0u64;
+    for file in std::iter::once(&entry.file).chain(&entry.chapters) {
+        let path = session.join(file);
+        let stride = config.frame_stride;
+        // The reader lives on the decoder thread (FFmpeg contexts are not Send); it sends
+        // the stream's size first, then frames, through a bounded channel.
+        let (tx, rx) = sync_channel::<Result<Decoded, String>>(4);
+        let decoder = std::thread::spawn(move || {
+            let mut reader = match VideoReader::open(&path) {
+                Ok(r) => r,
+                Err(e) => {
+                    let _ = tx.send(Err(e.to_string()));
+                    return None;
+                }
+            };
+            let size = (reader.info().width, reader.info().height);
+            if tx.send(Ok(Decoded::Size(size.0, size.1))).is_err() {
+                return None;
+            }
+            loop {
+                match reader.next_frame(stride) {
+                    Ok(Some(f)) => {
+                        if tx.send(Ok(Decoded::Frame(f))).is_err() {
+                            break;
+                        }
+                    }
+                    Ok(None) => break,
+                    Err(e) => {
+                        let _ = tx.send(Err(e.to_string()));
+                        break;
+                    }
+                }
+            }
+            Some(reader.stats().clone())
+        });
+        let (w, h) = match rx.recv() {
+            Ok(Ok(Decoded::Size(w, h))) => (w, h),
+            Ok(Err(e)) => {
+                problems.push(e);
+                let _ = decoder.join();
+                continue;
+            }
+            _ => {
+                problems.push(format!("{file}: the decoder stopped"));
+                let _ = decoder.join();
+                continue;
+            }
+        };
+        let setup = calib
+            .for_resolution(w, h)
+            .and_then(|cal| Undistorter::new(&cal, UndistortSettings::default()));
+        let und = match setup {
+            Ok(u) => u,
+            Err(e) => {
+                problems.push(format!("{file}: {e}"));
+                drop(rx);
+                let _ = decoder.join();
+                continue;
+            }
+        };
+        // The scale was measured at the calibration's size: rescale mm/px with it.
+        let mm_px = mm_per_px * calib.image_width as f64 / w as f64;
+        let mut last_time = 0.0;
+        let mut last_index = 0;
+        for msg in rx {
+            let f = match msg {
+                Ok(Decoded::Frame(f)) => f,
+                Ok(Decoded::Size(..)) => continue,
+                Err(e) => {
+                    problems.push(e);
+                    break;
+                }
+            };
+            let m = measure_frame(
+                &f.image,
+                &und,
+                &config.detect,
+                config.expected_markers,
+                start,
+            );
+            if m.status == FrameStatus::Ok {
+                if let Some(first) = m.markers_px.first() {
+                    start = ChainStart::Near(*first);
+                }
+                if !overlay_done {
+                    overlay_done =
+                        write_video_overlay(out, &entry.file, &f.image, &und, config, &m).is_ok();
+                }
+            }
+            rows.push(CachedFrame {
+                frame: f.index + index_offset,
+                time_s: f.time_s + time_offset,
+                n_markers: m.n_markers,
+                radius_px: m.radius_px,
+                radius_mm: m.radius_px * mm_px,
+                curvature_per_m: m.curvature_per_px / mm_px * 1000.0,
+                bending_angle_deg: m.bending_angle_deg,
+                fit_rms_px: m.fit_rms_px,
+                status: m.status.text(),
+            });
+            let mut scaled = m.clone();
+            // Summaries use one mm/px: fold the chapter's into the radius.
+            scaled.radius_px = m.radius_px * mm_px / mm_per_px;
+            scaled.curvature_per_px = m.curvature_per_px * mm_per_px / mm_px;
+            measurements.push(scaled);
+            last_time = f.time_s;
+            last_index = f.index;
+        }
+        match decoder.join() {
+            Ok(Some(stats)) if stats.has_errors() => problems.push(format!(
+                "{file}: {} corrupt packet(s){}; measured what decoded",
+                stats.packets_failed,
+                stats
+                    .read_error
+                    .map(|e| format!(", read error: {e}"))
+                    .unwrap_or_default()
+            )),
+            Ok(_) => {}
+            Err(_) => problems.push(format!("{file}: the decoder thread failed")),
+        }
+        time_offset += last_time + 1.0 / 30.0;
+        index_offset += last_index + 1;
+    }
+    let s = summarize(&measurements, mm_per_px);
+    let status = if s.frames_used == 0 {
+        let reason = most_common_rejection(&rows).unwrap_or_else(|| "no frames decoded".into());
+        if problems.is_empty() {
+            format!("no frame measured: {reason}")
+        } else {
+            format!("no frame measured: {}", problems.join("; "))
+        }
+    } else if problems.is_empty() {
+        "ok".into()
+    } else {
+        format!("partial: {}", problems.join("; "))
+    };
+    Cached {
+        fingerprint,
+        video: VideoRow {
+            file: entry.file.clone(),
+            pressure_kpa: entry.pressure_kpa,
+            pressure: entry.pressure,
+            radius_mm: s.radius_mm,
+            radius_mm_median: s.radius_mm_median,
+            radius_mm_std: s.radius_mm_std,
+            curvature_per_m: s.curvature_per_m,
+            bending_angle_deg: s.bending_angle_deg,
+            fit_rms_px: s.fit_rms_px,
+            frames_used: s.frames_used,
+            frames_rejected: s.frames_rejected,
+            status,
+        },
+        frames: rows,
+    }
+}
+
+/// What the decoder thread sends.
+enum Decoded {
+    /// Frame size, first.
+    Size(u32, u32),
+    /// A decoded frame.
+    Frame(bendscope::video::Frame),
+}
+
+fn most_common_rejection(rows: &[CachedFrame]) -> Option<String> {
+    let mut counts: std::collections::BTreeMap<&str, usize> = std::collections::BTreeMap::new();
+    for r in rows {
+        if r.status != "ok" {
+            *counts.entry(r.status.as_str()).or_default() += 1;
+        }
+    }
+    counts
+        .into_iter()
+        .max_by_key(|(_, n)| *n)
+        .map(|(s, n)| format!("{s} (in {n} of {} frames): check the lighting, the HSV thresholds and expected_markers in bendscope.toml", rows.len()))
+}
+
+fn write_video_overlay(
+    out: &Path,
+    file: &str,
+    raw: &image::RgbImage,
+    und: &Undistorter,
+    config: &SessionConfig,
+    m: &bendscope::session::FrameMeasurement,
+) -> Result<()> {
+    let (w, h) = raw.dimensions();
+    let flat_src = opencv::core::Mat::from_slice(raw.as_raw())?;
+    let mat = flat_src.reshape(3, h as i32)?.clone_pointee();
+    let maps = und.maps()?;
+    let flat = und.undistort_image(&maps, &mat)?;
+    let bytes = flat.data_bytes()?.to_vec();
+    let img = image::RgbImage::from_raw(w, h, bytes).ok_or_else(|| anyhow!("overlay buffer"))?;
+    let mask = mask_from_rgb(&img, &config.detect.hsv);
+    write_overlay(
+        &out.join("overlays").join(format!("{file}.png")),
+        &img,
+        &mask,
+        &m.markers_px,
+        m.center_px,
+        m.radius_px,
+    )?;
+    Ok(())
+}
+
+fn write_plots(
+    out: &Path,
+    videos: &[VideoRow],
+    fits: &bendscope::report::SessionFits,
+    per_frame: &[(String, Vec<(f64, f64)>)],
+) -> Result<()> {
+    let ok: Vec<&VideoRow> = videos.iter().filter(|v| v.frames_used > 0).collect();
+    let pmax = ok.iter().map(|v| v.pressure_kpa).fold(0.0, f64::max);
+    let pmin = ok
+        .iter()
+        .map(|v| v.pressure_kpa)
+        .filter(|p| *p > 0.0)
+        .fold(f64::INFINITY, f64::min);
+    let curve = |f: &Option<bendscope::fit::PowerLawFit>| -> Vec<(f64, f64)> {
+        match f {
+            Some(f) if pmin.is_finite() => (0..=100)
+                .map(|i| {
+                    let p = pmin + (pmax - pmin) * i as f64 / 100.0;
+                    (p, f.eval(p))
+                })
+                .collect(),
+            _ => vec![],
+        }
+    };
+    let plots = out.join("plots");
+    plot_xy(
+        &plots.join("radius_vs_pressure"),
+        "Radius of curvature vs pressure",
+        "pressure (kPa)",
+        "radius (mm)",
+        &[
+            Series {
+                label: "measured (mean per video)",
+                points: ok.iter().map(|v| (v.pressure_kpa, v.radius_mm)).collect(),
+                line: false,
+            },
+            Series {
+                label: "power-law fit",
+                points: curve(&fits.radius_mm_vs_kpa),
+                line: true,
+            },
+        ],
+    )?;
+    plot_xy(
+        &plots.join("curvature_vs_pressure"),
+        "Curvature vs pressure",
+        "pressure (kPa)",
+        "curvature (1/m)",
+        &[
+            Series {
+                label: "measured",
+                points: ok
+                    .iter()
+                    .map(|v| (v.pressure_kpa, v.curvature_per_m))
+                    .collect(),
+                line: false,
+            },
+            Series {
+                label: "power-law fit",
+                points: curve(&fits.curvature_per_m_vs_kpa),
+                line: true,
+            },
+        ],
+    )?;
+    plot_xy(
+        &plots.join("angle_vs_pressure"),
+        "Bending angle vs pressure",
+        "pressure (kPa)",
+        "bending angle (deg)",
+        &[Series {
+            label: "measured",
+            points: ok
+                .iter()
+                .map(|v| (v.pressure_kpa, v.bending_angle_deg))
+                .collect(),
+            line: false,
+        }],
+    )?;
+    let series: Vec<Series> = per_frame
+        .iter()
+        .map(|(name, pts)| Series {
+            label: name,
+            points: pts.clone(),
+            line: true,
+        })
+        .collect();
+    plot_xy(
+        &plots.join("radius_per_frame"),
+        "Radius per frame (stability)",
+        "time (s)",
+        "radius (mm)",
+        &series,
+    )?;
+    Ok(())
+}
