@@ -16,7 +16,7 @@ fn main() -> anyhow::Result<()> {
             .unwrap_or("fixtures/sessions/example"),
     );
     let width: u32 = args.get(2).map(|s| s.parse()).transpose()?.unwrap_or(800);
-    let frames: usize = args.get(3).map(|s| s.parse()).transpose()?.unwrap_or(10);
+    let frames: usize = args.get(3).map(|s| s.parse()).transpose()?.unwrap_or(8);
     let distractor = args.iter().any(|a| a == "--distractor");
     let spec = SessionSpec {
         camera: gopro_like_camera(width, width * 3 / 4),
