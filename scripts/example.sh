@@ -1,12 +1,18 @@
 #!/usr/bin/env bash
-# Set-up, then the main job on the shipped example: calibrate the GoPro-like fisheye
-# camera from fixtures/fisheye/calib and measure the scale from fixtures/fisheye/scale.jpg.
+# Set-up, then the main job on the shipped example session: five videos of a synthetic
+# actuator filmed through a GoPro-like fisheye camera at 20..80 kPa, with calib/ photos,
+# a scale photo and ground truth (fixtures/sessions/example/truth.json).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh
-bin=target/release/bendscope
 out=${1:-bendscope-out/example}
-mkdir -p "$out"
-"$bin" calibrate fixtures/fisheye/calib --board 9x6 --square-mm 25 --model fisheye -o "$out/gopro.yaml"
-"$bin" scale fixtures/fisheye/scale.jpg --calibration "$out/gopro.yaml" --board 9x6 --square-mm 25 --save "$out/scale.json"
-echo "calibration: $out/gopro.yaml   scale: $out/scale.json   (ground truth: fixtures/fisheye/truth.json)"
+target/release/bendscope process fixtures/sessions/example -o "$out" --force
+echo
+echo "results in $out:"
+echo "  per_video.csv  radius_mm, curvature_per_m, bending_angle_deg per pressure"
+echo "  per_frame.csv  every frame's measurement or rejection reason"
+echo "  fit.json       power law y = a x^b + c of radius and curvature vs pressure"
+echo "  plots/         radius, curvature, angle vs pressure; radius per frame (PNG + SVG)"
+echo "  overlays/      one undistorted frame per video with what was measured"
+echo "ground truth:    fixtures/sessions/example/truth.json"
+column -s, -t < "$out/per_video.csv" | cut -c1-140
