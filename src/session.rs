@@ -378,6 +378,9 @@ pub struct SessionConfig {
     pub expected_markers: usize,
     /// Process every n-th frame.
     pub frame_stride: u64,
+    /// Undistort every whole frame before detection (the original method; slower, for
+    /// comparison) instead of undistorting only the detected centroids.
+    pub full_frame_undistort: bool,
     /// Marker detection.
     pub detect: DetectSettings,
 }
@@ -393,6 +396,7 @@ impl Default for SessionConfig {
             mm_per_px: None,
             expected_markers: 8,
             frame_stride: 1,
+            full_frame_undistort: false,
             detect: DetectSettings::default(),
         }
     }
@@ -538,10 +542,11 @@ impl FrameMeasurement {
     }
 }
 
-/// Measures one raw RGB frame: detect, check the count, undistort, order, fit.
+/// Measures one RGB frame: detect, check the count, undistort the centroids, order,
+/// fit. `undistorter` is `None` when the frame itself was already undistorted.
 pub fn measure_frame(
     frame: &image::RgbImage,
-    undistorter: &Undistorter,
+    undistorter: Option<&Undistorter>,
     detect: &DetectSettings,
     expected_markers: usize,
     start: ChainStart,
@@ -559,9 +564,10 @@ pub fn measure_frame(
         return FrameMeasurement::rejected(n, why);
     }
     let raw: Vec<Point2<f64>> = d.blobs.iter().map(|b| b.centroid).collect();
-    let flat = match undistorter.undistort_points(&raw) {
-        Ok(p) => p,
-        Err(e) => return FrameMeasurement::rejected(n, format!("undistortion failed: {e}")),
+    let flat = match undistorter.map(|u| u.undistort_points(&raw)) {
+        Some(Ok(p)) => p,
+        Some(Err(e)) => return FrameMeasurement::rejected(n, format!("undistortion failed: {e}")),
+        None => raw,
     };
     // Track the clamped end in undistorted space when given as a point.
     let ordered = order_markers(&flat, start);

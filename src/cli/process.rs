@@ -360,7 +360,7 @@ fn measure_video(
         let stride = config.frame_stride;
         // The reader lives on the decoder thread (FFmpeg contexts are not Send); it sends
         // the stream's size first, then frames, through a bounded channel.
-        let (tx, rx) = sync_channel::<Result<Decoded, String>>(4);
+        let (tx, rx) = sync_channel::<Result<Decoded, String>>(2);
         let decoder = std::thread::spawn(move || {
             let mut reader = match VideoReader::open(&path) {
                 Ok(r) => r,
@@ -416,6 +416,19 @@ fn measure_video(
         };
         // The scale was measured at the calibration's size: rescale mm/px with it.
         let mm_px = mm_per_px * calib.image_width as f64 / w as f64;
+        let maps = if config.full_frame_undistort {
+            match und.maps() {
+                Ok(m) => Some(m),
+                Err(e) => {
+                    problems.push(format!("{file}: {e}"));
+                    drop(rx);
+                    let _ = decoder.join();
+                    continue;
+                }
+            }
+        } else {
+            None
+        };
         let mut last_time = 0.0;
         let mut last_index = 0;
         for msg in rx {
@@ -427,20 +440,31 @@ fn measure_video(
                     break;
                 }
             };
-            let m = measure_frame(
-                &f.image,
-                &und,
-                &config.detect,
-                config.expected_markers,
-                start,
-            );
+            let m = match &maps {
+                Some(maps) => match undistort_rgb(&und, maps, &f.image) {
+                    Ok(flat) => {
+                        measure_frame(&flat, None, &config.detect, config.expected_markers, start)
+                    }
+                    Err(e) => {
+                        problems.push(format!("{file}: {e}"));
+                        break;
+                    }
+                },
+                None => measure_frame(
+                    &f.image,
+                    Some(&und),
+                    &config.detect,
+                    config.expected_markers,
+                    start,
+                ),
+            };
             if m.status == FrameStatus::Ok {
                 if let Some(first) = m.markers_px.first() {
                     start = ChainStart::Near(*first);
                 }
                 if !overlay_done {
                     overlay_done =
-                        write_video_overlay(out, &entry.file, &f.image, &und, config, &m).is_ok();
+                        write_video_overlay(out, &entry.file, &f.image, calib, config, &m).is_ok();
                 }
             }
             rows.push(CachedFrame {
@@ -531,31 +555,62 @@ fn most_common_rejection(rows: &[CachedFrame]) -> Option<String> {
         .map(|(s, n)| format!("{s} (in {n} of {} frames): check the lighting, the HSV thresholds and expected_markers in bendscope.toml", rows.len()))
 }
 
+/// Width above which the overlay is drawn at a reduced size (a QA picture needs no
+/// more, and full-frame maps of a 4K frame would dominate the memory of a run).
+const OVERLAY_MAX_WIDTH: u32 = 1920;
+
 fn write_video_overlay(
     out: &Path,
     file: &str,
     raw: &image::RgbImage,
-    und: &Undistorter,
+    calib: &Calibration,
     config: &SessionConfig,
     m: &bendscope::session::FrameMeasurement,
 ) -> Result<()> {
     let (w, h) = raw.dimensions();
-    let flat_src = opencv::core::Mat::from_slice(raw.as_raw())?;
-    let mat = flat_src.reshape(3, h as i32)?.clone_pointee();
+    let k = w.div_ceil(OVERLAY_MAX_WIDTH).max(1);
+    let small;
+    let (frame, (sw, sh)) = if k > 1 {
+        small = image::imageops::resize(raw, w / k, h / k, image::imageops::FilterType::Triangle);
+        (&small, (w / k, h / k))
+    } else {
+        (raw, (w, h))
+    };
+    // Pixel centres at integers: x' + 0.5 = (x + 0.5) / k.
+    let f = |v: f64| (v + 0.5) / k as f64 - 0.5;
+    let und = Undistorter::new(&calib.for_resolution(sw, sh)?, UndistortSettings::default())?;
     let maps = und.maps()?;
-    let flat = und.undistort_image(&maps, &mat)?;
-    let bytes = flat.data_bytes()?.to_vec();
-    let img = image::RgbImage::from_raw(w, h, bytes).ok_or_else(|| anyhow!("overlay buffer"))?;
+    let img = undistort_rgb(&und, &maps, frame)?;
     let mask = mask_from_rgb(&img, &config.detect.hsv);
+    let markers: Vec<nalgebra::Point2<f64>> = m
+        .markers_px
+        .iter()
+        .map(|p| nalgebra::Point2::new(f(p.x), f(p.y)))
+        .collect();
+    let center = nalgebra::Point2::new(f(m.center_px.x), f(m.center_px.y));
     write_overlay(
         &out.join("overlays").join(format!("{file}.png")),
         &img,
         &mask,
-        &m.markers_px,
-        m.center_px,
-        m.radius_px,
+        &markers,
+        center,
+        m.radius_px / k as f64,
     )?;
     Ok(())
+}
+
+/// Undistorts a whole RGB frame (OpenCV remap).
+fn undistort_rgb(
+    und: &Undistorter,
+    maps: &(opencv::core::Mat, opencv::core::Mat),
+    raw: &image::RgbImage,
+) -> Result<image::RgbImage> {
+    let (w, h) = raw.dimensions();
+    let flat_src = opencv::core::Mat::from_slice(raw.as_raw())?;
+    let mat = flat_src.reshape(3, h as i32)?.clone_pointee();
+    let flat = und.undistort_image(maps, &mat)?;
+    let bytes = flat.data_bytes()?.to_vec();
+    image::RgbImage::from_raw(w, h, bytes).ok_or_else(|| anyhow!("undistorted frame buffer"))
 }
 
 fn write_plots(
