@@ -168,8 +168,19 @@ pub const COARSE_MARGIN: u32 = 3;
 /// minimum area drops anyway) may be missed. On a 1080p frame with 8 markers this tests
 /// about a quarter of the pixels.
 pub fn mask_from_rgb_sparse(img: &RgbImage, t: &HsvThresholds) -> GrayImage {
+    let mut mask = GrayImage::new(img.width(), img.height());
+    mask_from_rgb_sparse_into(img, t, &mut mask);
+    mask
+}
+
+/// [`mask_from_rgb_sparse`] into a reused mask buffer (resized and cleared here).
+pub fn mask_from_rgb_sparse_into(img: &RgbImage, t: &HsvThresholds, mask: &mut GrayImage) {
     let (w, h) = img.dimensions();
-    let mut mask = GrayImage::new(w, h);
+    if mask.dimensions() != (w, h) {
+        *mask = GrayImage::new(w, h);
+    } else {
+        mask.as_mut().fill(0);
+    }
     let src = img.as_raw();
     let at = |x: u32, y: u32| {
         let i = ((y * w + x) * 3) as usize;
@@ -209,7 +220,6 @@ pub fn mask_from_rgb_sparse(img: &RgbImage, t: &HsvThresholds) -> GrayImage {
             }
         }
     }
-    mask
 }
 
 /// A marker candidate.
@@ -499,8 +509,18 @@ pub fn blobs_from_mask(
 
 /// The whole chain on one RGB frame: mask, components, filtering, centroids.
 pub fn detect_markers(img: &RgbImage, settings: &DetectSettings) -> Detection {
-    let mask = mask_from_rgb_sparse(img, &settings.hsv);
-    blobs_from_mask(&mask, Some(img), settings)
+    let mut mask = GrayImage::new(0, 0);
+    detect_markers_with(img, settings, &mut mask)
+}
+
+/// [`detect_markers`] with a mask buffer reused from frame to frame.
+pub fn detect_markers_with(
+    img: &RgbImage,
+    settings: &DetectSettings,
+    mask: &mut GrayImage,
+) -> Detection {
+    mask_from_rgb_sparse_into(img, &settings.hsv, mask);
+    blobs_from_mask(mask, Some(img), settings)
 }
 
 /// Where the marker chain starts (the clamped end).

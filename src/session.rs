@@ -23,7 +23,7 @@ use nalgebra::Point2;
 use serde::{Deserialize, Serialize};
 
 use crate::calib::{CalibError, Undistorter};
-use crate::detect::{detect_markers, order_markers, ChainStart, DetectSettings};
+use crate::detect::{detect_markers_with, order_markers, ChainStart, DetectSettings};
 use crate::fit::{bending_angle_from_circle_deg, fit_circle_pratt};
 
 /// Name of the manifest file in a session folder.
@@ -551,7 +551,26 @@ pub fn measure_frame(
     expected_markers: usize,
     start: ChainStart,
 ) -> FrameMeasurement {
-    let d = detect_markers(frame, detect);
+    measure_frame_with(
+        frame,
+        undistorter,
+        detect,
+        expected_markers,
+        start,
+        &mut image::GrayImage::new(0, 0),
+    )
+}
+
+/// [`measure_frame`] with a mask buffer reused from frame to frame.
+pub fn measure_frame_with(
+    frame: &image::RgbImage,
+    undistorter: Option<&Undistorter>,
+    detect: &DetectSettings,
+    expected_markers: usize,
+    start: ChainStart,
+    mask: &mut image::GrayImage,
+) -> FrameMeasurement {
+    let d = detect_markers_with(frame, detect, mask);
     let n = d.blobs.len();
     if n != expected_markers {
         let mut why = format!("{n} markers found, {expected_markers} expected");

@@ -298,6 +298,13 @@ impl VideoReader {
 
     /// The frame last returned by [`Self::advance`], converted to RGB.
     pub fn current_rgb(&mut self) -> Result<RgbImage, VideoError> {
+        self.current_rgb_into(Vec::new())
+    }
+
+    /// Like [`Self::current_rgb`], converting into `buf`'s allocation when it is large
+    /// enough (a caller recycling its frames avoids a fresh multi-megabyte allocation,
+    /// and its page faults, per frame).
+    pub fn current_rgb_into(&mut self, mut buf: Vec<u8>) -> Result<RgbImage, VideoError> {
         let (w, h) = (self.decoded.width(), self.decoded.height());
         let fmt = self.decoded.format();
         let rebuild = match &self.scaler {
@@ -322,7 +329,8 @@ impl VideoReader {
         // conversion into an FFmpeg frame plus a copy (measured: ~1 ms per 1080p frame).
         let row = (w * 3) as usize;
         let len = row * h as usize;
-        let mut buf: Vec<u8> = Vec::with_capacity(len);
+        buf.clear();
+        buf.reserve(len);
         let dst = [
             buf.as_mut_ptr(),
             std::ptr::null_mut(),
@@ -363,10 +371,20 @@ impl VideoReader {
     /// The next frame whose index is a multiple of `stride` (1: every frame), in RGB.
     /// Skipped frames are decoded (H.264 needs them) but not converted.
     pub fn next_frame(&mut self, stride: u64) -> Result<Option<Frame>, VideoError> {
+        self.next_frame_recycling(stride, None)
+    }
+
+    /// [`Self::next_frame`], reusing the buffer of a frame the caller is done with.
+    pub fn next_frame_recycling(
+        &mut self,
+        stride: u64,
+        recycled: Option<RgbImage>,
+    ) -> Result<Option<Frame>, VideoError> {
         let stride = stride.max(1);
+        let buf = recycled.map(|i| i.into_raw()).unwrap_or_default();
         while let Some((index, time_s)) = self.advance() {
             if index % stride == 0 {
-                let image = self.current_rgb()?;
+                let image = self.current_rgb_into(buf)?;
                 return Ok(Some(Frame {
                     index,
                     time_s,

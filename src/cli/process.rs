@@ -19,8 +19,8 @@ use bendscope::report::{
 };
 use bendscope::scale::scale_from_board_photo;
 use bendscope::session::{
-    find_scale_image, measure_frame, read_manifest, summarize, FrameStatus, ManifestEntry,
-    SessionConfig,
+    find_scale_image, measure_frame, measure_frame_with, read_manifest, summarize, FrameStatus,
+    ManifestEntry, SessionConfig,
 };
 use bendscope::video::VideoReader;
 use clap::Args;
@@ -361,6 +361,8 @@ fn measure_video(
         // The reader lives on the decoder thread (FFmpeg contexts are not Send); it sends
         // the stream's size first, then frames, through a bounded channel.
         let (tx, rx) = sync_channel::<Result<Decoded, String>>(2);
+        // Frames the measuring thread is done with go back to be decoded into again.
+        let (back_tx, back_rx) = sync_channel::<image::RgbImage>(3);
         let decoder = std::thread::spawn(move || {
             let mut reader = match VideoReader::open(&path) {
                 Ok(r) => r,
@@ -374,7 +376,7 @@ fn measure_video(
                 return None;
             }
             loop {
-                match reader.next_frame(stride) {
+                match reader.next_frame_recycling(stride, back_rx.try_recv().ok()) {
                     Ok(Some(f)) => {
                         if tx.send(Ok(Decoded::Frame(f))).is_err() {
                             break;
@@ -430,6 +432,7 @@ fn measure_video(
             None
         };
         let mut last_time = 0.0;
+        let mut mask = image::GrayImage::new(0, 0);
         let mut last_index = 0;
         for msg in rx {
             let f = match msg {
@@ -450,12 +453,13 @@ fn measure_video(
                         break;
                     }
                 },
-                None => measure_frame(
+                None => measure_frame_with(
                     &f.image,
                     Some(&und),
                     &config.detect,
                     config.expected_markers,
                     start,
+                    &mut mask,
                 ),
             };
             if m.status == FrameStatus::Ok {
@@ -485,6 +489,7 @@ fn measure_video(
             measurements.push(scaled);
             last_time = f.time_s;
             last_index = f.index;
+            let _ = back_tx.try_send(f.image);
         }
         match decoder.join() {
             Ok(Some(stats)) if stats.has_errors() => problems.push(format!(
