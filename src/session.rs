@@ -28,6 +28,8 @@ use crate::fit::{bending_angle_from_circle_deg, fit_circle_pratt};
 
 /// Name of the manifest file in a session folder.
 pub const MANIFEST: &str = "pressures.csv";
+/// Name of the pressure log of a ramp session (instead of the manifest).
+pub const PRESSURE_LOG: &str = "pressure_log.csv";
 /// Name of the optional settings file in a session folder.
 pub const CONFIG: &str = "bendscope.toml";
 /// Video file extensions (case-insensitive).
@@ -320,6 +322,116 @@ pub fn read_manifest(session: &Path) -> Result<Manifest, SessionError> {
     })
 }
 
+/// A regulator's pressure log for the ramp protocol: (time, pressure) rows, one video.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PressureLog {
+    /// Unit of the pressure column.
+    pub unit: PressureUnit,
+    /// Times, s, increasing.
+    pub times_s: Vec<f64>,
+    /// Pressures, kPa.
+    pub pressures_kpa: Vec<f64>,
+}
+
+impl PressureLog {
+    /// Pressure at `t` by linear interpolation; `None` outside the logged time span.
+    pub fn pressure_at(&self, t: f64) -> Option<f64> {
+        let (first, last) = (*self.times_s.first()?, *self.times_s.last()?);
+        if !(t >= first && t <= last) {
+            return None;
+        }
+        let i = self
+            .times_s
+            .partition_point(|&x| x <= t)
+            .clamp(1, self.times_s.len() - 1);
+        let (t0, t1) = (self.times_s[i - 1], self.times_s[i]);
+        let (p0, p1) = (self.pressures_kpa[i - 1], self.pressures_kpa[i]);
+        Some(if t1 > t0 {
+            p0 + (p1 - p0) * (t - t0) / (t1 - t0)
+        } else {
+            p1
+        })
+    }
+}
+
+/// Reads a pressure log: header `time_s,pressure_<unit>` (bar, kpa or psi), times
+/// strictly increasing, pressures >= 0, at least two rows.
+pub fn read_pressure_log(path: &Path) -> Result<PressureLog, SessionError> {
+    let bad = |why: String| SessionError::Manifest {
+        path: path.to_path_buf(),
+        why,
+    };
+    let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty());
+    let (_, header) = lines.next().ok_or_else(|| {
+        bad("empty pressure log: write `time_s,pressure_kpa` and one row per sample".into())
+    })?;
+    let cols: Vec<String> = split_csv(header)
+        .iter()
+        .map(|c| c.to_ascii_lowercase())
+        .collect();
+    let t_col = cols
+        .iter()
+        .position(|c| c == "time_s")
+        .ok_or_else(|| bad(format!("no `time_s` column in `{header}`")))?;
+    let (p_col, unit) = cols
+        .iter()
+        .enumerate()
+        .find_map(|(i, c)| match c.as_str() {
+            "pressure_bar" => Some((i, PressureUnit::Bar)),
+            "pressure_kpa" => Some((i, PressureUnit::Kpa)),
+            "pressure_psi" => Some((i, PressureUnit::Psi)),
+            _ => None,
+        })
+        .ok_or_else(|| bad(format!("no pressure column with a unit in `{header}`: name it pressure_bar, pressure_kpa or pressure_psi")))?;
+    let mut log = PressureLog {
+        unit,
+        times_s: vec![],
+        pressures_kpa: vec![],
+    };
+    for (i, line) in lines {
+        let cells = split_csv(line);
+        let num = |c: usize| {
+            cells
+                .get(c)
+                .and_then(|v| v.parse::<f64>().ok())
+                .filter(|v| v.is_finite())
+        };
+        let (Some(t), Some(p)) = (num(t_col), num(p_col)) else {
+            return Err(bad(format!("line {}: `{line}` is not two numbers", i + 1)));
+        };
+        if p < 0.0 {
+            return Err(bad(format!("line {}: negative pressure {p}", i + 1)));
+        }
+        if log.times_s.last().is_some_and(|&last| t <= last) {
+            return Err(bad(format!("line {}: time {t} s does not increase", i + 1)));
+        }
+        log.times_s.push(t);
+        log.pressures_kpa.push(p * unit.to_kpa());
+    }
+    if log.times_s.len() < 2 {
+        return Err(bad("a pressure log needs at least two rows".into()));
+    }
+    Ok(log)
+}
+
+/// The videos of a session folder, sorted by name.
+pub fn session_videos(session: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(session)
+        .map(|rd| {
+            rd.flatten()
+                .filter(|e| e.path().is_file() && has_extension(&e.path(), VIDEO_EXTENSIONS))
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .collect()
+        })
+        .unwrap_or_default();
+    v.sort();
+    v
+}
+
 /// Splits one CSV line (commas; double quotes around a field are removed).
 fn split_csv(line: &str) -> Vec<String> {
     let mut out = Vec::new();
@@ -378,6 +490,11 @@ pub struct SessionConfig {
     pub expected_markers: usize,
     /// Process every n-th frame.
     pub frame_stride: u64,
+    /// Ramp protocol: width of the pressure bins frames are averaged in, kPa (the
+    /// low-pass filter of the per-frame results).
+    pub ramp_bin_kpa: f64,
+    /// Ramp protocol: time of the video's first frame on the pressure log's clock, s.
+    pub ramp_time_offset_s: f64,
     /// Undistort every whole frame before detection (the original method; slower, for
     /// comparison) instead of undistorting only the detected centroids.
     pub full_frame_undistort: bool,
@@ -396,6 +513,8 @@ impl Default for SessionConfig {
             mm_per_px: None,
             expected_markers: 8,
             frame_stride: 1,
+            ramp_bin_kpa: 1.0,
+            ramp_time_offset_s: 0.0,
             full_frame_undistort: false,
             detect: DetectSettings::default(),
         }
@@ -439,6 +558,13 @@ impl SessionConfig {
                 "expected_markers = {}: a circle needs at least 3 markers",
                 self.expected_markers
             ));
+        }
+        if !(self.ramp_bin_kpa.is_finite() && self.ramp_bin_kpa > 0.0)
+            || !self.ramp_time_offset_s.is_finite()
+        {
+            return bad(
+                "ramp_bin_kpa must be a positive number and ramp_time_offset_s a number".into(),
+            );
         }
         if self.frame_stride == 0 {
             return bad("frame_stride must be at least 1".into());
@@ -755,6 +881,28 @@ mod tests {
             Some(("GX".into(), 2, "0123".into()))
         );
         assert_eq!(gopro_parts("clip.mp4"), None);
+    }
+
+    #[test]
+    fn pressure_log_interpolates_and_checks() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join(PRESSURE_LOG);
+        std::fs::write(&p, "time_s,pressure_kpa\n0,0\n10,2.5\n20,5\n").unwrap();
+        let log = read_pressure_log(&p).unwrap();
+        assert_eq!(log.pressure_at(5.0), Some(1.25));
+        assert_eq!(log.pressure_at(20.0), Some(5.0));
+        assert_eq!(log.pressure_at(20.5), None);
+        std::fs::write(&p, "time_s,pressure_bar\n0,0\n1,0.1\n").unwrap();
+        assert_eq!(read_pressure_log(&p).unwrap().pressure_at(1.0), Some(10.0));
+        for bad in [
+            "time_s,pressure\n0,1\n1,2\n",
+            "time_s,pressure_kpa\n1,1\n0,2\n",
+            "time_s,pressure_kpa\n0,x\n",
+            "time_s,pressure_kpa\n0,1\n",
+        ] {
+            std::fs::write(&p, bad).unwrap();
+            assert!(read_pressure_log(&p).is_err(), "{bad}");
+        }
     }
 
     #[test]

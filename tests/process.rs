@@ -365,3 +365,94 @@ fn calibration_of_another_aspect_ratio_is_refused_per_video() {
         );
     }
 }
+
+#[test]
+fn ramp_protocol_interpolates_pressure_per_frame() {
+    use bendscope::render::actuator::{ArcScene, FrameLook, PlaneSampler};
+    use bendscope::render::board::BoardPose;
+    use bendscope::render::fixtures::gopro_like_camera;
+    use bendscope::render::session::reference_marker_positions_mm;
+    use nalgebra::{Point2, Rotation3, Vector3};
+    let dir = tempfile::tempdir().unwrap();
+    let s = dir.path().join("ramp");
+    fs::create_dir_all(&s).unwrap();
+    let camera = gopro_like_camera(640, 480);
+    let distance = 120.0;
+    let plane = BoardPose {
+        rotation: Rotation3::identity(),
+        translation_mm: Vector3::new(0.0, 0.0, distance),
+    };
+    let sampler = PlaneSampler::new(&camera, &plane, 2, 1).unwrap();
+    let radius_at = |p: f64| 3000.0 * p.powf(-0.9) + 5.0;
+    // 30 frames at 30 fps while the pressure rises 20 -> 50 kPa; the log runs 0.5 s
+    // longer on both sides and the video starts 0.5 s into it.
+    let fps = 30.0;
+    let mut w = VideoWriter::create(
+        &s.join("ramp.mp4"),
+        640,
+        480,
+        &EncodeSettings {
+            fps: 30,
+            crf: 14,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    for i in 0..30 {
+        let p = 20.0 + 30.0 * (i as f64 / fps);
+        let scene = ArcScene {
+            curvature_per_mm: 1.0 / radius_at(p),
+            origin_mm: Point2::new(-45.0, 18.0),
+            marker_s_mm: reference_marker_positions_mm(),
+            marker_diameter_mm: 3.0,
+            length_mm: 102.25,
+            below_mm: 14.0,
+            above_mm: 9.5,
+            clamp_mm: 15.0,
+            distractor: None,
+        };
+        w.write(&sampler.render(&scene, [0.0, 0.0], &FrameLook::default(), i as u64))
+            .unwrap();
+    }
+    w.finish().unwrap();
+    fs::write(
+        s.join("pressure_log.csv"),
+        "time_s,pressure_kpa\n0,5\n0.5,20\n1.5,50\n2.0,65\n",
+    )
+    .unwrap();
+    let cal = s.join("cam.yaml");
+    bendscope::calib::file::write_calibration(&cal, &camera).unwrap();
+    let und = bendscope::calib::Undistorter::new(&camera, Default::default()).unwrap();
+    let mm_per_px = distance / und.new_camera_matrix()[(0, 0)];
+    fs::write(
+        s.join("bendscope.toml"),
+        format!("calibration = \"cam.yaml\"\nmm_per_px = {mm_per_px}\nramp_time_offset_s = 0.5\nramp_bin_kpa = 5\n"),
+    )
+    .unwrap();
+    let run = Run::new(dir.path(), &["process", "ramp"]);
+    assert_eq!(run.code, 0, "{run}");
+    let (fh, frames) = read_csv(&s.join("bendscope-out/per_frame.csv"));
+    assert_eq!(frames.len(), 30);
+    for f in &frames {
+        let i: f64 = f[col(&fh, "frame")].parse().unwrap();
+        let p: f64 = f[col(&fh, "pressure_kpa")].parse().unwrap();
+        assert!(
+            (p - (20.0 + 30.0 * i / fps)).abs() < 1e-6,
+            "frame {i}: {p} kPa"
+        );
+        let r: f64 = f[col(&fh, "radius_mm")].parse().unwrap();
+        assert!(
+            (r / radius_at(p) - 1.0).abs() < 0.01,
+            "frame {i} at {p} kPa: {r} vs {}",
+            radius_at(p)
+        );
+    }
+    // Bins of 5 kPa: 20..50 kPa gives six, each the mean of its frames.
+    let (h, bins) = read_csv(&s.join("bendscope-out/per_video.csv"));
+    assert_eq!(bins.len(), 6, "{bins:?}");
+    let used: usize = bins
+        .iter()
+        .map(|b| b[col(&h, "frames_used")].parse::<usize>().unwrap())
+        .sum();
+    assert_eq!(used, 30);
+}

@@ -19,8 +19,9 @@ use bendscope::report::{
 };
 use bendscope::scale::scale_from_board_photo;
 use bendscope::session::{
-    find_scale_image, measure_frame, measure_frame_with, read_manifest, summarize, FrameStatus,
-    ManifestEntry, SessionConfig,
+    find_scale_image, measure_frame, measure_frame_with, read_manifest, read_pressure_log,
+    session_videos, summarize, FrameStatus, Manifest, ManifestEntry, PressureLog, SessionConfig,
+    PRESSURE_LOG,
 };
 use bendscope::video::VideoReader;
 use clap::Args;
@@ -61,6 +62,7 @@ struct Cached {
 struct CachedFrame {
     frame: u64,
     time_s: f64,
+    pressure_kpa: f64,
     n_markers: usize,
     radius_px: f64,
     radius_mm: f64,
@@ -186,7 +188,36 @@ fn process_session(session: &Path, out: &Path, args: &ProcessArgs) -> Result<Ses
         Some(p) => SessionConfig::read(p)?,
         None => SessionConfig::for_session(session)?,
     };
-    let manifest = read_manifest(session)?;
+    let ramp = if !session.join(bendscope::session::MANIFEST).exists()
+        && session.join(PRESSURE_LOG).is_file()
+    {
+        Some(read_pressure_log(&session.join(PRESSURE_LOG))?)
+    } else {
+        None
+    };
+    let manifest = match &ramp {
+        Some(log) => {
+            let videos = session_videos(session);
+            if videos.len() != 1 {
+                return Err(anyhow!(
+                    "a ramp session ({PRESSURE_LOG}) holds exactly one video, found {}: keep one video per session folder",
+                    videos.len()
+                ));
+            }
+            Manifest {
+                unit: log.unit,
+                entries: vec![ManifestEntry {
+                    line: 0,
+                    file: videos[0].clone(),
+                    chapters: vec![],
+                    pressure: f64::NAN,
+                    pressure_kpa: f64::NAN,
+                }],
+                issues: vec![],
+            }
+        }
+        None => read_manifest(session)?,
+    };
     if manifest.entries.is_empty() && manifest.issues.is_empty() {
         return Err(anyhow!(
             "{} lists no videos: add one row per video",
@@ -219,6 +250,10 @@ fn process_session(session: &Path, out: &Path, args: &ProcessArgs) -> Result<Ses
         toml::to_string(&config).unwrap_or_default().hash(&mut h);
         calibration_to_yaml(&calib).unwrap_or_default().hash(&mut h);
         mm_per_px.to_bits().hash(&mut h);
+        std::fs::read(session.join(PRESSURE_LOG))
+            .ok()
+            .filter(|_| ramp.is_some())
+            .hash(&mut h);
         h.finish()
     };
     std::fs::create_dir_all(out.join("cache"))
@@ -246,7 +281,7 @@ fn process_session(session: &Path, out: &Path, args: &ProcessArgs) -> Result<Ses
                     &calib,
                     mm_per_px,
                     &config,
-                    manifest.unit.name(),
+                    ramp.as_ref(),
                     fp,
                 );
                 write_json(&cache_path, &c)?;
@@ -258,7 +293,7 @@ fn process_session(session: &Path, out: &Path, args: &ProcessArgs) -> Result<Ses
                 file: entry.file.clone(),
                 frame: f.frame,
                 time_s: f.time_s,
-                pressure_kpa: entry.pressure_kpa,
+                pressure_kpa: f.pressure_kpa,
                 n_markers: f.n_markers,
                 radius_px: f.radius_px,
                 radius_mm: f.radius_mm,
@@ -279,7 +314,18 @@ fn process_session(session: &Path, out: &Path, args: &ProcessArgs) -> Result<Ses
         if result.video.frames_used == 0 {
             bar.suspend(|| eprintln!("warning: {}: {}", entry.file, result.video.status));
         }
-        videos.push(result.video);
+        match &ramp {
+            // Ramp protocol: the rows are pressure bins of the one video.
+            Some(log) if result.video.frames_used > 0 => {
+                videos.extend(bin_frames(
+                    &entry.file,
+                    &result.frames,
+                    config.ramp_bin_kpa,
+                    log.unit,
+                ));
+            }
+            _ => videos.push(result.video),
+        }
         bar.inc(1);
     }
     bar.finish_and_clear();
@@ -345,7 +391,7 @@ fn measure_video(
     calib: &Calibration,
     mm_per_px: f64,
     config: &SessionConfig,
-    _unit: &str,
+    ramp: Option<&PressureLog>,
     fingerprint: u64,
 ) -> Cached {
     let mut rows: Vec<CachedFrame> = Vec::new();
@@ -443,7 +489,13 @@ fn measure_video(
                     break;
                 }
             };
-            let m = match &maps {
+            let pressure_kpa = match ramp {
+                Some(log) => log
+                    .pressure_at(f.time_s + time_offset + config.ramp_time_offset_s)
+                    .unwrap_or(f64::NAN),
+                None => entry.pressure_kpa,
+            };
+            let mut m = match &maps {
                 Some(maps) => match undistort_rgb(&und, maps, &f.image) {
                     Ok(flat) => {
                         measure_frame(&flat, None, &config.detect, config.expected_markers, start)
@@ -462,6 +514,12 @@ fn measure_video(
                     &mut mask,
                 ),
             };
+            if ramp.is_some() && pressure_kpa.is_nan() {
+                m.status = FrameStatus::Rejected(format!(
+                    "outside the pressure log's time span (check ramp_time_offset_s in {})",
+                    bendscope::session::CONFIG
+                ));
+            }
             if m.status == FrameStatus::Ok {
                 if let Some(first) = m.markers_px.first() {
                     start = ChainStart::Near(*first);
@@ -474,6 +532,7 @@ fn measure_video(
             rows.push(CachedFrame {
                 frame: f.index + index_offset,
                 time_s: f.time_s + time_offset,
+                pressure_kpa,
                 n_markers: m.n_markers,
                 radius_px: m.radius_px,
                 radius_mm: m.radius_px * mm_px,
@@ -537,6 +596,59 @@ fn measure_video(
         },
         frames: rows,
     }
+}
+
+/// Ramp protocol: the measured frames of one video averaged in pressure bins of
+/// `bin_kpa` (a low-pass filter of the per-frame results), one row per bin.
+fn bin_frames(
+    file: &str,
+    frames: &[CachedFrame],
+    bin_kpa: f64,
+    unit: bendscope::session::PressureUnit,
+) -> Vec<VideoRow> {
+    let mut bins: std::collections::BTreeMap<i64, Vec<&CachedFrame>> =
+        std::collections::BTreeMap::new();
+    for f in frames
+        .iter()
+        .filter(|f| f.status == "ok" && f.pressure_kpa.is_finite())
+    {
+        bins.entry((f.pressure_kpa / bin_kpa).floor() as i64)
+            .or_default()
+            .push(f);
+    }
+    bins.into_values()
+        .map(|b| {
+            let n = b.len() as f64;
+            let mean = |g: fn(&CachedFrame) -> f64| b.iter().map(|f| g(f)).sum::<f64>() / n;
+            let mut r: Vec<f64> = b.iter().map(|f| f.radius_mm).collect();
+            r.sort_by(f64::total_cmp);
+            let radius = mean(|f| f.radius_mm);
+            let std = if b.len() > 1 && radius.is_finite() {
+                (b.iter()
+                    .map(|f| (f.radius_mm - radius).powi(2))
+                    .sum::<f64>()
+                    / (n - 1.0))
+                    .sqrt()
+            } else {
+                0.0
+            };
+            let p = mean(|f| f.pressure_kpa);
+            VideoRow {
+                file: file.to_string(),
+                pressure_kpa: p,
+                pressure: p / unit.to_kpa(),
+                radius_mm: radius,
+                radius_mm_median: r[r.len() / 2],
+                radius_mm_std: std,
+                curvature_per_m: mean(|f| f.curvature_per_m),
+                bending_angle_deg: mean(|f| f.bending_angle_deg),
+                fit_rms_px: mean(|f| f.fit_rms_px),
+                frames_used: b.len(),
+                frames_rejected: 0,
+                status: "ok".into(),
+            }
+        })
+        .collect()
 }
 
 /// What the decoder thread sends.
