@@ -359,6 +359,90 @@ pub fn bending_angle_from_circle_deg(
     bending_angle_deg(clamp, clamp + t, tip)
 }
 
+/// A circle fitted to 3D points: Pratt's fit in their best-fit plane.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CircleFit3 {
+    /// The circle in plane coordinates (origin at the points' centroid, axes `u`, `v`).
+    pub circle: CircleFit,
+    /// Unit normal of the best-fit plane.
+    pub normal: nalgebra::Vector3<f64>,
+    /// First in-plane axis.
+    pub u: nalgebra::Vector3<f64>,
+    /// Second in-plane axis.
+    pub v: nalgebra::Vector3<f64>,
+    /// Centroid of the points.
+    pub origin: nalgebra::Point3<f64>,
+    /// RMS distance of the points from the plane.
+    pub plane_rms: f64,
+}
+
+impl CircleFit3 {
+    /// In-plane coordinates of a 3D point.
+    pub fn to_plane(&self, p: &nalgebra::Point3<f64>) -> Point2<f64> {
+        let d = p - self.origin;
+        Point2::new(d.dot(&self.u), d.dot(&self.v))
+    }
+}
+
+/// Best-fit plane of 3D points (SVD of the centred points: the normal is the direction
+/// of least spread), then [`fit_circle_pratt`] on the points expressed in that plane.
+/// Used for RGB-D markers, whose 3D positions give the radius in mm directly.
+pub fn fit_circle_3d(points: &[nalgebra::Point3<f64>]) -> Result<CircleFit3, FitError> {
+    if points.len() < 3 {
+        return Err(FitError::TooFewPoints {
+            what: "3D circle fit",
+            needed: 3,
+            got: points.len(),
+        });
+    }
+    let n = points.len() as f64;
+    let origin = nalgebra::Point3::from(
+        points
+            .iter()
+            .map(|p| p.coords)
+            .sum::<nalgebra::Vector3<f64>>()
+            / n,
+    );
+    let mut m = nalgebra::DMatrix::<f64>::zeros(points.len(), 3);
+    for (i, p) in points.iter().enumerate() {
+        let d = p - origin;
+        m[(i, 0)] = d.x;
+        m[(i, 1)] = d.y;
+        m[(i, 2)] = d.z;
+    }
+    let svd = m.svd(false, true);
+    let vt = svd.v_t.ok_or(FitError::Degenerate {
+        what: "3D circle fit",
+        why: "no plane (SVD failed)",
+    })?;
+    // Singular values are sorted in decreasing order: rows 0, 1 span the plane.
+    let u = nalgebra::Vector3::new(vt[(0, 0)], vt[(0, 1)], vt[(0, 2)]);
+    let v = nalgebra::Vector3::new(vt[(1, 0)], vt[(1, 1)], vt[(1, 2)]);
+    let normal = u.cross(&v).normalize();
+    let plane_rms = (points
+        .iter()
+        .map(|p| (p - origin).dot(&normal).powi(2))
+        .sum::<f64>()
+        / n)
+        .sqrt();
+    let flat: Vec<Point2<f64>> = points
+        .iter()
+        .map(|p| {
+            let d = p - origin;
+            Point2::new(d.dot(&u), d.dot(&v))
+        })
+        .collect();
+    let circle = fit_circle_pratt(&flat)?;
+    Ok(CircleFit3 {
+        circle,
+        normal,
+        u,
+        v,
+        origin,
+        plane_rms,
+    })
+}
+
 /// The fitted power law y = a x^b + c.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct PowerLawFit {
@@ -664,6 +748,24 @@ mod tests {
         .unwrap();
         let alpha = bending_angle_from_circle_deg(on_arc(0.0), on_arc(theta), &c).unwrap();
         assert!((alpha - theta.to_degrees()).abs() < 1e-9, "{alpha}");
+    }
+
+    #[test]
+    fn circle_in_a_tilted_plane() {
+        let rot = nalgebra::Rotation3::from_euler_angles(0.4, -0.3, 0.2);
+        let pts: Vec<nalgebra::Point3<f64>> = (0..8)
+            .map(|i| {
+                let t = 1.4 * i as f64 / 7.0;
+                nalgebra::Point3::from(
+                    rot * nalgebra::Vector3::new(70.0 * t.cos(), 70.0 * t.sin(), 0.0)
+                        + nalgebra::Vector3::new(5.0, -3.0, 150.0),
+                )
+            })
+            .collect();
+        let c = fit_circle_3d(&pts).unwrap();
+        assert!((c.circle.radius - 70.0).abs() < 1e-9, "{c:?}");
+        assert!(c.plane_rms < 1e-9);
+        assert!((c.normal.dot(&(rot * nalgebra::Vector3::z())).abs() - 1.0).abs() < 1e-9);
     }
 
     #[test]

@@ -5,7 +5,7 @@
 //! [`video`] (frame sources) -> [`calib`] (camera models, calibration, undistortion) ->
 //! [`scale`] (mm per undistorted pixel) -> [`detect`] (red mask, hole fill, labels,
 //! centroids) -> [`fit`] (circle, bending angle, power law) -> [`session`] (batch, manifests,
-//! aggregation) -> [`report`] (CSV, plots, overlays). Beside them: [`fem`] (the actuator
+//! aggregation; [`rgbd`] for colour + depth sessions) -> [`report`] (CSV, plots, overlays). Beside them: [`fem`] (the actuator
 //! model and its solver) and [`render`] (synthetic camera images with known ground truth).
 //!
 //! # Conventions
@@ -25,6 +25,7 @@ pub mod fit;
 pub mod io;
 pub mod render;
 pub mod report;
+pub mod rgbd;
 pub mod scale;
 pub mod session;
 pub mod video;

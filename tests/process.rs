@@ -456,3 +456,125 @@ fn ramp_protocol_interpolates_pressure_per_frame() {
         .sum();
     assert_eq!(used, 30);
 }
+
+#[test]
+fn rgbd_session_gives_mm_from_depth_without_a_scale_photo() {
+    use bendscope::calib::{Calibration, CameraModel, UndistortSettings, Undistorter};
+    use bendscope::render::actuator::{ArcScene, FrameLook, PlaneSampler};
+    use bendscope::render::board::BoardPose;
+    use bendscope::render::session::reference_marker_positions_mm;
+    use nalgebra::{Matrix3, Point2, Rotation3, Vector3};
+    let dir = tempfile::tempdir().unwrap();
+    let s = dir.path().join("rgbd");
+    fs::create_dir_all(s.join("color")).unwrap();
+    fs::create_dir_all(s.join("depth")).unwrap();
+    let (w, h) = (640u32, 480u32);
+    let camera = Calibration {
+        model: CameraModel::Pinhole,
+        image_width: w,
+        image_height: h,
+        camera_matrix: Matrix3::new(520.0, 0.0, 321.7, 0.0, 520.0, 238.2, 0.0, 0.0, 1.0),
+        distortion: vec![0.0; 5],
+        avg_reprojection_error: 0.0,
+        per_view_errors: vec![],
+        board: None,
+        views_used: vec![],
+        views_rejected: vec![],
+    };
+    // The actuator plane is tilted 15° about the vertical axis: depth varies along it.
+    let plane = BoardPose {
+        rotation: Rotation3::from_euler_angles(0.0, 15f64.to_radians(), 0.0),
+        translation_mm: Vector3::new(0.0, 0.0, 230.0),
+    };
+    // 4x4 samples per pixel: the renderer's jittered sample pattern is the same in every
+    // frame, so its sampling noise does not average out over frames; with 2x2 it moved
+    // markers by a few hundredths of a pixel, up to 0.7% of radius at R = 165 mm.
+    let sampler = PlaneSampler::new(&camera, &plane, 4, 4).unwrap();
+    let und = Undistorter::new(&camera, UndistortSettings::default()).unwrap();
+    let normal = plane.rotation * Vector3::z();
+    let depth_scale_m = 0.0001;
+    let depth = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_fn(w, h, |x, y| {
+        let ray = und
+            .rays_from_pixels(&[Point2::new(x as f64, y as f64)])
+            .unwrap()[0];
+        let z = normal.dot(&plane.translation_mm) / normal.dot(&ray);
+        image::Luma([(z / (depth_scale_m * 1000.0)).round() as u16])
+    });
+    let radius_at = |p: f64| 3000.0 * p.powf(-0.9) + 5.0;
+    // Ten pressure steps of 3 kPa, each held for three frames (10 fps), as a regulator
+    // stepping and settling would give; the log holds each step over its frames.
+    let fps = 10.0;
+    let mut log = String::from("time_s,pressure_kpa\n");
+    for k in 0..10 {
+        let p = 20.0 + 3.0 * k as f64;
+        log.push_str(&format!(
+            "{:.3},{p}\n{:.3},{p}\n",
+            0.3 * k as f64 - 0.05,
+            0.3 * k as f64 + 0.22
+        ));
+    }
+    for i in 0..30 {
+        let p = 20.0 + 3.0 * (i / 3) as f64;
+        let scene = ArcScene {
+            curvature_per_mm: 1.0 / radius_at(p),
+            origin_mm: Point2::new(-50.0, 20.0),
+            marker_s_mm: reference_marker_positions_mm(),
+            marker_diameter_mm: 3.0,
+            length_mm: 102.25,
+            below_mm: 14.0,
+            above_mm: 9.5,
+            clamp_mm: 15.0,
+            distractor: None,
+        };
+        sampler
+            .render(&scene, [0.0, 0.0], &FrameLook::default(), i)
+            .save(s.join(format!("color/{i:06}.png")))
+            .unwrap();
+        depth.save(s.join(format!("depth/{i:06}.png"))).unwrap();
+    }
+    fs::write(
+        s.join("intrinsics.json"),
+        format!(r#"{{"width": {w}, "height": {h}, "fx": 520.0, "fy": 520.0, "cx": 321.7, "cy": 238.2, "depth_scale_m": {depth_scale_m}, "fps": {fps}}}"#),
+    )
+    .unwrap();
+    fs::write(s.join("pressure_log.csv"), log).unwrap();
+    let run = Run::new(dir.path(), &["process", "rgbd"]);
+    assert_eq!(run.code, 0, "{run}");
+    let (fh, frames) = read_csv(&s.join("bendscope-out/per_frame.csv"));
+    assert_eq!(frames.len(), 30);
+    assert!(
+        frames.iter().all(|f| f[col(&fh, "status")] == "ok"),
+        "{frames:?}"
+    );
+    // One row per pressure step (1 kPa bins), the mean of its three frames.
+    let (vh, steps) = read_csv(&s.join("bendscope-out/per_video.csv"));
+    assert_eq!(steps.len(), 10);
+    for f in &steps {
+        assert_eq!(f[col(&vh, "frames_used")], "3");
+        let p: f64 = f[col(&vh, "pressure_kpa")].parse().unwrap();
+        let r: f64 = f[col(&vh, "radius_mm")].parse().unwrap();
+        assert!(
+            (r / radius_at(p) - 1.0).abs() < RADIUS_TOLERANCE,
+            "{p} kPa: {r} mm vs {}",
+            radius_at(p)
+        );
+        let truth_angle = ((reference_marker_positions_mm()[7]
+            - reference_marker_positions_mm()[0])
+            / radius_at(p))
+        .to_degrees();
+        let a: f64 = f[col(&vh, "bending_angle_deg")].parse().unwrap();
+        assert!(
+            (a - truth_angle).abs() < ANGLE_TOLERANCE_DEG,
+            "{p} kPa: angle {a} vs {truth_angle}"
+        );
+    }
+    // A depth frame missing: named, with what to do.
+    fs::remove_file(s.join("depth/000003.png")).unwrap();
+    let _ = fps;
+    let run = Run::new(dir.path(), &["process", "rgbd"]);
+    assert_eq!(run.code, 2, "{run}");
+    assert!(
+        run.stderr.contains("000003.png") && run.stderr.contains("16-bit PNG"),
+        "{run}"
+    );
+}

@@ -188,6 +188,10 @@ fn process_session(session: &Path, out: &Path, args: &ProcessArgs) -> Result<Ses
         Some(p) => SessionConfig::read(p)?,
         None => SessionConfig::for_session(session)?,
     };
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    if bendscope::rgbd::is_rgbd_session(session) {
+        return process_rgbd_session(session, out, &config);
+    }
     let ramp = if !session.join(bendscope::session::MANIFEST).exists()
         && session.join(PRESSURE_LOG).is_file()
     {
@@ -354,16 +358,157 @@ fn process_session(session: &Path, out: &Path, args: &ProcessArgs) -> Result<Ses
             status: issue.message.clone(),
         });
     }
-    let unit = manifest.unit.name();
-    write_per_frame_csv(&out.join("per_frame.csv"), &frames)?;
-    write_per_video_csv(&out.join("per_video.csv"), &videos, unit)?;
-    let fits = fit_session(&videos, unit);
+    write_outputs(
+        out,
+        &frames,
+        &videos,
+        manifest.unit.name(),
+        &per_video_frames,
+    )
+}
+
+/// Writes the tables, fits and plots of a session and counts what was measured.
+fn write_outputs(
+    out: &Path,
+    frames: &[FrameRow],
+    videos: &[VideoRow],
+    unit: &str,
+    per_video_frames: &[(String, Vec<(f64, f64)>)],
+) -> Result<SessionOutcome> {
+    write_per_frame_csv(&out.join("per_frame.csv"), frames)?;
+    write_per_video_csv(&out.join("per_video.csv"), videos, unit)?;
+    let fits = fit_session(videos, unit);
     write_json(&out.join("fit.json"), &fits)?;
-    write_plots(out, &videos, &fits, &per_video_frames)?;
+    write_plots(out, videos, &fits, per_video_frames)?;
     let measured = videos.iter().filter(|v| v.frames_used > 0).count();
     Ok(SessionOutcome {
         measured,
         failed: videos.len() - measured,
+    })
+}
+
+/// An RGB-D session: colour + aligned depth frames and a pressure log; 3D markers give
+/// the radius in mm with no scale photo.
+fn process_rgbd_session(
+    session: &Path,
+    out: &Path,
+    config: &SessionConfig,
+) -> Result<SessionOutcome> {
+    use bendscope::fit::{bending_angle_from_circle_deg, fit_circle_3d};
+    use bendscope::rgbd::{list_frames, markers_3d_mm, undistorter};
+    let (intr, list) = list_frames(session)?;
+    let log_path = session.join(PRESSURE_LOG);
+    if !log_path.is_file() {
+        return Err(anyhow!(
+            "an RGB-D session needs {}: time_s,pressure_<unit> from the regulator",
+            log_path.display()
+        ));
+    }
+    let log = read_pressure_log(&log_path)?;
+    let und = undistorter(&intr)?;
+    let bar = super::progress_bar(list.len() as u64, "RGB-D frames");
+    let mut mask = image::GrayImage::new(0, 0);
+    let mut start = ChainStart::Side(config.detect.clamp_side);
+    let mut cached: Vec<CachedFrame> = Vec::with_capacity(list.len());
+    for fr in &list {
+        bar.inc(1);
+        let pressure_kpa = log
+            .pressure_at(fr.time_s + config.ramp_time_offset_s)
+            .unwrap_or(f64::NAN);
+        let mut row = CachedFrame {
+            frame: fr.index,
+            time_s: fr.time_s,
+            pressure_kpa,
+            n_markers: 0,
+            radius_px: f64::NAN,
+            radius_mm: f64::NAN,
+            curvature_per_m: f64::NAN,
+            bending_angle_deg: f64::NAN,
+            fit_rms_px: f64::NAN,
+            status: "ok".into(),
+        };
+        let measured: Result<(), String> = (|| {
+            if pressure_kpa.is_nan() {
+                return Err(
+                    "outside the pressure log's time span (check ramp_time_offset_s)".into(),
+                );
+            }
+            let color = image::open(&fr.color)
+                .map_err(|e| format!("unreadable colour frame: {e}"))?
+                .into_rgb8();
+            let depth =
+                match image::open(&fr.depth).map_err(|e| format!("unreadable depth frame: {e}"))? {
+                    image::DynamicImage::ImageLuma16(d) => d,
+                    _ => return Err("depth frame is not a 16-bit grey PNG".into()),
+                };
+            if color.dimensions() != depth.dimensions()
+                || color.dimensions() != (intr.width, intr.height)
+            {
+                return Err(format!(
+                    "colour {:?} and depth {:?} differ from the intrinsics' {}x{}: align depth to colour",
+                    color.dimensions(),
+                    depth.dimensions(),
+                    intr.width,
+                    intr.height
+                ));
+            }
+            let d = bendscope::detect::detect_markers_with(&color, &config.detect, &mut mask);
+            row.n_markers = d.blobs.len();
+            if d.blobs.len() != config.expected_markers {
+                return Err(format!(
+                    "{} markers found, {} expected",
+                    d.blobs.len(),
+                    config.expected_markers
+                ));
+            }
+            let mut areas: Vec<u32> = d.blobs.iter().map(|b| b.area_px).collect();
+            areas.sort_unstable();
+            let window = 0.7 * (areas[areas.len() / 2] as f64 / std::f64::consts::PI).sqrt();
+            let raw: Vec<nalgebra::Point2<f64>> = d.blobs.iter().map(|b| b.centroid).collect();
+            let ordered = bendscope::detect::order_markers(&raw, start);
+            let pts = markers_3d_mm(&ordered, window, &depth, &intr, &und)?;
+            let c = fit_circle_3d(&pts).map_err(|e| e.to_string())?;
+            let flat: Vec<nalgebra::Point2<f64>> = pts.iter().map(|p| c.to_plane(p)).collect();
+            row.radius_mm = c.circle.radius;
+            row.curvature_per_m = c.circle.curvature * 1000.0;
+            row.fit_rms_px = c.circle.rms;
+            row.bending_angle_deg =
+                bending_angle_from_circle_deg(flat[0], flat[flat.len() - 1], &c.circle)
+                    .unwrap_or(f64::NAN);
+            start = ChainStart::Near(ordered[0]);
+            Ok(())
+        })();
+        if let Err(why) = measured {
+            row.status = why;
+        }
+        cached.push(row);
+    }
+    bar.finish_and_clear();
+    let frames: Vec<FrameRow> = cached
+        .iter()
+        .map(|f| FrameRow {
+            file: "color".into(),
+            frame: f.frame,
+            time_s: f.time_s,
+            pressure_kpa: f.pressure_kpa,
+            n_markers: f.n_markers,
+            radius_px: f64::NAN,
+            radius_mm: f.radius_mm,
+            curvature_per_m: f.curvature_per_m,
+            bending_angle_deg: f.bending_angle_deg,
+            fit_rms_px: f.fit_rms_px,
+            status: f.status.clone(),
+        })
+        .collect();
+    let videos = bin_frames("color", &cached, config.ramp_bin_kpa, log.unit);
+    let series = vec![(
+        "color".to_string(),
+        cached.iter().map(|f| (f.time_s, f.radius_mm)).collect(),
+    )];
+    let outcome = write_outputs(out, &frames, &videos, log.unit.name(), &series)?;
+    Ok(SessionOutcome {
+        measured: outcome.measured,
+        failed: outcome.failed + usize::from(outcome.measured == 0),
     })
 }
 
