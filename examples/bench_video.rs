@@ -53,7 +53,7 @@ fn main() -> anyhow::Result<()> {
             fps: 30,
             crf: 0,
             bitrate_bps: Some(mbps * 1_000_000),
-            preset: "veryfast",
+            ..Default::default()
         },
     )?;
     let mut rng = SplitMix64::new(9);
