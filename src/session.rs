@@ -199,15 +199,7 @@ pub fn read_manifest(session: &Path) -> Result<Manifest, SessionError> {
             path: path.clone(),
             why: format!("no `file` column in the header `{header}`"),
         })?;
-    let (p_col, unit) = cols
-        .iter()
-        .enumerate()
-        .find_map(|(i, c)| match c.as_str() {
-            "pressure_bar" => Some((i, PressureUnit::Bar)),
-            "pressure_kpa" => Some((i, PressureUnit::Kpa)),
-            "pressure_psi" => Some((i, PressureUnit::Psi)),
-            _ => None,
-        })
+    let (p_col, unit) = pressure_column(&cols)
         .ok_or_else(|| SessionError::Manifest {
             path: path.clone(),
             why: format!(
@@ -377,15 +369,7 @@ pub fn read_pressure_log(path: &Path) -> Result<PressureLog, SessionError> {
         .iter()
         .position(|c| c == "time_s")
         .ok_or_else(|| bad(format!("no `time_s` column in `{header}`")))?;
-    let (p_col, unit) = cols
-        .iter()
-        .enumerate()
-        .find_map(|(i, c)| match c.as_str() {
-            "pressure_bar" => Some((i, PressureUnit::Bar)),
-            "pressure_kpa" => Some((i, PressureUnit::Kpa)),
-            "pressure_psi" => Some((i, PressureUnit::Psi)),
-            _ => None,
-        })
+    let (p_col, unit) = pressure_column(&cols)
         .ok_or_else(|| bad(format!("no pressure column with a unit in `{header}`: name it pressure_bar, pressure_kpa or pressure_psi")))?;
     let mut log = PressureLog {
         unit,
@@ -430,6 +414,17 @@ pub fn session_videos(session: &Path) -> Vec<String> {
         .unwrap_or_default();
     v.sort();
     v
+}
+
+/// The pressure column of a header and its unit: `pressure_bar`, `pressure_kpa` or
+/// `pressure_psi` (lower-cased column names).
+fn pressure_column(cols: &[String]) -> Option<(usize, PressureUnit)> {
+    cols.iter().enumerate().find_map(|(i, c)| match c.as_str() {
+        "pressure_bar" => Some((i, PressureUnit::Bar)),
+        "pressure_kpa" => Some((i, PressureUnit::Kpa)),
+        "pressure_psi" => Some((i, PressureUnit::Psi)),
+        _ => None,
+    })
 }
 
 /// Splits one CSV line (commas; double quotes around a field are removed).
