@@ -32,6 +32,14 @@ use super::{EXIT_BAD_INPUT, EXIT_NOTHING, EXIT_OK, EXIT_PARTIAL};
 
 /// Measure bending vs pressure from session folders.
 #[derive(Debug, Args)]
+#[command(
+    after_help = "Session folder (step protocol): pressures.csv (header file,pressure_bar | pressure_kpa | pressure_psi), \
+one video per pressure (GoPro chapters GX02.. continue GX01..), scale.jpg (a board in the actuator plane), \
+calib/ (checkerboard photos) and an optional bendscope.toml.
+Ramp protocol: pressure_log.csv (time_s,pressure_<unit>) and one video instead of pressures.csv.
+RGB-D: color/, depth/ (16-bit PNG aligned to colour), intrinsics.json and pressure_log.csv.
+Outputs in OUT: per_frame.csv, per_video.csv, fit.json, plots/, overlays/."
+)]
 pub struct ProcessArgs {
     /// Session folders (pressures.csv, videos, scale photo, calib/).
     #[arg(required = true, value_name = "SESSION")]
