@@ -87,13 +87,25 @@ impl Yeoh {
         2.0 * self.c2 + 6.0 * self.c3 * (i1_bar - 3.0)
     }
 
-    fn u(&self, j: f64) -> f64 {
+    /// Isochoric energy, stress and tangent only (the volumetric part is handled by the
+    /// element with its mean dilatation).
+    pub fn isochoric(&self) -> Yeoh {
+        Yeoh {
+            bulk_modulus: 0.0,
+            ..*self
+        }
+    }
+
+    /// Volumetric energy U(J).
+    pub fn u(&self, j: f64) -> f64 {
         0.25 * self.bulk_modulus * (j * j - 1.0 - 2.0 * j.ln())
     }
-    fn du(&self, j: f64) -> f64 {
+    /// U'(J).
+    pub fn du(&self, j: f64) -> f64 {
         0.5 * self.bulk_modulus * (j - 1.0 / j)
     }
-    fn ddu(&self, j: f64) -> f64 {
+    /// U''(J).
+    pub fn ddu(&self, j: f64) -> f64 {
         0.5 * self.bulk_modulus * (1.0 + 1.0 / (j * j))
     }
 }

@@ -6,4 +6,5 @@
 //! and by finite differences. Elements, the pressure load, the Newton solver and the
 //! actuator geometry build on it.
 
+pub mod hex;
 pub mod material;
