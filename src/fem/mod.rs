@@ -8,3 +8,23 @@
 
 pub mod hex;
 pub mod material;
+pub mod solve;
+
+/// Errors of the finite-element model.
+#[derive(Debug, thiserror::Error)]
+pub enum FemError {
+    /// The model is not usable.
+    #[error("FEM model: {why}")]
+    Model {
+        /// What is wrong.
+        why: String,
+    },
+    /// Newton did not converge.
+    #[error("FEM solve diverged at {:.1}% of the load: {why}", 100.0 * load_fraction)]
+    Diverged {
+        /// Load fraction reached.
+        load_fraction: f64,
+        /// What to try.
+        why: String,
+    },
+}
