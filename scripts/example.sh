@@ -15,4 +15,4 @@ echo "  fit.json       power law y = a x^b + c of radius and curvature vs pressu
 echo "  plots/         radius, curvature, angle vs pressure; radius per frame (PNG + SVG)"
 echo "  overlays/      one undistorted frame per video with what was measured"
 echo "ground truth:    fixtures/sessions/example/truth.json"
-column -s, -t < "$out/per_video.csv" | cut -c1-140
+if command -v column > /dev/null; then column -s, -t < "$out/per_video.csv" | cut -c1-140; else cat "$out/per_video.csv"; fi
