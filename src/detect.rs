@@ -113,6 +113,32 @@ impl Default for DetectSettings {
     }
 }
 
+/// Random access to a frame's RGB pixels: an RGB image, or a decoded YUV 4:2:0 frame
+/// converted pixel by pixel only where detection looks ([`crate::video::YuvFrame`]).
+pub trait PixelSource: Sync {
+    /// (width, height), px.
+    fn dimensions(&self) -> (u32, u32);
+    /// The RGB value at (x, y).
+    fn rgb(&self, x: u32, y: u32) -> image::Rgb<u8>;
+    /// Whether (x, y) is red by `t`; sources may reject cheaply first (see
+    /// [`crate::video::YuvFrame`]).
+    #[inline]
+    fn is_red_at(&self, x: u32, y: u32, t: &HsvThresholds) -> bool {
+        let p = self.rgb(x, y);
+        is_red(p[0], p[1], p[2], t)
+    }
+}
+
+impl PixelSource for RgbImage {
+    fn dimensions(&self) -> (u32, u32) {
+        image::GenericImageView::dimensions(self)
+    }
+    #[inline]
+    fn rgb(&self, x: u32, y: u32) -> image::Rgb<u8> {
+        *self.get_pixel(x, y)
+    }
+}
+
 /// Whether an RGB pixel is red by the thresholds (OpenCV's HSV, integer arithmetic).
 ///
 /// Red hues (within 60° of 0) have red as the largest channel, so V = r; then
@@ -167,25 +193,22 @@ pub const COARSE_MARGIN: u32 = 3;
 /// 2x2 block of red pixels is always found; smaller ones (isolated specks, which the
 /// minimum area drops anyway) may be missed. On a 1080p frame with 8 markers this tests
 /// about a quarter of the pixels.
-pub fn mask_from_rgb_sparse(img: &RgbImage, t: &HsvThresholds) -> GrayImage {
-    let mut mask = GrayImage::new(img.width(), img.height());
+pub fn mask_from_rgb_sparse<S: PixelSource>(img: &S, t: &HsvThresholds) -> GrayImage {
+    let (w, h) = img.dimensions();
+    let mut mask = GrayImage::new(w, h);
     mask_from_rgb_sparse_into(img, t, &mut mask);
     mask
 }
 
 /// [`mask_from_rgb_sparse`] into a reused mask buffer (resized and cleared here).
-pub fn mask_from_rgb_sparse_into(img: &RgbImage, t: &HsvThresholds, mask: &mut GrayImage) {
+pub fn mask_from_rgb_sparse_into<S: PixelSource>(img: &S, t: &HsvThresholds, mask: &mut GrayImage) {
     let (w, h) = img.dimensions();
     if mask.dimensions() != (w, h) {
         *mask = GrayImage::new(w, h);
     } else {
         mask.as_mut().fill(0);
     }
-    let src = img.as_raw();
-    let at = |x: u32, y: u32| {
-        let i = ((y * w + x) * 3) as usize;
-        is_red(src[i], src[i + 1], src[i + 2], t)
-    };
+    let at = |x: u32, y: u32| img.is_red_at(x, y, t);
     // Coarse rows in parallel: x ranges of hits, as (row, x0, x1) in full-res px.
     let rows: Vec<(u32, Vec<(u32, u32)>)> = (0..h.div_ceil(COARSE_STEP))
         .into_par_iter()
@@ -398,8 +421,8 @@ pub const RING_PX: u32 = 2;
 /// blob (median of the surrounding ring) and the fully covered marker (median of the
 /// blob's inner half, the pixels farthest from the background level); `None` when they
 /// differ by less than [`MIN_COVERAGE_CONTRAST`].
-fn cue_levels(
-    img: &RgbImage,
+fn cue_levels<S: PixelSource>(
+    img: &S,
     inside: &[bool],
     bbox: (u32, u32, u32, u32),
     value: fn(&image::Rgb<u8>) -> f64,
@@ -414,7 +437,7 @@ fn cue_levels(
     for y in ey0..ey1 {
         for x in ex0..ex1 {
             let in_box = x >= x0 && x < x1 && y >= y0 && y < y1;
-            let v = value(img.get_pixel(x, y));
+            let v = value(&img.rgb(x, y));
             if in_box && inside[(y - y0) as usize * bw + (x - x0) as usize] {
                 inner.push(v);
             } else if !in_box {
@@ -435,9 +458,9 @@ fn cue_levels(
 
 /// Blobs of a red mask, with coverage-weighted centroids from `img` (the frame the mask
 /// was made from; pass `None` for plain binary centroids).
-pub fn blobs_from_mask(
+pub fn blobs_from_mask<S: PixelSource>(
     mask: &GrayImage,
-    img: Option<&RgbImage>,
+    img: Option<&S>,
     settings: &DetectSettings,
 ) -> Detection {
     let mut out = Detection::default();
@@ -484,7 +507,7 @@ pub fn blobs_from_mask(
                         let c = if filled && mask.get_pixel(x, y)[0] == 0 {
                             1.0
                         } else {
-                            ((value(img.get_pixel(x, y)) - bg) / (full - bg)).clamp(0.0, 1.0)
+                            ((value(&img.rgb(x, y)) - bg) / (full - bg)).clamp(0.0, 1.0)
                         };
                         add(x, y, c);
                     }
@@ -514,8 +537,8 @@ pub fn detect_markers(img: &RgbImage, settings: &DetectSettings) -> Detection {
 }
 
 /// [`detect_markers`] with a mask buffer reused from frame to frame.
-pub fn detect_markers_with(
-    img: &RgbImage,
+pub fn detect_markers_with<S: PixelSource>(
+    img: &S,
     settings: &DetectSettings,
     mask: &mut GrayImage,
 ) -> Detection {
@@ -746,7 +769,7 @@ mod tests {
             min_area_px: 3,
             ..Default::default()
         };
-        let d = blobs_from_mask(&m, None, &s);
+        let d = blobs_from_mask::<RgbImage>(&m, None, &s);
         assert_eq!(d.blobs.len(), 1);
         assert_eq!(d.specks, 1);
         assert_eq!(d.blobs[0].area_px, 25);
@@ -756,12 +779,18 @@ mod tests {
             fill_holes: false,
             ..s
         };
-        assert_eq!(blobs_from_mask(&m, None, &no_fill).blobs[0].area_px, 24);
+        assert_eq!(
+            blobs_from_mask::<RgbImage>(&m, None, &no_fill).blobs[0].area_px,
+            24
+        );
         let small_max = DetectSettings {
             max_area_px: 10,
             ..s
         };
-        assert_eq!(blobs_from_mask(&m, None, &small_max).too_large, 1);
+        assert_eq!(
+            blobs_from_mask::<RgbImage>(&m, None, &small_max).too_large,
+            1
+        );
     }
 
     proptest! {

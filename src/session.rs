@@ -10,7 +10,9 @@
 //!   bendscope.toml  optional settings ([`SessionConfig`])
 //! ```
 //!
-//! Per frame ([`measure_frame`]): red markers are detected in the raw frame, their
+//! Per frame ([`measure_frame`]; any [`crate::detect::PixelSource`]: RGB images, or
+//! decoded YUV frames read without a full-frame colour conversion): red markers are
+//! detected in the raw frame, their
 //! centroids undistorted (detecting in the raw frame and undistorting 8 points is far
 //! cheaper than undistorting every frame, and gives the same points: see the
 //! `undistort` tests), ordered from the clamped end, and fitted with a Pratt circle.
@@ -683,8 +685,8 @@ pub fn measure_frame(
 }
 
 /// [`measure_frame`] with a mask buffer reused from frame to frame.
-pub fn measure_frame_with(
-    frame: &image::RgbImage,
+pub fn measure_frame_with<S: crate::detect::PixelSource>(
+    frame: &S,
     undistorter: Option<&Undistorter>,
     detect: &DetectSettings,
     expected_markers: usize,

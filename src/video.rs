@@ -100,6 +100,102 @@ pub struct Frame {
     pub image: RgbImage,
 }
 
+/// Cr (V) excess over 128 below which a pixel cannot pass the default-like red test:
+/// a red pixel with V >= 60, S >= 100/255 and hue within 10 (OpenCV units) of 0 has
+/// Cr - 128 >= 7 (BT.601); 3 leaves room for compression noise. Used only as a cheap
+/// pre-test before the exact HSV test on the converted pixel.
+pub const CR_PRETEST: i32 = 3;
+
+/// The Cr pre-test holds for thresholds at least as strict as the defaults (it was
+/// derived for them); looser thresholds get the exact test on every pixel.
+fn pretest_applies(t: &crate::detect::HsvThresholds) -> bool {
+    t.s_min >= 100 && t.v_min >= 60 && t.hue_max_low <= 10 && t.hue_min_high >= 170
+}
+
+/// A decoded 4:2:0 frame kept in YUV (planes copied out of the decoder): detection
+/// reads the quarter-size Cr plane first and converts to RGB only the pixels that may
+/// be red, instead of converting whole frames. BT.601, limited or full range.
+#[derive(Debug, Clone, Default)]
+pub struct YuvFrame {
+    /// Width, px.
+    pub width: u32,
+    /// Height, px.
+    pub height: u32,
+    /// Luma plane, `width` x `height`.
+    pub y: Vec<u8>,
+    /// Cb plane, ceil(width/2) x ceil(height/2).
+    pub u: Vec<u8>,
+    /// Cr plane, same size as `u`.
+    pub v: Vec<u8>,
+    /// Full-range (JPEG) levels instead of limited (16..235).
+    pub full_range: bool,
+}
+
+impl YuvFrame {
+    /// RGB at (x, y): BT.601, chroma of the 2x2 block the pixel belongs to.
+    #[inline]
+    pub fn rgb_at(&self, x: u32, y: u32) -> [u8; 3] {
+        let cw = self.width.div_ceil(2) as usize;
+        let yy = self.y[(y * self.width + x) as usize] as i32;
+        let ci = (y as usize / 2) * cw + x as usize / 2;
+        let (d, e) = (self.u[ci] as i32 - 128, self.v[ci] as i32 - 128);
+        let (r, g, b) = if self.full_range {
+            let c = yy << 8;
+            (c + 359 * e, c - 88 * d - 183 * e, c + 454 * d)
+        } else {
+            let c = 298 * (yy - 16);
+            (c + 409 * e, c - 100 * d - 208 * e, c + 516 * d)
+        };
+        let q = |v: i32| ((v + 128) >> 8).clamp(0, 255) as u8;
+        [q(r), q(g), q(b)]
+    }
+
+    /// The whole frame in RGB (for overlays and full-frame undistortion).
+    pub fn to_rgb(&self) -> RgbImage {
+        RgbImage::from_fn(self.width, self.height, |x, y| {
+            image::Rgb(self.rgb_at(x, y))
+        })
+    }
+}
+
+impl crate::detect::PixelSource for YuvFrame {
+    fn dimensions(&self) -> (u32, u32) {
+        (self.width, self.height)
+    }
+    #[inline]
+    fn rgb(&self, x: u32, y: u32) -> image::Rgb<u8> {
+        image::Rgb(self.rgb_at(x, y))
+    }
+    #[inline]
+    fn is_red_at(&self, x: u32, y: u32, t: &crate::detect::HsvThresholds) -> bool {
+        let ci = (y as usize / 2) * self.width.div_ceil(2) as usize + x as usize / 2;
+        if pretest_applies(t) && (self.v[ci] as i32) < 128 + CR_PRETEST {
+            return false;
+        }
+        let p = self.rgb_at(x, y);
+        crate::detect::is_red(p[0], p[1], p[2], t)
+    }
+}
+
+/// A decoded frame's pixels: kept in YUV when the stream is 8-bit 4:2:0, else RGB.
+#[derive(Debug, Clone)]
+pub enum Pixels {
+    /// 4:2:0 planes.
+    Yuv(YuvFrame),
+    /// RGB (other pixel formats, converted by swscale).
+    Rgb(RgbImage),
+}
+
+impl Pixels {
+    /// The frame in RGB.
+    pub fn to_rgb(&self) -> RgbImage {
+        match self {
+            Pixels::Yuv(f) => f.to_rgb(),
+            Pixels::Rgb(i) => i.clone(),
+        }
+    }
+}
+
 /// Decode health of a video.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct DecodeStats {
@@ -366,6 +462,75 @@ impl VideoReader {
             path: self.path.clone(),
             reason: "frame buffer size".to_string(),
         })
+    }
+
+    /// The frame last returned by [`Self::advance`] as [`Pixels`]: its YUV planes copied
+    /// (into `recycled`'s buffers when given) for 8-bit 4:2:0 streams, else RGB.
+    pub fn current_pixels(&mut self, recycled: Option<Pixels>) -> Result<Pixels, VideoError> {
+        let full_range = match self.decoded.format() {
+            Pixel::YUV420P => false,
+            Pixel::YUVJ420P => true,
+            _ => {
+                let buf = match recycled {
+                    Some(Pixels::Rgb(i)) => i.into_raw(),
+                    _ => Vec::new(),
+                };
+                return Ok(Pixels::Rgb(self.current_rgb_into(buf)?));
+            }
+        };
+        let (w, h) = (self.decoded.width(), self.decoded.height());
+        let (cw, ch) = (w.div_ceil(2) as usize, h.div_ceil(2) as usize);
+        let mut out = match recycled {
+            Some(Pixels::Yuv(f)) => f,
+            _ => YuvFrame::default(),
+        };
+        out.width = w;
+        out.height = h;
+        out.full_range = full_range;
+        let copy = |dst: &mut Vec<u8>, data: &[u8], stride: usize, row: usize, rows: usize| {
+            dst.clear();
+            dst.reserve(row * rows);
+            for r in 0..rows {
+                dst.extend_from_slice(&data[r * stride..r * stride + row]);
+            }
+        };
+        copy(
+            &mut out.y,
+            self.decoded.data(0),
+            self.decoded.stride(0),
+            w as usize,
+            h as usize,
+        );
+        copy(
+            &mut out.u,
+            self.decoded.data(1),
+            self.decoded.stride(1),
+            cw,
+            ch,
+        );
+        copy(
+            &mut out.v,
+            self.decoded.data(2),
+            self.decoded.stride(2),
+            cw,
+            ch,
+        );
+        Ok(Pixels::Yuv(out))
+    }
+
+    /// The next frame whose index is a multiple of `stride`, as [`Pixels`].
+    pub fn next_pixels(
+        &mut self,
+        stride: u64,
+        recycled: Option<Pixels>,
+    ) -> Result<Option<(u64, f64, Pixels)>, VideoError> {
+        let stride = stride.max(1);
+        while let Some((index, time_s)) = self.advance() {
+            if index % stride == 0 {
+                return Ok(Some((index, time_s, self.current_pixels(recycled)?)));
+            }
+        }
+        Ok(None)
     }
 
     /// The next frame whose index is a multiple of `stride` (1: every frame), in RGB.
@@ -732,6 +897,46 @@ mod tests {
         }
         assert!(n >= 1 && n <= 30, "decoded {n}");
         assert_eq!(r.stats().frames_decoded, n);
+    }
+
+    #[test]
+    fn yuv_pixels_match_swscale_rgb() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("y.mp4");
+        write_test_video(&p, 3);
+        let mut a = VideoReader::open(&p).unwrap();
+        let mut b = VideoReader::open(&p).unwrap();
+        let rgb = a.next_frame(1).unwrap().unwrap().image;
+        let (_, _, px) = b.next_pixels(1, None).unwrap().unwrap();
+        let Pixels::Yuv(yuv) = px else {
+            panic!("H.264 yuv420p should stay YUV")
+        };
+        let mut worst = 0;
+        for y in 0..64 {
+            for x in 0..96 {
+                // Away from colour edges (chroma interpolation differs there).
+                if (8..44).contains(&x) && (12..36).contains(&y) {
+                    continue;
+                }
+                let (p, q) = (rgb.get_pixel(x, y), yuv.rgb_at(x, y));
+                for k in 0..3 {
+                    worst = worst.max((p[k] as i32 - q[k] as i32).abs());
+                }
+            }
+        }
+        assert!(worst <= 3, "largest channel difference {worst}");
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(20_000))]
+        #[test]
+        fn cr_pretest_never_rejects_a_red_pixel(y: u8, u: u8, v: u8, full: bool) {
+            let f = YuvFrame { width: 2, height: 2, y: vec![y; 4], u: vec![u], v: vec![v], full_range: full };
+            let t = crate::detect::HsvThresholds::default();
+            let p = f.rgb_at(0, 0);
+            let exact = crate::detect::is_red(p[0], p[1], p[2], &t);
+            proptest::prop_assert_eq!(crate::detect::PixelSource::is_red_at(&f, 0, 0, &t), exact, "yuv {} {} {} -> {:?}", y, u, v, p);
+        }
     }
 
     #[test]

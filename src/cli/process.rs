@@ -23,7 +23,7 @@ use bendscope::session::{
     session_videos, summarize, FrameStatus, Manifest, ManifestEntry, PressureLog, SessionConfig,
     PRESSURE_LOG,
 };
-use bendscope::video::VideoReader;
+use bendscope::video::{Pixels, VideoReader};
 use clap::Args;
 use opencv::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -561,7 +561,7 @@ fn measure_video(
         // the stream's size first, then frames, through a bounded channel.
         let (tx, rx) = sync_channel::<Result<Decoded, String>>(2);
         // Frames the measuring thread is done with go back to be decoded into again.
-        let (back_tx, back_rx) = sync_channel::<image::RgbImage>(3);
+        let (back_tx, back_rx) = sync_channel::<Pixels>(3);
         let decoder = std::thread::spawn(move || {
             let mut reader = match VideoReader::open(&path) {
                 Ok(r) => r,
@@ -575,8 +575,13 @@ fn measure_video(
                 return None;
             }
             loop {
-                match reader.next_frame_recycling(stride, back_rx.try_recv().ok()) {
-                    Ok(Some(f)) => {
+                match reader.next_pixels(stride, back_rx.try_recv().ok()) {
+                    Ok(Some((index, time_s, pixels))) => {
+                        let f = DecodedFrame {
+                            index,
+                            time_s,
+                            pixels,
+                        };
                         if tx.send(Ok(Decoded::Frame(f))).is_err() {
                             break;
                         }
@@ -649,7 +654,7 @@ fn measure_video(
                 None => entry.pressure_kpa,
             };
             let mut m = match &maps {
-                Some(maps) => match undistort_rgb(&und, maps, &f.image) {
+                Some(maps) => match undistort_rgb(&und, maps, &f.pixels.to_rgb()) {
                     Ok(flat) => {
                         measure_frame(&flat, None, &config.detect, config.expected_markers, start)
                     }
@@ -658,14 +663,24 @@ fn measure_video(
                         break;
                     }
                 },
-                None => measure_frame_with(
-                    &f.image,
-                    Some(&und),
-                    &config.detect,
-                    config.expected_markers,
-                    start,
-                    &mut mask,
-                ),
+                None => match &f.pixels {
+                    Pixels::Yuv(yuv) => measure_frame_with(
+                        yuv,
+                        Some(&und),
+                        &config.detect,
+                        config.expected_markers,
+                        start,
+                        &mut mask,
+                    ),
+                    Pixels::Rgb(rgb) => measure_frame_with(
+                        rgb,
+                        Some(&und),
+                        &config.detect,
+                        config.expected_markers,
+                        start,
+                        &mut mask,
+                    ),
+                },
             };
             if ramp.is_some() && pressure_kpa.is_nan() {
                 m.status = FrameStatus::Rejected(format!(
@@ -678,8 +693,15 @@ fn measure_video(
                     start = ChainStart::Near(*first);
                 }
                 if !overlay_done {
-                    overlay_done =
-                        write_video_overlay(out, &entry.file, &f.image, calib, config, &m).is_ok();
+                    overlay_done = write_video_overlay(
+                        out,
+                        &entry.file,
+                        &f.pixels.to_rgb(),
+                        calib,
+                        config,
+                        &m,
+                    )
+                    .is_ok();
                 }
             }
             rows.push(CachedFrame {
@@ -701,7 +723,7 @@ fn measure_video(
             measurements.push(scaled);
             last_time = f.time_s;
             last_index = f.index;
-            let _ = back_tx.try_send(f.image);
+            let _ = back_tx.try_send(f.pixels);
         }
         match decoder.join() {
             Ok(Some(stats)) if stats.has_errors() => problems.push(format!(
@@ -804,12 +826,19 @@ fn bin_frames(
         .collect()
 }
 
+/// A decoded frame as the measuring thread receives it.
+struct DecodedFrame {
+    index: u64,
+    time_s: f64,
+    pixels: Pixels,
+}
+
 /// What the decoder thread sends.
 enum Decoded {
     /// Frame size, first.
     Size(u32, u32),
     /// A decoded frame.
-    Frame(bendscope::video::Frame),
+    Frame(DecodedFrame),
 }
 
 fn most_common_rejection(rows: &[CachedFrame]) -> Option<String> {
