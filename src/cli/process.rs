@@ -557,6 +557,8 @@ fn measure_video(
     for file in std::iter::once(&entry.file).chain(&entry.chapters) {
         let path = session.join(file);
         let stride = config.frame_stride;
+        // Whole-frame undistortion needs RGB frames: let swscale convert them.
+        let want_rgb = config.full_frame_undistort;
         // The reader lives on the decoder thread (FFmpeg contexts are not Send); it sends
         // the stream's size first, then frames, through a bounded channel.
         let (tx, rx) = sync_channel::<Result<Decoded, String>>(2);
@@ -575,7 +577,19 @@ fn measure_video(
                 return None;
             }
             loop {
-                match reader.next_pixels(stride, back_rx.try_recv().ok()) {
+                let recycled = back_rx.try_recv().ok();
+                let next = if want_rgb {
+                    let buf = match recycled {
+                        Some(Pixels::Rgb(i)) => Some(i),
+                        _ => None,
+                    };
+                    reader
+                        .next_frame_recycling(stride, buf)
+                        .map(|f| f.map(|f| (f.index, f.time_s, Pixels::Rgb(f.image))))
+                } else {
+                    reader.next_pixels(stride, recycled)
+                };
+                match next {
                     Ok(Some((index, time_s, pixels))) => {
                         let f = DecodedFrame {
                             index,
@@ -654,7 +668,7 @@ fn measure_video(
                 None => entry.pressure_kpa,
             };
             let mut m = match &maps {
-                Some(maps) => match undistort_rgb(&und, maps, &f.pixels.to_rgb()) {
+                Some(maps) => match undistort_pixels(&und, maps, &f.pixels) {
                     Ok(flat) => {
                         measure_frame(&flat, None, &config.detect, config.expected_markers, start)
                     }
@@ -896,6 +910,18 @@ fn write_video_overlay(
         m.radius_px / k as f64,
     )?;
     Ok(())
+}
+
+/// Undistorts a whole decoded frame (RGB as decoded, or converted from YUV first).
+fn undistort_pixels(
+    und: &Undistorter,
+    maps: &(opencv::core::Mat, opencv::core::Mat),
+    pixels: &Pixels,
+) -> Result<image::RgbImage> {
+    match pixels {
+        Pixels::Rgb(rgb) => undistort_rgb(und, maps, rgb),
+        yuv => undistort_rgb(und, maps, &yuv.to_rgb()),
+    }
 }
 
 /// Undistorts a whole RGB frame (OpenCV remap).
