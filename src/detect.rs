@@ -681,11 +681,13 @@ mod tests {
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(48))]
+        /// Discs of radius >= 2.5 px always hold a 2x2 block of fully red pixels, which
+        /// the coarse grid cannot miss (smaller regions may be missed, as documented).
         #[test]
         fn sparse_mask_equals_full_mask_for_discs(seed: u64) {
             let mut rng = crate::render::rng::SplitMix64::new(seed);
             let discs: Vec<(f64, f64, f64)> = (0..6)
-                .map(|_| (rng.range(0.0, 120.0), rng.range(0.0, 90.0), rng.range(1.5, 9.0)))
+                .map(|_| (rng.range(0.0, 120.0), rng.range(0.0, 90.0), rng.range(2.5, 9.0)))
                 .collect();
             let img = disc(120, 90, &discs);
             let t = HsvThresholds::default();
