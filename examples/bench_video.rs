@@ -12,7 +12,6 @@ use bendscope::render::actuator::{ArcScene, FrameLook, PlaneSampler};
 use bendscope::render::board::BoardPose;
 use bendscope::render::fixtures::gopro_like_camera;
 use bendscope::render::rng::SplitMix64;
-use bendscope::render::session::reference_marker_positions_mm;
 use bendscope::video::{EncodeSettings, VideoWriter};
 use nalgebra::{Point2, Rotation3, Vector3};
 
@@ -30,17 +29,7 @@ fn main() -> anyhow::Result<()> {
         translation_mm: Vector3::new(0.0, 0.0, distance),
     };
     let sampler = PlaneSampler::new(&camera, &plane, 1, 5)?;
-    let scene = ArcScene {
-        curvature_per_mm: 1.0 / 90.0,
-        origin_mm: Point2::new(-50.0, 22.0),
-        marker_s_mm: reference_marker_positions_mm(),
-        marker_diameter_mm: 3.0,
-        length_mm: 102.25,
-        below_mm: 14.0,
-        above_mm: 9.5,
-        clamp_mm: 15.0,
-        distractor: None,
-    };
+    let scene = ArcScene::reference_actuator(1.0 / 90.0, Point2::new(-50.0, 22.0));
     let look = FrameLook {
         noise_sigma: 6.0,
         ..FrameLook::default()

@@ -371,7 +371,6 @@ fn ramp_protocol_interpolates_pressure_per_frame() {
     use bendscope::render::actuator::{ArcScene, FrameLook, PlaneSampler};
     use bendscope::render::board::BoardPose;
     use bendscope::render::fixtures::gopro_like_camera;
-    use bendscope::render::session::reference_marker_positions_mm;
     use nalgebra::{Point2, Rotation3, Vector3};
     let dir = tempfile::tempdir().unwrap();
     let s = dir.path().join("ramp");
@@ -400,17 +399,7 @@ fn ramp_protocol_interpolates_pressure_per_frame() {
     .unwrap();
     for i in 0..30 {
         let p = 20.0 + 30.0 * (i as f64 / fps);
-        let scene = ArcScene {
-            curvature_per_mm: 1.0 / radius_at(p),
-            origin_mm: Point2::new(-45.0, 18.0),
-            marker_s_mm: reference_marker_positions_mm(),
-            marker_diameter_mm: 3.0,
-            length_mm: 102.25,
-            below_mm: 14.0,
-            above_mm: 9.5,
-            clamp_mm: 15.0,
-            distractor: None,
-        };
+        let scene = ArcScene::reference_actuator(1.0 / radius_at(p), Point2::new(-45.0, 18.0));
         w.write(&sampler.render(&scene, [0.0, 0.0], &FrameLook::default(), i as u64))
             .unwrap();
     }
@@ -515,17 +504,7 @@ fn rgbd_session_gives_mm_from_depth_without_a_scale_photo() {
     }
     for i in 0..30 {
         let p = 20.0 + 3.0 * (i / 3) as f64;
-        let scene = ArcScene {
-            curvature_per_mm: 1.0 / radius_at(p),
-            origin_mm: Point2::new(-50.0, 20.0),
-            marker_s_mm: reference_marker_positions_mm(),
-            marker_diameter_mm: 3.0,
-            length_mm: 102.25,
-            below_mm: 14.0,
-            above_mm: 9.5,
-            clamp_mm: 15.0,
-            distractor: None,
-        };
+        let scene = ArcScene::reference_actuator(1.0 / radius_at(p), Point2::new(-50.0, 20.0));
         sampler
             .render(&scene, [0.0, 0.0], &FrameLook::default(), i)
             .save(s.join(format!("color/{i:06}.png")))

@@ -54,6 +54,24 @@ pub struct ArcScene {
 }
 
 impl ArcScene {
+    /// The reference actuator of method.md §4 seen from the side: 8 markers (3 mm) at
+    /// the centres of chambers 2..9, 102.25 mm beyond the clamp (116 - 13.75), 14 mm of
+    /// body below the marker line (bottom layer and channel up to mid cavity height)
+    /// and 9.5 mm above, a 15 mm clamp, no distractor.
+    pub fn reference_actuator(curvature_per_mm: f64, origin_mm: Point2<f64>) -> Self {
+        Self {
+            curvature_per_mm,
+            origin_mm,
+            marker_s_mm: (0..8).map(|i| 1.0 + 5.75 + 12.5 * i as f64).collect(),
+            marker_diameter_mm: 3.0,
+            length_mm: 102.25,
+            below_mm: 14.0,
+            above_mm: 9.5,
+            clamp_mm: 15.0,
+            distractor: None,
+        }
+    }
+
     /// Marker centres in the plane, mm.
     pub fn markers_mm(&self) -> Vec<Point2<f64>> {
         self.marker_s_mm

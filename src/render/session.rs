@@ -74,7 +74,7 @@ pub struct SessionTruth {
 /// Arc-length positions of the 8 markers from the clamp edge: centres of chambers 2..9 of
 /// the reference actuator (first chamber 13.75 mm, clamped; 1 mm gaps; 11.5 mm chambers).
 pub fn reference_marker_positions_mm() -> Vec<f64> {
-    (0..8).map(|i| 1.0 + 5.75 + 12.5 * i as f64).collect()
+    ArcScene::reference_actuator(0.0, Point2::origin()).marker_s_mm
 }
 
 /// Renders a whole session into `dir`.
@@ -136,15 +136,8 @@ pub fn write_session(dir: &Path, spec: &SessionSpec) -> Result<SessionTruth, Ren
         let (a, b, c) = spec.radius_law;
         let radius = a * p.powf(b) + c;
         let scene = ArcScene {
-            curvature_per_mm: 1.0 / radius,
-            origin_mm: Point2::new(-50.0, 22.0),
-            marker_s_mm: reference_marker_positions_mm(),
-            marker_diameter_mm: 3.0,
-            length_mm: 102.25,
-            below_mm: 14.0,
-            above_mm: 9.5,
-            clamp_mm: 15.0,
             distractor: spec.distractor.then(|| (Point2::new(75.0, 55.0), 8.0)),
+            ..ArcScene::reference_actuator(1.0 / radius, Point2::new(-50.0, 22.0))
         };
         let file = format!("GX01{:04}.MP4", 101 + i);
         let (w, h) = (spec.camera.image_width, spec.camera.image_height);
