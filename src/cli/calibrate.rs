@@ -191,7 +191,7 @@ pub fn run(args: &CalibrateArgs) -> Result<u8> {
 }
 
 fn print_summary(c: &Calibration, out: &Path) {
-    println!(
+    super::out!(
         "{} calibration of {}x{} from {} view(s), {} rejected",
         c.model.name(),
         c.image_width,
@@ -199,7 +199,7 @@ fn print_summary(c: &Calibration, out: &Path) {
         c.views_used.len(),
         c.views_rejected.len()
     );
-    println!(
+    super::out!(
         "  fx = {:.2}  fy = {:.2}  cx = {:.2}  cy = {:.2} px",
         c.fx(),
         c.fy(),
@@ -207,8 +207,8 @@ fn print_summary(c: &Calibration, out: &Path) {
         c.cy()
     );
     let d: Vec<String> = c.distortion.iter().map(|v| format!("{v:.5}")).collect();
-    println!("  distortion = [{}]", d.join(", "));
-    println!(
+    super::out!("  distortion = [{}]", d.join(", "));
+    super::out!(
         "  RMS reprojection error = {:.4} px",
         c.avg_reprojection_error
     );
@@ -217,10 +217,10 @@ fn print_summary(c: &Calibration, out: &Path) {
         .iter()
         .max_by(|a, b| a.rms_px.total_cmp(&b.rms_px))
     {
-        println!("  worst view: {} ({:.3} px)", worst.name, worst.rms_px);
+        super::out!("  worst view: {} ({:.3} px)", worst.name, worst.rms_px);
     }
     for r in &c.views_rejected {
-        println!("  rejected {}: {}", r.name, r.reason);
+        super::out!("  rejected {}: {}", r.name, r.reason);
     }
-    println!("  written to {}", out.display());
+    super::out!("  written to {}", out.display());
 }

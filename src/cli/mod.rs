@@ -1,6 +1,16 @@
 //! Command-line interface: flags parsed once into checked settings, then dispatched to the
 //! library. Data goes to files and stdout; logs and progress bars go to stderr.
 
+/// Prints a line to stdout, ignoring a closed pipe (`bendscope ... | head` must not
+/// panic; the results are already written when summaries are printed).
+macro_rules! out {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($arg)*);
+    }};
+}
+pub(crate) use out;
+
 pub mod calibrate;
 pub mod process;
 pub mod scale;

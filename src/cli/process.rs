@@ -99,7 +99,7 @@ pub fn run(args: &ProcessArgs) -> Result<u8> {
             Ok(s) => {
                 measured += s.measured;
                 failed += s.failed;
-                println!(
+                super::out!(
                     "{}: {} video(s) measured, {} failed -> {}",
                     session.display(),
                     s.measured,

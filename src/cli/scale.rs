@@ -59,7 +59,7 @@ pub fn run(args: &ScaleArgs) -> Result<u8> {
             scale.image_width, scale.image_height
         );
     }
-    println!("{:.6} mm/px", scale.mm_per_px);
+    super::out!("{:.6} mm/px", scale.mm_per_px);
     if scale.looks_tilted() {
         eprintln!(
             "warning: corner spacing varies by {:.1}% across the board: it is probably not parallel to the image plane",
