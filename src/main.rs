@@ -12,6 +12,7 @@ fn main() -> ExitCode {
         cli::Command::Calibrate(a) => cli::calibrate::run(a),
         cli::Command::Scale(a) => cli::scale::run(a),
         cli::Command::Process(a) => cli::process::run(a),
+        cli::Command::Simulate(a) => cli::simulate::run(a),
     };
     match result {
         Ok(code) => ExitCode::from(code),

@@ -14,6 +14,7 @@ pub(crate) use out;
 pub mod calibrate;
 pub mod process;
 pub mod scale;
+pub mod simulate;
 
 use clap::{Parser, Subcommand};
 
@@ -48,6 +49,8 @@ pub enum Command {
     Scale(scale::ScaleArgs),
     /// Measure radius of curvature, curvature and bending angle vs pressure from session folders.
     Process(process::ProcessArgs),
+    /// Simulate the actuator under a pressure ramp with the finite-element model.
+    Simulate(simulate::SimulateArgs),
 }
 
 /// A progress bar on stderr (drawn only when stderr is a terminal).

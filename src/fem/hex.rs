@@ -9,6 +9,13 @@
 //! the internal force is its gradient and the tangent its Hessian: symmetric, which
 //! lets the solver use a sparse Cholesky factorization. Structured hex meshes of the
 //! actuator's box-shaped walls and cavities suit it.
+//!
+//! The solver ([`super::solve`]) iterates on the three-field form of the same element
+//! (displacement u, element dilatation θ_e and pressure p_e, Simo-Taylor-Pister), with θ
+//! and p condensed per element: at convergence θ_e = v_e / V_e and p_e = U'(θ_e), the
+//! solution of the energy above, but a Newton step no longer turns the second-order
+//! volume error of a linearized rotation into a large pressure (κ θ² with κ ~ 1000 μ),
+//! which made the displacement-only iteration crawl on the bending actuator.
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
@@ -93,13 +100,70 @@ impl HexGeometry {
     }
 }
 
-/// Energy, internal force and tangent of one element. `None` when an inverted Gauss
-/// point (J <= 0) is met.
-pub fn element_response(
+/// ∫ N_a dV of each node (the nodal shares of a uniform body force).
+pub fn nodal_volumes(geom: &HexGeometry) -> [f64; 8] {
+    let mut out = [0.0; 8];
+    for (g, c) in CORNERS.iter().enumerate() {
+        for (a, n) in CORNERS.iter().enumerate() {
+            let shape = 0.125
+                * (1.0 + n[0] * c[0] * GP)
+                * (1.0 + n[1] * c[1] * GP)
+                * (1.0 + n[2] * c[2] * GP);
+            out[a] += shape * geom.weights[g];
+        }
+    }
+    out
+}
+
+/// Cauchy stress of an element, MPa: the isochoric part averaged over the Gauss points
+/// (by current volume) plus the element's mean-dilatation pressure U'(J̄) I. `None` for
+/// an inverted element.
+pub fn element_cauchy_stress(
     geom: &HexGeometry,
     material: &Yeoh,
     u: &[Vector3<f64>; 8],
-) -> Option<(f64, ElementVector, ElementMatrix)> {
+) -> Option<Matrix3<f64>> {
+    let iso = material.isochoric();
+    let mut sum = Matrix3::zeros();
+    let mut v = 0.0;
+    for g in 0..8 {
+        let f = geom.deformation_gradient(g, u);
+        let j = f.determinant();
+        if j <= 0.0 {
+            return None;
+        }
+        // σ_iso J w = P_iso Fᵀ w: volume-weighted average over the current element.
+        sum += iso.first_piola(&f) * f.transpose() * geom.weights[g];
+        v += j * geom.weights[g];
+    }
+    let jbar = v / geom.volume;
+    Some(sum / v + Matrix3::identity() * material.du(jbar))
+}
+
+/// The displacement-dependent parts of an element: isochoric energy, force and tangent
+/// (Gauss points), the current volume v_e = ∫ J dV, its gradient G = ∂v/∂u and Hessian
+/// H = ∂²v/∂u². `None` when an inverted Gauss point (J <= 0) is met.
+pub struct ElementKinematics {
+    /// Isochoric energy.
+    pub energy_iso: f64,
+    /// Isochoric internal force.
+    pub force_iso: ElementVector,
+    /// Isochoric tangent.
+    pub k_iso: ElementMatrix,
+    /// Current volume.
+    pub v: f64,
+    /// ∂v/∂u.
+    pub g: ElementVector,
+    /// ∂²v/∂u².
+    pub h: ElementMatrix,
+}
+
+/// Evaluates [`ElementKinematics`] at nodal displacements `u`.
+pub fn element_kinematics(
+    geom: &HexGeometry,
+    material: &Yeoh,
+    u: &[Vector3<f64>; 8],
+) -> Option<ElementKinematics> {
     let iso = material.isochoric();
     let mut energy = 0.0;
     let mut force = ElementVector::zeros();
@@ -154,15 +218,34 @@ pub fn element_response(
             }
         }
     }
-    let jbar = v / geom.volume;
+    Some(ElementKinematics {
+        energy_iso: energy,
+        force_iso: force,
+        k_iso: k,
+        v,
+        g: dv,
+        h: hv,
+    })
+}
+
+/// Energy, internal force and tangent of one element in the displacement-only form
+/// (pressure slaved to the mean dilatation, p = U'(v_e / V_e)). `None` when an
+/// inverted Gauss point (J <= 0) is met.
+pub fn element_response(
+    geom: &HexGeometry,
+    material: &Yeoh,
+    u: &[Vector3<f64>; 8],
+) -> Option<(f64, ElementVector, ElementMatrix)> {
+    let e = element_kinematics(geom, material, u)?;
+    let jbar = e.v / geom.volume;
     if jbar <= 0.0 {
         return None;
     }
-    energy += geom.volume * material.u(jbar);
     let du = material.du(jbar);
     let ddu = material.ddu(jbar);
-    force += dv * du;
-    k += dv * dv.transpose() * (ddu / geom.volume) + hv * du;
+    let energy = e.energy_iso + geom.volume * material.u(jbar);
+    let force = e.force_iso + e.g * du;
+    let k = e.k_iso + e.g * e.g.transpose() * (ddu / geom.volume) + e.h * du;
     Some((energy, force, k))
 }
 

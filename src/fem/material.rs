@@ -57,6 +57,21 @@ pub enum MaterialPreset {
     Ecoflex0030,
 }
 
+impl std::str::FromStr for MaterialPreset {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.to_ascii_lowercase().as_str() {
+            "proposed" => Ok(Self::Proposed),
+            "stiffer" => Ok(Self::Stiffer),
+            "softer" => Ok(Self::Softer),
+            "ecoflex0030" | "ecoflex-00-30" | "ecoflex" => Ok(Self::Ecoflex0030),
+            other => Err(format!(
+                "unknown material '{other}': use proposed, stiffer, softer or ecoflex0030"
+            )),
+        }
+    }
+}
+
 impl MaterialPreset {
     /// The Yeoh coefficients with the default bulk modulus.
     pub fn yeoh(&self) -> Yeoh {

@@ -6,13 +6,25 @@
 //! and by finite differences. Elements, the pressure load, the Newton solver and the
 //! actuator geometry build on it.
 
+pub mod actuator;
 pub mod hex;
 pub mod material;
+pub mod pressure;
+pub mod simulate;
 pub mod solve;
+pub mod vtu;
 
 /// Errors of the finite-element model.
 #[derive(Debug, thiserror::Error)]
 pub enum FemError {
+    /// A parameter is out of its physical range.
+    #[error("parameter {name}: {why}")]
+    Parameter {
+        /// The parameter (config field name).
+        name: String,
+        /// What is wrong and what to do.
+        why: String,
+    },
     /// The model is not usable.
     #[error("FEM model: {why}")]
     Model {

@@ -1,0 +1,836 @@
+//! The parametric PneuNets actuator of method.md §4: configuration, checks and a
+//! structured hexahedral mesh of its symmetric half.
+//!
+//! Coordinates: x along the length (clamped end at x = 0), y across the width, z up;
+//! mm. Only the half y ≥ 0 is meshed: y = 0 is a symmetry plane (u_y = 0 there), the
+//! cavity volume and the forces of the whole actuator are twice those of the half.
+//!
+//! Layout (fillets o, h ignored): `chambers` blocks along x, the first and last of
+//! profile length c, the others g, separated by gaps d; a remainder of b beyond the
+//! blocks is a solid tip. Every block has a centred cavity of length e (x), width l (y)
+//! and height n (z) starting at the channel top z = f + m; the channel (height m, width
+//! p, length r, centred in x) runs at z ∈ [f, f + m] and joins every cavity. The gaps
+//! between blocks are open from the top down to `roof` mm above the channel top (the
+//! table leaves the roof of the channel under a gap open; 1 mm by default, a parameter).
+//! Total height a = f + m + n + top_wall (23.5 mm for the reference f = 6).
+//!
+//! The mesh: coordinate lines through every feature (block, gap, cavity and channel
+//! boundaries, the marker lines), each interval cut into equal elements no longer than
+//! the mesh size; cells inside a cavity or a gap are left out. The cavity faces (solid
+//! cells next to cavity cells) carry the pressure. Markers: side face y = i/2, centre of
+//! blocks 2..N in x, mid cavity height z = f + m + n/2: mesh nodes by construction.
+
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+
+use super::hex::{nodal_volumes, HexGeometry};
+use super::material::{MaterialPreset, Yeoh, DEFAULT_BULK_TO_SHEAR};
+use super::pressure::CLOSED;
+use super::solve::Model;
+use super::FemError;
+
+/// Standard gravity, m/s².
+pub const GRAVITY_M_S2: f64 = 9.806_65;
+
+/// Geometry of the actuator, mm; field names are those of method.md §4.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Geometry {
+    /// Number of chambers (blocks along x).
+    pub chambers: usize,
+    /// Length (x).
+    pub b: f64,
+    /// Width (y).
+    pub i: f64,
+    /// Bottom thickness: solid below the channel.
+    pub f: f64,
+    /// Channel height.
+    pub m: f64,
+    /// Channel width (y).
+    pub p: f64,
+    /// Channel length (x), centred.
+    pub r: f64,
+    /// Profile length of the first and last chamber.
+    pub c: f64,
+    /// Profile length of the other chambers.
+    pub g: f64,
+    /// Gap between chambers.
+    pub d: f64,
+    /// Chamber cavity length (x).
+    pub e: f64,
+    /// Chamber cavity width (y).
+    pub l: f64,
+    /// Chamber cavity height (z), from the channel top.
+    pub n: f64,
+    /// Top wall above the cavities (a = f + m + n + top_wall).
+    pub top_wall: f64,
+    /// Material between the channel top and the bottom of a gap.
+    pub roof: f64,
+}
+
+impl Default for Geometry {
+    fn default() -> Self {
+        Self {
+            chambers: 9,
+            b: 116.0,
+            i: 15.0,
+            f: 6.0,
+            m: 2.0,
+            p: 7.0,
+            r: 105.0,
+            c: 13.75,
+            g: 11.5,
+            d: 1.0,
+            e: 5.0,
+            l: 11.0,
+            n: 12.0,
+            top_wall: 3.5,
+            roof: 1.0,
+        }
+    }
+}
+
+fn bad(name: &str, why: String) -> FemError {
+    FemError::Parameter {
+        name: name.to_string(),
+        why,
+    }
+}
+
+impl Geometry {
+    /// Total height a.
+    pub fn height(&self) -> f64 {
+        self.f + self.m + self.n + self.top_wall
+    }
+
+    /// Length taken by the chambers and gaps: 2c + (N-2) g + (N-1) d.
+    pub fn chambers_length(&self) -> f64 {
+        let n = self.chambers as f64;
+        2.0 * self.c + (n - 2.0) * self.g + (n - 1.0) * self.d
+    }
+
+    /// x extent of every chamber block.
+    pub fn blocks(&self) -> Vec<(f64, f64)> {
+        let mut x = 0.0;
+        (0..self.chambers)
+            .map(|k| {
+                let len = if k == 0 || k + 1 == self.chambers {
+                    self.c
+                } else {
+                    self.g
+                };
+                let span = (x, x + len);
+                x += len + self.d;
+                span
+            })
+            .collect()
+    }
+
+    /// x of the marker lines: centres of chambers 2..N.
+    pub fn marker_x(&self) -> Vec<f64> {
+        self.blocks()
+            .iter()
+            .skip(1)
+            .map(|(a, b)| 0.5 * (a + b))
+            .collect()
+    }
+
+    /// z of the markers: mid cavity height.
+    pub fn marker_z(&self) -> f64 {
+        self.f + self.m + 0.5 * self.n
+    }
+
+    /// Checks that the numbers describe a buildable actuator.
+    pub fn validate(&self) -> Result<(), FemError> {
+        let sizes = [
+            ("b", self.b),
+            ("i", self.i),
+            ("f", self.f),
+            ("m", self.m),
+            ("p", self.p),
+            ("r", self.r),
+            ("c", self.c),
+            ("g", self.g),
+            ("d", self.d),
+            ("e", self.e),
+            ("l", self.l),
+            ("n", self.n),
+            ("top_wall", self.top_wall),
+        ];
+        for (name, v) in sizes {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(bad(name, format!("{v} mm: sizes must be positive")));
+            }
+        }
+        if !(self.roof.is_finite() && self.roof >= 0.0) {
+            return Err(bad("roof", format!("{} mm: must be >= 0", self.roof)));
+        }
+        if self.chambers < 2 {
+            return Err(bad(
+                "chambers",
+                format!("{}: need at least 2 (the first is clamped)", self.chambers),
+            ));
+        }
+        for (name, cavity, body) in [("l", self.l, self.i), ("p", self.p, self.i)] {
+            if cavity >= body {
+                return Err(bad(
+                    name,
+                    format!("{cavity} mm is not narrower than the body width i = {body} mm: the side walls would vanish"),
+                ));
+            }
+        }
+        let inner = if self.chambers > 2 { self.g } else { self.c };
+        if self.e >= inner.min(self.c) {
+            return Err(bad(
+                "e",
+                format!(
+                    "cavity length {} mm does not fit in a chamber of {} mm: walls would vanish",
+                    self.e,
+                    inner.min(self.c)
+                ),
+            ));
+        }
+        let needed = self.chambers_length();
+        if needed > self.b + 1e-9 {
+            return Err(bad(
+                "chambers",
+                format!(
+                    "{} chambers need 2c + (N-2)g + (N-1)d = {needed} mm but the length b is {} mm: lower the count or the sizes, or raise b",
+                    self.chambers, self.b
+                ),
+            ));
+        }
+        if self.r >= self.b {
+            return Err(bad(
+                "r",
+                format!("channel length {} mm must be shorter than b = {} mm", self.r, self.b),
+            ));
+        }
+        let x0 = 0.5 * (self.b - self.r);
+        let cavity_ends = self.blocks().into_iter().map(|(a, b)| {
+            let mid = 0.5 * (a + b);
+            (mid - 0.5 * self.e, mid + 0.5 * self.e)
+        });
+        if let Some((k, _)) = cavity_ends
+            .enumerate()
+            .find(|(_, (lo, hi))| *hi < x0 || *lo > x0 + self.r)
+        {
+            return Err(bad(
+                "r",
+                format!(
+                    "the channel ({} mm long, centred) does not reach chamber {}: raise r",
+                    self.r,
+                    k + 1
+                ),
+            ));
+        }
+        if self.roof >= self.n + self.top_wall {
+            return Err(bad(
+                "roof",
+                format!("{} mm leaves no gap between the chambers", self.roof),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Material of the actuator: a preset, optionally with coefficients overridden.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MaterialConfig {
+    /// Named Yeoh set of method.md §4.
+    pub preset: MaterialPreset,
+    /// Overrides C1, MPa.
+    pub c1: Option<f64>,
+    /// Overrides C2, MPa.
+    pub c2: Option<f64>,
+    /// Overrides C3, MPa.
+    pub c3: Option<f64>,
+    /// Bulk modulus, MPa; default 1000 μ0 = 2000 C1.
+    pub bulk_modulus_mpa: Option<f64>,
+    /// Density, g/cm³ (gravity load).
+    pub density_g_cm3: f64,
+    /// Tensile strength, MPa (safety factor).
+    pub tensile_strength_mpa: f64,
+}
+
+impl Default for MaterialConfig {
+    fn default() -> Self {
+        Self {
+            preset: MaterialPreset::Proposed,
+            c1: None,
+            c2: None,
+            c3: None,
+            bulk_modulus_mpa: None,
+            density_g_cm3: 1.08,
+            tensile_strength_mpa: 3.447,
+        }
+    }
+}
+
+impl MaterialConfig {
+    /// The Yeoh material, checked.
+    pub fn yeoh(&self) -> Result<Yeoh, FemError> {
+        let base = self.preset.yeoh();
+        let c1 = self.c1.unwrap_or(base.c1);
+        let m = Yeoh {
+            c1,
+            c2: self.c2.unwrap_or(base.c2),
+            c3: self.c3.unwrap_or(base.c3),
+            bulk_modulus: self
+                .bulk_modulus_mpa
+                .unwrap_or(DEFAULT_BULK_TO_SHEAR * 2.0 * c1),
+        };
+        if !(m.c1.is_finite() && m.c1 > 0.0) {
+            return Err(bad("c1", format!("{} MPa: must be positive", m.c1)));
+        }
+        for (name, v) in [("c2", m.c2), ("c3", m.c3)] {
+            if !v.is_finite() || v < 0.0 {
+                return Err(bad(name, format!("{v} MPa: must be >= 0")));
+            }
+        }
+        if !(m.bulk_modulus.is_finite() && m.bulk_modulus > 0.0) {
+            return Err(bad(
+                "bulk_modulus_mpa",
+                format!("{} MPa: must be positive (silicone: ~1000 x the shear modulus)", m.bulk_modulus),
+            ));
+        }
+        for (name, v) in [
+            ("density_g_cm3", self.density_g_cm3),
+            ("tensile_strength_mpa", self.tensile_strength_mpa),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(bad(name, format!("{v}: must be positive")));
+            }
+        }
+        Ok(m)
+    }
+}
+
+/// Mesh settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MeshConfig {
+    /// Largest element edge, mm.
+    pub size_mm: f64,
+}
+
+/// Default element size, mm: the default ramp in under a minute on 2 cores; the radius
+/// at 115 kPa is within 3% of the 1.5 mm mesh's (see the mesh-convergence test).
+pub const DEFAULT_MESH_SIZE_MM: f64 = 2.0;
+
+/// Largest mesh accepted (elements); a finer one would not fit a workstation's memory.
+pub const MAX_ELEMENTS: usize = 400_000;
+
+impl Default for MeshConfig {
+    fn default() -> Self {
+        Self {
+            size_mm: DEFAULT_MESH_SIZE_MM,
+        }
+    }
+}
+
+/// Everything that defines a simulated actuator.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(default, deny_unknown_fields)]
+pub struct ActuatorConfig {
+    /// Geometry, mm.
+    pub geometry: Geometry,
+    /// Material.
+    pub material: MaterialConfig,
+    /// Mesh.
+    pub mesh: MeshConfig,
+    /// Loads.
+    pub load: LoadConfig,
+}
+
+/// Loads of a simulation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LoadConfig {
+    /// Pressure steps, kPa: "start:stop:step" or a comma-separated list.
+    pub pressures_kpa: String,
+    /// Gravity along -z.
+    pub gravity: bool,
+}
+
+impl Default for LoadConfig {
+    fn default() -> Self {
+        Self {
+            pressures_kpa: "10:115:5".into(),
+            gravity: true,
+        }
+    }
+}
+
+/// Parses "start:stop:step" (inclusive) or "a,b,c" into values; `what` names the
+/// quantity in messages.
+pub fn parse_range(text: &str, what: &str) -> Result<Vec<f64>, FemError> {
+    let num = |s: &str| -> Result<f64, FemError> {
+        let v: f64 = s.trim().parse().map_err(|_| {
+            bad(
+                what,
+                format!("'{}' is not a number (expected start:stop:step or a,b,c)", s.trim()),
+            )
+        })?;
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(bad(what, format!("'{}' is not finite", s.trim())))
+        }
+    };
+    let parts: Vec<&str> = text.split(':').collect();
+    let values = match parts.len() {
+        1 => text.split(',').map(num).collect::<Result<Vec<_>, _>>()?,
+        3 => {
+            let (a, b, s) = (num(parts[0])?, num(parts[1])?, num(parts[2])?);
+            if !(s > 0.0) || b < a {
+                return Err(bad(
+                    what,
+                    format!("'{text}': need start <= stop and a positive step"),
+                ));
+            }
+            let count = ((b - a) / s + 1e-9).floor() as usize + 1;
+            if count > 10_000 {
+                return Err(bad(what, format!("'{text}' gives {count} values: use a larger step")));
+            }
+            (0..count).map(|k| a + k as f64 * s).collect()
+        }
+        _ => {
+            return Err(bad(
+                what,
+                format!("'{text}': expected start:stop:step or a comma-separated list"),
+            ))
+        }
+    };
+    if values.is_empty() {
+        return Err(bad(what, "no values".into()));
+    }
+    Ok(values)
+}
+
+impl ActuatorConfig {
+    /// The pressure steps, kPa, checked (non-negative, increasing).
+    pub fn pressures_kpa(&self) -> Result<Vec<f64>, FemError> {
+        let p = parse_range(&self.load.pressures_kpa, "pressures")?;
+        if let Some(v) = p.iter().find(|v| **v < 0.0) {
+            return Err(bad(
+                "pressures",
+                format!("{v} kPa: pressures must be >= 0 (gauge pressure in the cavities)"),
+            ));
+        }
+        if p.windows(2).any(|w| w[1] <= w[0]) {
+            return Err(bad("pressures", "pressures must increase".into()));
+        }
+        Ok(p)
+    }
+
+    /// Checks every parameter.
+    pub fn validate(&self) -> Result<(), FemError> {
+        self.geometry.validate()?;
+        self.material.yeoh()?;
+        self.pressures_kpa()?;
+        let h = self.mesh.size_mm;
+        if !(h.is_finite() && h > 0.0) {
+            return Err(bad("mesh size", format!("{h} mm: must be positive")));
+        }
+        Ok(())
+    }
+
+    /// Sets one parameter by name (a field of any section, e.g. `f`, `chambers`, `c2`,
+    /// `bulk_modulus_mpa`, `size_mm`) to a number, for sweeps.
+    pub fn with_parameter(&self, name: &str, value: f64) -> Result<Self, FemError> {
+        let mut doc = toml::Table::try_from(self).map_err(|e| FemError::Model {
+            why: format!("config: {e}"),
+        })?;
+        let mut hit = false;
+        for (_, section) in doc.iter_mut() {
+            let Some(table) = section.as_table_mut() else {
+                continue;
+            };
+            if let Some(old) = table.get(name).cloned() {
+                let new = if old.is_integer() || name == "chambers" {
+                    if value.fract() != 0.0 || value < 0.0 {
+                        return Err(bad(name, format!("{value}: must be a whole number")));
+                    }
+                    toml::Value::Integer(value as i64)
+                } else {
+                    toml::Value::Float(value)
+                };
+                table.insert(name.to_string(), new);
+                hit = true;
+            } else if ["c1", "c2", "c3", "bulk_modulus_mpa"].contains(&name)
+                && table.contains_key("preset")
+            {
+                table.insert(name.to_string(), toml::Value::Float(value));
+                hit = true;
+            }
+        }
+        if !hit {
+            return Err(bad(
+                name,
+                "no such parameter (geometry: chambers b i f m p r c g d e l n top_wall roof; material: c1 c2 c3 bulk_modulus_mpa density_g_cm3 tensile_strength_mpa; mesh: size_mm)".into(),
+            ));
+        }
+        doc.try_into().map_err(|e: toml::de::Error| FemError::Model {
+            why: format!("config: {e}"),
+        })
+    }
+}
+
+/// The meshed half actuator and the nodes results are read at.
+#[derive(Debug, Clone)]
+pub struct ActuatorMesh {
+    /// The finite-element model (dead loads: gravity).
+    pub model: Model,
+    /// Marker nodes (side face, centre of chambers 2..N, mid cavity height), from the
+    /// clamp towards the tip.
+    pub markers: Vec<usize>,
+    /// Tip node: bottom edge of the free end on the symmetry plane (x = b, y = 0, z = 0).
+    pub tip: usize,
+    /// Nodes of the free end's bottom edge (x = b, z = 0): the blocked-force support.
+    pub tip_support: Vec<usize>,
+    /// Bottom centre line (y = 0, z = 0) beyond the clamp (x >= c), ordered by x.
+    pub bottom_line: Vec<usize>,
+    /// Tensile strength, MPa.
+    pub tensile_strength_mpa: f64,
+}
+
+/// Coordinate lines through `features` (sorted, deduplicated), each interval cut into
+/// equal parts no longer than `h`.
+fn coordinate_lines(mut features: Vec<f64>, h: f64) -> Vec<f64> {
+    features.sort_by(f64::total_cmp);
+    features.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+    let mut out = vec![features[0]];
+    for w in features.windows(2) {
+        let parts = ((w[1] - w[0]) / h - 1e-9).ceil().max(1.0) as usize;
+        for k in 1..=parts {
+            out.push(w[0] + (w[1] - w[0]) * k as f64 / parts as f64);
+        }
+    }
+    out
+}
+
+fn index_of(lines: &[f64], v: f64) -> usize {
+    lines
+        .iter()
+        .enumerate()
+        .min_by(|a, b| (a.1 - v).abs().total_cmp(&(b.1 - v).abs()))
+        .map(|(k, _)| k)
+        .unwrap_or(0)
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Cell {
+    Solid,
+    Cavity,
+    Outside,
+}
+
+/// Meshes the half actuator (y ≥ 0) described by `cfg`.
+pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
+    cfg.validate()?;
+    let g = &cfg.geometry;
+    let h = cfg.mesh.size_mm;
+    let material = cfg.material.yeoh()?;
+    let blocks = g.blocks();
+    let cavities: Vec<(f64, f64)> = blocks
+        .iter()
+        .map(|(a, b)| (0.5 * (a + b) - 0.5 * g.e, 0.5 * (a + b) + 0.5 * g.e))
+        .collect();
+    let (ch0, ch1) = (0.5 * (g.b - g.r), 0.5 * (g.b + g.r));
+    let (z_channel, z_cavity) = (g.f, g.f + g.m);
+    let (z_gap, z_top, a) = (z_cavity + g.roof, z_cavity + g.n, g.height());
+
+    let mut fx = vec![0.0, g.b, ch0, ch1];
+    for ((b0, b1), (c0, c1)) in blocks.iter().zip(&cavities) {
+        fx.extend([*b0, *b1, *c0, *c1, 0.5 * (b0 + b1)]);
+    }
+    let xs = coordinate_lines(fx, h);
+    let ys = coordinate_lines(vec![0.0, 0.5 * g.p, 0.5 * g.l, 0.5 * g.i], h);
+    let zs = coordinate_lines(
+        vec![0.0, z_channel, z_cavity, z_gap, g.marker_z(), z_top, a],
+        h,
+    );
+    let (nx, ny, nz) = (xs.len() - 1, ys.len() - 1, zs.len() - 1);
+    if nx * ny * nz > MAX_ELEMENTS {
+        return Err(bad(
+            "mesh size",
+            format!(
+                "{h} mm gives {} cells, more than the {MAX_ELEMENTS} this solver is sized for: use a larger mesh size",
+                nx * ny * nz
+            ),
+        ));
+    }
+
+    let inside = |v: f64, lo: f64, hi: f64| v > lo && v < hi;
+    let classify = |x: f64, y: f64, z: f64| -> Cell {
+        if inside(x, ch0, ch1) && y < 0.5 * g.p && inside(z, z_channel, z_cavity) {
+            return Cell::Cavity;
+        }
+        if y < 0.5 * g.l
+            && inside(z, z_cavity, z_top)
+            && cavities.iter().any(|(c0, c1)| inside(x, *c0, *c1))
+        {
+            return Cell::Cavity;
+        }
+        if z > z_gap && blocks.windows(2).any(|w| inside(x, w[0].1, w[1].0)) {
+            return Cell::Outside;
+        }
+        Cell::Solid
+    };
+    let cell_id = |i: usize, j: usize, k: usize| (k * ny + j) * nx + i;
+    let mut cells = vec![Cell::Solid; nx * ny * nz];
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                cells[cell_id(i, j, k)] = classify(
+                    0.5 * (xs[i] + xs[i + 1]),
+                    0.5 * (ys[j] + ys[j + 1]),
+                    0.5 * (zs[k] + zs[k + 1]),
+                );
+            }
+        }
+    }
+
+    // Nodes used by solid cells, numbered compactly.
+    let grid_id = |i: usize, j: usize, k: usize| (k * (ny + 1) + j) * (nx + 1) + i;
+    let mut node_of = vec![usize::MAX; (nx + 1) * (ny + 1) * (nz + 1)];
+    let mut nodes = Vec::new();
+    let mut node = |i: usize, j: usize, k: usize, nodes: &mut Vec<Vector3<f64>>| -> usize {
+        let gi = grid_id(i, j, k);
+        if node_of[gi] == usize::MAX {
+            node_of[gi] = nodes.len();
+            nodes.push(Vector3::new(xs[i], ys[j], zs[k]));
+        }
+        node_of[gi]
+    };
+    let mut elements = Vec::new();
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                if cells[cell_id(i, j, k)] != Cell::Solid {
+                    continue;
+                }
+                let corners = [
+                    (i, j, k),
+                    (i + 1, j, k),
+                    (i + 1, j + 1, k),
+                    (i, j + 1, k),
+                    (i, j, k + 1),
+                    (i + 1, j, k + 1),
+                    (i + 1, j + 1, k + 1),
+                    (i, j + 1, k + 1),
+                ];
+                elements.push(corners.map(|(a, b, c)| node(a, b, c, &mut nodes)));
+            }
+        }
+    }
+
+    // Cavity faces: between a cavity cell and a solid neighbour, normal into the solid.
+    let mut pressure_faces = Vec::new();
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                if cells[cell_id(i, j, k)] != Cell::Cavity {
+                    continue;
+                }
+                let solid = |di: isize, dj: isize, dk: isize| {
+                    let (a, b, c) = (i as isize + di, j as isize + dj, k as isize + dk);
+                    a >= 0
+                        && b >= 0
+                        && c >= 0
+                        && (a as usize) < nx
+                        && (b as usize) < ny
+                        && (c as usize) < nz
+                        && cells[cell_id(a as usize, b as usize, c as usize)] == Cell::Solid
+                };
+                let (i1, j1, k1) = (i + 1, j + 1, k + 1);
+                let mut quads: Vec<[(usize, usize, usize); 4]> = Vec::new();
+                if solid(1, 0, 0) {
+                    quads.push([(i1, j, k), (i1, j1, k), (i1, j1, k1), (i1, j, k1)]);
+                }
+                if solid(-1, 0, 0) {
+                    quads.push([(i, j, k), (i, j, k1), (i, j1, k1), (i, j1, k)]);
+                }
+                if solid(0, 1, 0) {
+                    quads.push([(i, j1, k), (i, j1, k1), (i1, j1, k1), (i1, j1, k)]);
+                }
+                if solid(0, -1, 0) {
+                    quads.push([(i, j, k), (i1, j, k), (i1, j, k1), (i, j, k1)]);
+                }
+                if solid(0, 0, 1) {
+                    quads.push([(i, j, k1), (i1, j, k1), (i1, j1, k1), (i, j1, k1)]);
+                }
+                if solid(0, 0, -1) {
+                    quads.push([(i, j, k), (i, j1, k), (i1, j1, k), (i1, j, k)]);
+                }
+                for q in quads {
+                    pressure_faces.push(q.map(|(a, b, c)| node_of[grid_id(a, b, c)]));
+                }
+            }
+        }
+    }
+    if pressure_faces.iter().flatten().any(|n| *n == usize::MAX) {
+        return Err(FemError::Model {
+            why: "a cavity face has a node outside the solid (mesh bug)".into(),
+        });
+    }
+
+    // Supports: the first chamber is clamped; y = 0 is the symmetry plane.
+    let n_nodes = nodes.len();
+    let mut fixed = vec![false; 3 * n_nodes];
+    for (a, x) in nodes.iter().enumerate() {
+        if x.x <= g.c + 1e-9 {
+            fixed[3 * a] = true;
+            fixed[3 * a + 1] = true;
+            fixed[3 * a + 2] = true;
+        }
+        if x.y.abs() < 1e-9 {
+            fixed[3 * a + 1] = true;
+        }
+    }
+
+    // Gravity: ρ g ∫ N_a dV along -z (N per mm³ = g/cm³ · 1e-6 kg/mm³ · g).
+    let weight_per_mm3 = cfg.material.density_g_cm3 * 1e-6 * GRAVITY_M_S2;
+    let mut loads = vec![0.0; 3 * n_nodes];
+    if cfg.load.gravity {
+        for el in &elements {
+            let x: [Vector3<f64>; 8] = std::array::from_fn(|a| nodes[el[a]]);
+            let geom = HexGeometry::new(&x).ok_or(FemError::Model {
+                why: "degenerate element (mesh bug)".into(),
+            })?;
+            for (a, v) in nodal_volumes(&geom).iter().enumerate() {
+                loads[3 * el[a] + 2] -= weight_per_mm3 * v;
+            }
+        }
+    }
+
+    let at = |x: f64, y: f64, z: f64| node_of[grid_id(index_of(&xs, x), index_of(&ys, y), index_of(&zs, z))];
+    let markers: Vec<usize> = g
+        .marker_x()
+        .iter()
+        .map(|x| at(*x, 0.5 * g.i, g.marker_z()))
+        .collect();
+    let tip = at(g.b, 0.0, 0.0);
+    let tip_support: Vec<usize> = (0..=ny).map(|j| node_of[grid_id(nx, j, 0)]).collect();
+    let bottom_line: Vec<usize> = (0..=nx)
+        .filter(|i| xs[*i] >= g.c - 1e-9)
+        .map(|i| node_of[grid_id(i, 0, 0)])
+        .collect();
+    if markers
+        .iter()
+        .chain(&tip_support)
+        .chain(&bottom_line)
+        .chain(std::iter::once(&tip))
+        .any(|n| *n == usize::MAX)
+    {
+        return Err(FemError::Model {
+            why: "a marker or support point is not on the solid (mesh bug)".into(),
+        });
+    }
+    Ok(ActuatorMesh {
+        model: Model {
+            nodes,
+            elements,
+            material,
+            fixed,
+            loads,
+            pressure_faces,
+            volume_weights: CLOSED,
+        },
+        markers,
+        tip,
+        tip_support,
+        bottom_line,
+        tensile_strength_mpa: cfg.material.tensile_strength_mpa,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reference_layout_matches_the_table() {
+        let g = Geometry::default();
+        assert!((g.chambers_length() - 116.0).abs() < 1e-12);
+        assert!((g.height() - 23.5).abs() < 1e-12);
+        let b = g.blocks();
+        assert_eq!(b.len(), 9);
+        assert!((b[8].1 - 116.0).abs() < 1e-12 && (b[1].0 - 14.75).abs() < 1e-12);
+        assert_eq!(g.marker_x().len(), 8);
+        assert!((g.marker_x()[0] - 20.5).abs() < 1e-12);
+        let with_f2 = Geometry { f: 2.0, ..g };
+        assert!((with_f2.height() - 19.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn mesh_volume_and_cavity_volume_are_those_of_the_geometry() {
+        let cfg = ActuatorConfig {
+            mesh: MeshConfig { size_mm: 2.0 },
+            ..Default::default()
+        };
+        let mesh = build_mesh(&cfg).unwrap();
+        let g = &cfg.geometry;
+        let volume: f64 = mesh
+            .model
+            .elements
+            .iter()
+            .map(|el| {
+                let x: [Vector3<f64>; 8] = std::array::from_fn(|a| mesh.model.nodes[el[a]]);
+                HexGeometry::new(&x).unwrap().volume
+            })
+            .sum();
+        // Half of: box - gaps - cavities - channel (all exact on the conforming grid).
+        let gaps = (g.chambers - 1) as f64 * g.d * g.i * (g.height() - g.f - g.m - g.roof);
+        let cavities = g.chambers as f64 * g.e * g.l * g.n;
+        let channel = g.r * g.p * g.m;
+        let solid = g.b * g.i * g.height() - gaps - cavities - channel;
+        assert!((2.0 * volume - solid).abs() < 1e-6 * solid, "{} vs {solid}", 2.0 * volume);
+        let faces_volume: f64 = mesh
+            .model
+            .pressure_faces
+            .iter()
+            .map(|f| {
+                let x: [Vector3<f64>; 4] = std::array::from_fn(|k| mesh.model.nodes[f[k]]);
+                crate::fem::pressure::face_volume(&x, &CLOSED).0
+            })
+            .sum();
+        // Channel (z ∈ [f, f+m]) and chamber cavities (above) do not overlap.
+        let cavity = cavities + channel;
+        assert!((2.0 * faces_volume - cavity).abs() < 1e-6 * cavity, "{} vs {cavity}", 2.0 * faces_volume);
+        // Markers on the side face at mid cavity height, centre of chambers 2..9.
+        for (n, x) in mesh.markers.iter().zip(g.marker_x()) {
+            let p = mesh.model.nodes[*n];
+            assert!((p - Vector3::new(x, 7.5, 14.0)).norm() < 1e-9, "{p}");
+        }
+    }
+
+    #[test]
+    fn nonsense_parameters_are_refused_with_the_parameter_named() {
+        let base = ActuatorConfig::default();
+        for (name, value, expect) in [
+            ("f", -1.0, "positive"),
+            ("l", 16.0, "narrower"),
+            ("chambers", 12.0, "need"),
+            ("bulk_modulus_mpa", 0.0, "positive"),
+            ("e", 12.0, "does not fit"),
+        ] {
+            let cfg = base.with_parameter(name, value).unwrap();
+            let err = cfg.validate().unwrap_err().to_string();
+            assert!(err.contains(name) && err.contains(expect), "{name}: {err}");
+        }
+        assert!(base.with_parameter("zz", 1.0).unwrap_err().to_string().contains("no such parameter"));
+        let neg = ActuatorConfig {
+            load: LoadConfig {
+                pressures_kpa: "-5,10".into(),
+                gravity: true,
+            },
+            ..Default::default()
+        };
+        assert!(neg.validate().unwrap_err().to_string().contains(">= 0"));
+        assert_eq!(parse_range("10:115:5", "p").unwrap().len(), 22);
+        assert!(parse_range("10:x:5", "p").is_err());
+    }
+}

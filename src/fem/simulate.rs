@@ -1,0 +1,281 @@
+//! A pressure ramp on the meshed actuator and the quantities read off each converged
+//! step: marker positions, Pratt radius, bending angle, tip, stress, bottom elongation,
+//! cavity volume and, with the tip blocked, the support force.
+//!
+//! The radius and the bending angle come from the same functions as the image chain
+//! ([`crate::fit::fit_circle_pratt`], [`crate::fit::bending_angle_from_circle_deg`] on
+//! the 8 marker points in the x-z plane), so simulated and measured numbers share their
+//! definitions.
+
+use nalgebra::{Matrix3, Point2, Vector3};
+use serde::Serialize;
+
+use super::actuator::ActuatorMesh;
+use super::solve::{LoadState, NewtonSettings, Solver};
+use super::FemError;
+use crate::fit::{bending_angle_from_circle_deg, fit_circle_pratt};
+
+/// Results of one converged pressure step (whole actuator).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct StepResult {
+    /// Cavity pressure, kPa.
+    pub pressure_kpa: f64,
+    /// Radius of the Pratt circle through the markers, mm (infinite when straight).
+    pub radius_mm: f64,
+    /// 1 / radius, 1/m.
+    pub curvature_per_m: f64,
+    /// Bending angle, degrees (half-angle convention of the image chain).
+    pub bending_angle_deg: f64,
+    /// Tip (bottom edge of the free end, symmetry plane), x, mm.
+    pub tip_x_mm: f64,
+    /// Tip z, mm.
+    pub tip_z_mm: f64,
+    /// Largest first principal Cauchy stress over the elements, MPa.
+    pub max_principal_stress_mpa: f64,
+    /// Tensile strength / that stress.
+    pub safety_factor: f64,
+    /// Elongation of the bottom face's centre line beyond the clamp, % (negative: the
+    /// bottom is on the inside of the bend and usually shortens).
+    pub bottom_elongation_pct: f64,
+    /// Volume of the cavities (chambers + channel), mm³.
+    pub cavity_volume_mm3: f64,
+    /// Newton iterations this step took.
+    pub newton_iterations: usize,
+    /// Force of the tip on its support, N (blocked-tip runs only).
+    pub blocked_force_n: Option<f64>,
+    /// Marker positions (x, z), mm, from the clamp to the tip.
+    pub markers_mm: Vec<(f64, f64)>,
+}
+
+/// State of a converged step, for field output.
+pub struct StepFields<'a> {
+    /// Nodal displacements, mm (3 per node).
+    pub displacement: &'a [f64],
+    /// Element Cauchy stresses, MPa.
+    pub stresses: &'a [Matrix3<f64>],
+}
+
+/// Settings of a ramp.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct RampSettings {
+    /// Fix the tip's bottom edge in z (a flat rigid support) and report its force.
+    pub blocked: bool,
+    /// Newton settings.
+    pub newton: NewtonSettings,
+}
+
+/// The outcome of a ramp: the converged steps, and the failure that ended it early.
+#[derive(Debug)]
+pub struct Ramp {
+    /// Converged steps, in pressure order.
+    pub steps: Vec<StepResult>,
+    /// Why the ramp stopped before its last pressure.
+    pub failure: Option<FemError>,
+    /// Free degrees of freedom.
+    pub free_dofs: usize,
+}
+
+/// The largest eigenvalue of a symmetric 3x3 matrix.
+pub fn max_principal(s: &Matrix3<f64>) -> f64 {
+    let sym = 0.5 * (s + s.transpose());
+    sym.symmetric_eigenvalues().max()
+}
+
+/// Runs the pressure ramp: gravity (the mesh's dead load) first, then each pressure in
+/// turn; `on_step` sees every converged step. A step that does not converge ends the
+/// ramp; the steps before it are kept.
+pub fn run_ramp(
+    mesh: &ActuatorMesh,
+    pressures_kpa: &[f64],
+    settings: &RampSettings,
+    mut on_step: impl FnMut(&StepResult, &StepFields),
+) -> Result<Ramp, FemError> {
+    let mut model = mesh.model.clone();
+    if settings.blocked {
+        for n in &mesh.tip_support {
+            model.fixed[3 * n + 2] = true;
+        }
+    }
+    let mut solver = Solver::new(&model)?;
+    let mut ramp = Ramp {
+        steps: Vec::new(),
+        failure: None,
+        free_dofs: solver.free_dofs(),
+    };
+    let first = NewtonSettings {
+        initial_step: 0.25,
+        ..settings.newton
+    };
+    if let Err(e) = solver.advance(
+        LoadState {
+            dead: 1.0,
+            pressure_mpa: 0.0,
+        },
+        &first,
+    ) {
+        ramp.failure = Some(e);
+        return Ok(ramp);
+    }
+    for &p in pressures_kpa {
+        let step = NewtonSettings {
+            initial_step: 1.0,
+            ..settings.newton
+        };
+        match solver.advance(
+            LoadState {
+                dead: 1.0,
+                pressure_mpa: p * 1e-3,
+            },
+            &step,
+        ) {
+            Ok(report) => {
+                let stresses = solver.element_stresses();
+                let result = step_result(mesh, &solver, &stresses, p, report.iterations, settings.blocked)?;
+                on_step(
+                    &result,
+                    &StepFields {
+                        displacement: solver.displacement(),
+                        stresses: &stresses,
+                    },
+                );
+                ramp.steps.push(result);
+            }
+            Err(FemError::Diverged { load_fraction, .. }) => {
+                let from = ramp.steps.last().map(|s| s.pressure_kpa).unwrap_or(0.0);
+                ramp.failure = Some(FemError::Diverged {
+                    load_fraction,
+                    why: format!(
+                        "the step from {from} to {p} kPa did not converge (stopped at {:.2} kPa): the actuator may be unstable there; try a finer --mesh-size, smaller pressure steps or a stiffer material",
+                        from + load_fraction * (p - from)
+                    ),
+                });
+                break;
+            }
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(ramp)
+}
+
+fn step_result(
+    mesh: &ActuatorMesh,
+    solver: &Solver,
+    stresses: &[Matrix3<f64>],
+    pressure_kpa: f64,
+    newton_iterations: usize,
+    blocked: bool,
+) -> Result<StepResult, FemError> {
+    let markers: Vec<Point2<f64>> = mesh
+        .markers
+        .iter()
+        .map(|n| {
+            let x = solver.position(*n);
+            Point2::new(x.x, x.z)
+        })
+        .collect();
+    let fit_err = |e: crate::fit::FitError| FemError::Model {
+        why: format!("marker circle at {pressure_kpa} kPa: {e}"),
+    };
+    let circle = fit_circle_pratt(&markers).map_err(fit_err)?;
+    let (first, last) = (markers[0], markers[markers.len() - 1]);
+    let angle = if circle.curvature > 0.0 {
+        bending_angle_from_circle_deg(first, last, &circle).map_err(fit_err)?
+    } else {
+        0.0
+    };
+    let tip = solver.position(mesh.tip);
+    let max_principal_stress = stresses
+        .iter()
+        .map(max_principal)
+        .filter(|v| v.is_finite())
+        .fold(f64::NEG_INFINITY, f64::max);
+    let length = |pts: &mut dyn Iterator<Item = Vector3<f64>>| {
+        let v: Vec<Vector3<f64>> = pts.collect();
+        v.windows(2).map(|w| (w[1] - w[0]).norm()).sum::<f64>()
+    };
+    let l0 = length(&mut mesh.bottom_line.iter().map(|n| mesh.model.nodes[*n]));
+    let l1 = length(&mut mesh.bottom_line.iter().map(|n| solver.position(*n)));
+    let blocked_force_n = blocked.then(|| {
+        let r = solver.reactions();
+        // Support force on the half actuator (+z), doubled: the tip's push on the support.
+        2.0 * mesh.tip_support.iter().map(|n| r[3 * n + 2]).sum::<f64>()
+    });
+    Ok(StepResult {
+        pressure_kpa,
+        radius_mm: circle.radius,
+        curvature_per_m: 1000.0 * circle.curvature,
+        bending_angle_deg: angle,
+        tip_x_mm: tip.x,
+        tip_z_mm: tip.z,
+        max_principal_stress_mpa: max_principal_stress,
+        safety_factor: mesh.tensile_strength_mpa / max_principal_stress.max(1e-300),
+        bottom_elongation_pct: 100.0 * (l1 / l0 - 1.0),
+        cavity_volume_mm3: 2.0 * solver.cavity_volume(),
+        newton_iterations,
+        blocked_force_n,
+        markers_mm: markers.iter().map(|p| (p.x, p.y)).collect(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fem::actuator::{build_mesh, ActuatorConfig, LoadConfig, MeshConfig};
+
+    fn coarse(gravity: bool) -> ActuatorMesh {
+        build_mesh(&ActuatorConfig {
+            mesh: MeshConfig { size_mm: 2.5 },
+            load: LoadConfig {
+                gravity,
+                ..Default::default()
+            },
+            ..Default::default()
+        })
+        .unwrap()
+    }
+
+    #[test]
+    fn zero_pressure_without_gravity_leaves_the_actuator_straight() {
+        let mesh = coarse(false);
+        let ramp = run_ramp(&mesh, &[0.0], &RampSettings::default(), |_, _| {}).unwrap();
+        assert!(ramp.failure.is_none());
+        let s = &ramp.steps[0];
+        assert!(s.curvature_per_m < 1e-9, "{s:?}");
+        assert!(s.bending_angle_deg.abs() < 1e-9 && s.tip_z_mm.abs() < 1e-9);
+        assert!(s.bottom_elongation_pct.abs() < 1e-9);
+    }
+
+    #[test]
+    fn radius_falls_and_blocked_force_rises_with_pressure() {
+        let mesh = coarse(true);
+        let p = [0.0, 20.0, 40.0, 60.0];
+        let free = run_ramp(&mesh, &p, &RampSettings::default(), |_, _| {}).unwrap();
+        assert!(free.failure.is_none(), "{:?}", free.failure);
+        let r: Vec<f64> = free.steps.iter().map(|s| s.radius_mm).collect();
+        // Gravity alone sags the soft cantilever a lot (the free length carries ~0.3 N on
+        // a bending stiffness of a few thousand N mm²: tens of mm); pressure bends it on.
+        assert!(free.steps[0].tip_z_mm < -10.0, "{:?}", free.steps[0]);
+        assert!(r.windows(2).all(|w| w[1] < w[0]), "radius must fall: {r:?}");
+        let angles: Vec<f64> = free.steps.iter().map(|s| s.bending_angle_deg).collect();
+        assert!(angles.windows(2).all(|w| w[1] > w[0]), "{angles:?}");
+        assert!(free.steps.iter().all(|s| s.tip_z_mm < 0.0), "bends towards -z");
+        let v: Vec<f64> = free.steps.iter().map(|s| s.cavity_volume_mm3).collect();
+        assert!(v.windows(2).all(|w| w[1] > w[0]), "cavity inflates: {v:?}");
+        let blocked = run_ramp(
+            &mesh,
+            &p,
+            &RampSettings {
+                blocked: true,
+                ..Default::default()
+            },
+            |_, _| {},
+        )
+        .unwrap();
+        let f: Vec<f64> = blocked.steps.iter().map(|s| s.blocked_force_n.unwrap()).collect();
+        assert!(f.windows(2).all(|w| w[1] > w[0]) && f[3] > 0.0, "{f:?}");
+        // At zero pressure the support carries a share of the weight only: the body is
+        // about 3.2e4 mm³ of 1.08 g/cm³ silicone, 0.34 N in all (3/8 of the free part
+        // for a propped cantilever).
+        assert!(f[0] > 0.0 && f[0] < 0.3, "{f:?}");
+    }
+}
