@@ -13,6 +13,7 @@ fn main() -> ExitCode {
         cli::Command::Scale(a) => cli::scale::run(a),
         cli::Command::Process(a) => cli::process::run(a),
         cli::Command::Simulate(a) => cli::simulate::run(a),
+        cli::Command::Render(a) => cli::render::run(a),
     };
     match result {
         Ok(code) => ExitCode::from(code),

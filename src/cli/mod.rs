@@ -13,6 +13,7 @@ pub(crate) use out;
 
 pub mod calibrate;
 pub mod process;
+pub mod render;
 pub mod scale;
 pub mod simulate;
 
@@ -51,6 +52,8 @@ pub enum Command {
     Process(process::ProcessArgs),
     /// Simulate the actuator under a pressure ramp with the finite-element model.
     Simulate(simulate::SimulateArgs),
+    /// Render the simulated actuator through a calibrated camera as a session of videos.
+    Render(render::RenderArgs),
 }
 
 /// A progress bar on stderr (drawn only when stderr is a terminal).

@@ -6,7 +6,7 @@ use std::time::Instant;
 use anyhow::{anyhow, Context, Result};
 use bendscope::fem::actuator::{build_mesh, parse_range, ActuatorConfig, ActuatorMesh};
 use bendscope::fem::material::MaterialPreset;
-use bendscope::fem::simulate::{run_ramp, Ramp, RampSettings, StepResult};
+use bendscope::fem::simulate::{run_ramp, Ramp, RampSettings, SideFaceFile, StepResult};
 use bendscope::fem::vtu::{write_pvd, write_vtu};
 use bendscope::io::write_atomic;
 use bendscope::report::{plot_xy, write_json, write_table_csv, NumColumn, Series};
@@ -23,7 +23,7 @@ pub const BOTTOM_ELONGATION_LIMIT_PCT: f64 = 10.0;
 /// Simulate the actuator under a pressure ramp (FEM).
 #[derive(Debug, Args)]
 #[command(after_help = "Outputs in OUT: steps.csv (one row per converged pressure), markers.csv (marker x, z per step), \
-vtu/ + actuator.pvd (deformed mesh, displacement and stress, for ParaView), plots/, config.toml (the resolved \
+side_face.json (the filmed face per step, input of bendscope render), vtu/ + actuator.pvd (deformed mesh, displacement and stress, for ParaView), plots/, config.toml (the resolved \
 actuator), summary.json; with --blocked force.csv; with --sweep sweep.csv.
 Config sections: [geometry] chambers b i f m p r c g d e l n top_wall roof (mm, method.md §4 names); \
 [material] preset c1 c2 c3 bulk_modulus_mpa density_g_cm3 tensile_strength_mpa; [mesh] size_mm; \
@@ -142,7 +142,8 @@ pub fn run(args: &SimulateArgs) -> Result<u8> {
         mesh.model.pressure_faces.len()
     );
     let started = Instant::now();
-    let (ramp, vtu_files) = ramp_with_outputs(&mesh, &pressures, false, (!args.no_vtu).then_some(out.as_path()))?;
+    let (ramp, vtu_files, face) = ramp_with_outputs(&mesh, &pressures, false, (!args.no_vtu).then_some(out.as_path()))?;
+    write_json(&out.join("side_face.json"), &face)?;
     let seconds = started.elapsed().as_secs_f64();
     write_steps(out, &ramp.steps)?;
     if !vtu_files.is_empty() {
@@ -214,18 +215,20 @@ fn ramp_with_outputs(
     pressures: &[f64],
     blocked: bool,
     vtu_dir: Option<&Path>,
-) -> Result<(Ramp, Vec<(f64, String)>)> {
+) -> Result<(Ramp, Vec<(f64, String)>, SideFaceFile)> {
     let bar = super::progress_bar(
         pressures.len() as u64,
         if blocked { "blocked tip" } else { "pressure steps" },
     );
     let mut files = Vec::new();
     let mut io_error = None;
+    let (mut face, face_nodes) = SideFaceFile::new(mesh);
     let settings = RampSettings {
         blocked,
         ..Default::default()
     };
     let ramp = run_ramp(mesh, pressures, &settings, |step, fields| {
+        face.push(mesh, &face_nodes, step, fields.displacement);
         if let Some(dir) = vtu_dir {
             let name = format!("vtu/step_{:03}.vtu", files.len() + 1);
             match write_vtu(&dir.join(&name), &mesh.model.nodes, &mesh.model.elements, fields.displacement, fields.stresses) {
@@ -241,7 +244,7 @@ fn ramp_with_outputs(
     if let Some(e) = io_error {
         return Err(anyhow!("cannot write the VTK files: {e}"));
     }
-    Ok((ramp, files))
+    Ok((ramp, files, face))
 }
 
 fn col(name: &str, steps: &[StepResult], f: fn(&StepResult) -> f64) -> NumColumn {

@@ -494,6 +494,10 @@ pub struct ActuatorMesh {
     pub bottom_line: Vec<usize>,
     /// Tensile strength, MPa.
     pub tensile_strength_mpa: f64,
+    /// The side face y = i/2 (the filmed face): quads of nodes, counter-clockwise in x-z.
+    pub side_face: Vec<[usize; 4]>,
+    /// Clamped length (first chamber), mm.
+    pub clamp_mm: f64,
 }
 
 /// Coordinate lines through `features` (sorted, deduplicated), each interval cut into
@@ -713,6 +717,11 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
         .map(|x| at(*x, 0.5 * g.i, g.marker_z()))
         .collect();
     let tip = at(g.b, 0.0, 0.0);
+    let side_face: Vec<[usize; 4]> = (0..nz)
+        .flat_map(|k| (0..nx).map(move |i| (i, k)))
+        .filter(|(i, k)| cells[cell_id(*i, ny - 1, *k)] == Cell::Solid)
+        .map(|(i, k)| [(i, k), (i + 1, k), (i + 1, k + 1), (i, k + 1)].map(|(a, c)| node_of[grid_id(a, ny, c)]))
+        .collect();
     let tip_support: Vec<usize> = (0..=ny).map(|j| node_of[grid_id(nx, j, 0)]).collect();
     let bottom_line: Vec<usize> = (0..=nx)
         .filter(|i| xs[*i] >= g.c - 1e-9)
@@ -723,6 +732,7 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
         .chain(&tip_support)
         .chain(&bottom_line)
         .chain(std::iter::once(&tip))
+        .chain(side_face.iter().flatten())
         .any(|n| *n == usize::MAX)
     {
         return Err(FemError::Model {
@@ -744,6 +754,8 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
         tip_support,
         bottom_line,
         tensile_strength_mpa: cfg.material.tensile_strength_mpa,
+        side_face,
+        clamp_mm: g.c,
     })
 }
 

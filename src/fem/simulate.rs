@@ -8,7 +8,7 @@
 //! definitions.
 
 use nalgebra::{Matrix3, Point2, Vector3};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::actuator::ActuatorMesh;
 use super::solve::{LoadState, NewtonSettings, Solver};
@@ -45,6 +45,76 @@ pub struct StepResult {
     pub blocked_force_n: Option<f64>,
     /// Marker positions (x, z), mm, from the clamp to the tip.
     pub markers_mm: Vec<(f64, f64)>,
+}
+
+/// `side_face.json`: the filmed side face (y = i/2) of the actuator at every converged
+/// step, in the x-z plane; the input of `bendscope render`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SideFaceFile {
+    /// Quads, indices into every step's `points_mm`, counter-clockwise in x-z.
+    pub quads: Vec<[usize; 4]>,
+    /// Clamped length from x = 0, mm.
+    pub clamp_mm: f64,
+    /// The steps.
+    pub steps: Vec<SideFaceStep>,
+}
+
+/// One step of [`SideFaceFile`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SideFaceStep {
+    /// Pressure, kPa.
+    pub pressure_kpa: f64,
+    /// Face points (x, z), mm.
+    pub points_mm: Vec<[f64; 2]>,
+    /// Marker points (x, z), mm, from the clamp to the tip.
+    pub markers_mm: Vec<[f64; 2]>,
+    /// Pratt radius through the markers, mm.
+    pub radius_mm: f64,
+    /// Bending angle, degrees.
+    pub bending_angle_deg: f64,
+}
+
+impl SideFaceFile {
+    /// The face of `mesh`, no steps yet; returns it with the mesh nodes it lists.
+    pub fn new(mesh: &ActuatorMesh) -> (Self, Vec<usize>) {
+        let mut index = std::collections::HashMap::new();
+        let mut nodes = Vec::new();
+        let quads = mesh
+            .side_face
+            .iter()
+            .map(|q| {
+                q.map(|n| {
+                    *index.entry(n).or_insert_with(|| {
+                        nodes.push(n);
+                        nodes.len() - 1
+                    })
+                })
+            })
+            .collect();
+        (
+            Self {
+                quads,
+                clamp_mm: mesh.clamp_mm,
+                steps: Vec::new(),
+            },
+            nodes,
+        )
+    }
+
+    /// Appends a converged step (`nodes` from [`Self::new`]).
+    pub fn push(&mut self, mesh: &ActuatorMesh, nodes: &[usize], step: &StepResult, displacement: &[f64]) {
+        let at = |n: usize| {
+            let x = mesh.model.nodes[n];
+            [x.x + displacement[3 * n], x.z + displacement[3 * n + 2]]
+        };
+        self.steps.push(SideFaceStep {
+            pressure_kpa: step.pressure_kpa,
+            points_mm: nodes.iter().map(|n| at(*n)).collect(),
+            markers_mm: step.markers_mm.iter().map(|(x, z)| [*x, *z]).collect(),
+            radius_mm: step.radius_mm,
+            bending_angle_deg: step.bending_angle_deg,
+        });
+    }
 }
 
 /// State of a converged step, for field output.

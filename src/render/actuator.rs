@@ -29,6 +29,18 @@ pub const CLAMP_RGB: [f64; 3] = [62.0, 62.0, 68.0];
 /// Distracting object colour.
 pub const DISTRACTOR_RGB: [f64; 3] = [205.0, 22.0, 26.0];
 
+/// A scene in the actuator plane: the colour of a plane point (mm) before lighting.
+pub trait Shade {
+    /// RGB of plane point `p`.
+    fn shade(&self, p: Point2<f64>) -> [f64; 3];
+}
+
+impl Shade for ArcScene {
+    fn shade(&self, p: Point2<f64>) -> [f64; 3] {
+        ArcScene::shade(self, p)
+    }
+}
+
 /// The scene in actuator-plane coordinates (mm; x along the rest actuator from the clamp,
 /// y down in the image, bending towards -y).
 #[derive(Debug, Clone, PartialEq)]
@@ -251,9 +263,9 @@ impl PlaneSampler {
     }
 
     /// Renders one frame of `scene`, shifted in the plane by `shift_mm` (per-frame jitter).
-    pub fn render(
+    pub fn render<S: Shade + Sync>(
         &self,
-        scene: &ArcScene,
+        scene: &S,
         shift_mm: [f64; 2],
         look: &FrameLook,
         seed: u64,

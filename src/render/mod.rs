@@ -9,6 +9,7 @@
 
 pub mod actuator;
 pub mod board;
+pub mod fem_scene;
 pub mod fixtures;
 pub mod rng;
 pub mod session;
@@ -21,6 +22,21 @@ pub enum RenderError {
     /// The camera model failed (OpenCV).
     #[error("camera model: {0}")]
     Camera(#[from] crate::calib::CalibError),
+    /// The simulated actuator does not fit in the view.
+    #[error("the actuator ({width_mm:.0} x {height_mm:.0} mm over all steps) does not fit in the camera's view at {distance_mm} mm: use --distance-mm {suggested_mm:.0} or more")]
+    DoesNotFit {
+        /// Extent along x, mm.
+        width_mm: f64,
+        /// Extent along y, mm.
+        height_mm: f64,
+        /// Distance asked for, mm.
+        distance_mm: f64,
+        /// A distance at which it fits, mm.
+        suggested_mm: f64,
+    },
+    /// The FEM output cannot be rendered.
+    #[error("{0}")]
+    Fem(String),
     /// No pose put the board fully inside the frame.
     #[error("could not place the board inside the {width}x{height} frame after {tries} tries: use a smaller board or a wider lens")]
     NoPose {

@@ -7,7 +7,7 @@ use std::path::Path;
 use nalgebra::{Point2, Rotation3, Vector3};
 use serde::{Deserialize, Serialize};
 
-use super::actuator::{ArcScene, FrameLook, PlaneSampler};
+use super::actuator::{ArcScene, FrameLook, PlaneSampler, Shade};
 use super::board::{render_board_photo, BoardPose, PhotoSettings};
 use super::fixtures::{write_calibration_set, write_jpeg, CalibrationSetSpec, CameraTruth};
 use super::rng::SplitMix64;
@@ -77,8 +77,48 @@ pub fn reference_marker_positions_mm() -> Vec<f64> {
     ArcScene::reference_actuator(0.0, Point2::origin()).marker_s_mm
 }
 
-/// Renders a whole session into `dir`.
+/// Renders a whole session into `dir`: a circular-arc actuator whose radius follows
+/// `spec.radius_law`.
 pub fn write_session(dir: &Path, spec: &SessionSpec) -> Result<SessionTruth, RenderError> {
+    let videos = spec
+        .pressures_kpa
+        .iter()
+        .enumerate()
+        .map(|(i, &p)| {
+            let (a, b, c) = spec.radius_law;
+            let radius = a * p.powf(b) + c;
+            let scene = ArcScene {
+                distractor: spec.distractor.then(|| (Point2::new(75.0, 55.0), 8.0)),
+                ..ArcScene::reference_actuator(1.0 / radius, Point2::new(-50.0, 22.0))
+            };
+            let truth = VideoTruth {
+                file: video_name(i),
+                pressure_kpa: p,
+                radius_mm: radius,
+                bending_angle_deg: scene.bending_angle_deg(),
+                markers_mm: scene.markers_mm().iter().map(|m| [m.x, m.y]).collect(),
+            };
+            (scene, truth)
+        })
+        .collect();
+    render_session(dir, spec, videos, &|_| {})
+}
+
+/// GoPro-like name of the i-th video of a session.
+pub fn video_name(i: usize) -> String {
+    format!("GX01{:04}.MP4", 101 + i)
+}
+
+/// Renders `videos` (a scene and its truth each) with the rig of `spec` (camera,
+/// distance, frames, calibration photos, scale photo, look, seed; `pressures_kpa`,
+/// `radius_law` and `distractor` are not used) into `dir`; `progress` sees the index of
+/// each finished video.
+pub fn render_session<S: Shade + Sync>(
+    dir: &Path,
+    spec: &SessionSpec,
+    videos: Vec<(S, VideoTruth)>,
+    progress: &dyn Fn(usize),
+) -> Result<SessionTruth, RenderError> {
     let err = |e: std::io::Error| {
         RenderError::Camera(crate::calib::CalibError::Io {
             path: dir.to_path_buf(),
@@ -130,16 +170,10 @@ pub fn write_session(dir: &Path, spec: &SessionSpec) -> Result<SessionTruth, Ren
     };
     let sampler = PlaneSampler::new(&spec.camera, &plane, spec.supersample, spec.seed)?;
     let mut rng = SplitMix64::new(spec.seed ^ 0xACE);
-    let mut videos = Vec::new();
+    let mut truths = Vec::new();
     let mut manifest = String::from("file,pressure_kpa\n");
-    for (i, &p) in spec.pressures_kpa.iter().enumerate() {
-        let (a, b, c) = spec.radius_law;
-        let radius = a * p.powf(b) + c;
-        let scene = ArcScene {
-            distractor: spec.distractor.then(|| (Point2::new(75.0, 55.0), 8.0)),
-            ..ArcScene::reference_actuator(1.0 / radius, Point2::new(-50.0, 22.0))
-        };
-        let file = format!("GX01{:04}.MP4", 101 + i);
+    for (i, (scene, truth)) in videos.into_iter().enumerate() {
+        let file = truth.file.clone();
         let (w, h) = (spec.camera.image_width, spec.camera.image_height);
         let mut writer = VideoWriter::create(
             &dir.join(&file),
@@ -167,14 +201,9 @@ pub fn write_session(dir: &Path, spec: &SessionSpec) -> Result<SessionTruth, Ren
         writer
             .finish()
             .map_err(|e| err(std::io::Error::other(e.to_string())))?;
-        manifest.push_str(&format!("{file},{p}\n"));
-        videos.push(VideoTruth {
-            file,
-            pressure_kpa: p,
-            radius_mm: radius,
-            bending_angle_deg: scene.bending_angle_deg(),
-            markers_mm: scene.markers_mm().iter().map(|m| [m.x, m.y]).collect(),
-        });
+        manifest.push_str(&format!("{file},{}\n", truth.pressure_kpa));
+        truths.push(truth);
+        progress(i);
     }
     write_atomic(&dir.join("pressures.csv"), manifest.as_bytes()).map_err(err)?;
     let config = format!(
@@ -186,9 +215,114 @@ pub fn write_session(dir: &Path, spec: &SessionSpec) -> Result<SessionTruth, Ren
         camera: CameraTruth::from_calibration(&spec.camera),
         distance_mm: spec.distance_mm,
         mm_per_px,
-        videos,
+        videos: truths,
     };
     let json = serde_json::to_string_pretty(&truth).map_err(|e| err(e.into()))?;
     write_atomic(&dir.join("truth.json"), json.as_bytes()).map_err(err)?;
     Ok(truth)
+}
+
+/// Room kept right of the actuator for the distracting disc, mm.
+const DISTRACTOR_ROOM_MM: f64 = 16.0;
+
+/// Margin kept between the actuator and the frame border, as a fraction of the frame.
+const VIEW_MARGIN: f64 = 0.04;
+
+fn fits(und: &Undistorter, w: u32, h: u32, corners: &[Point2<f64>], distance_mm: f64) -> Result<bool, RenderError> {
+    let pts: Vec<Vector3<f64>> = corners
+        .iter()
+        .map(|c| Vector3::new(c.x, c.y, distance_mm))
+        .collect();
+    let px = und.project(&pts)?;
+    let (mx, my) = (VIEW_MARGIN * w as f64, VIEW_MARGIN * h as f64);
+    Ok(px.iter().all(|p| {
+        p.x.is_finite() && p.y.is_finite() && p.x >= mx && p.x <= w as f64 - mx && p.y >= my && p.y <= h as f64 - my
+    }))
+}
+
+/// Places the simulated actuator in the plane so that the bounding box of all its steps
+/// (and the clamp) is centred on the optical axis; checks that it fits the view at
+/// `distance_mm` (fronto-parallel plane). Returns the plane position of the FEM origin.
+pub fn place_fem_actuator(
+    face: &crate::fem::simulate::SideFaceFile,
+    camera: &Calibration,
+    distance_mm: f64,
+) -> Result<Point2<f64>, RenderError> {
+    use super::fem_scene::scene_bounds;
+    if face.steps.is_empty() || face.quads.is_empty() {
+        return Err(RenderError::Fem("the FEM output has no converged step to render".into()));
+    }
+    let (lo, mut hi) = scene_bounds(face, Point2::origin());
+    // Room on the right for the optional distracting red disc.
+    hi.x += DISTRACTOR_ROOM_MM;
+    let centre = Point2::new(0.5 * (lo.x + hi.x), 0.5 * (lo.y + hi.y));
+    let origin = Point2::new(-centre.x, -centre.y);
+    let (hw, hh) = (0.5 * (hi.x - lo.x), 0.5 * (hi.y - lo.y));
+    let corners = [
+        Point2::new(-hw, -hh),
+        Point2::new(hw, -hh),
+        Point2::new(hw, hh),
+        Point2::new(-hw, hh),
+        Point2::new(0.0, -hh),
+        Point2::new(0.0, hh),
+        Point2::new(-hw, 0.0),
+        Point2::new(hw, 0.0),
+    ];
+    let und = Undistorter::new(camera, UndistortSettings::default())?;
+    let (w, h) = (camera.image_width, camera.image_height);
+    if fits(&und, w, h, &corners, distance_mm)? {
+        return Ok(origin);
+    }
+    let mut d = distance_mm.max(10.0);
+    for _ in 0..60 {
+        d *= 1.1;
+        if fits(&und, w, h, &corners, d)? {
+            break;
+        }
+    }
+    Err(RenderError::DoesNotFit {
+        width_mm: 2.0 * hw,
+        height_mm: 2.0 * hh,
+        distance_mm,
+        suggested_mm: (d / 10.0).ceil() * 10.0,
+    })
+}
+
+/// One scene and its truth per FEM step: marker discs of `marker_diameter_mm` on the
+/// FEM marker points; radius and bending angle of the rendered marker centres computed
+/// by the image chain's own functions, in the plane.
+pub fn fem_videos(
+    face: &crate::fem::simulate::SideFaceFile,
+    origin: Point2<f64>,
+    marker_diameter_mm: f64,
+    distractor: bool,
+) -> Result<Vec<(super::fem_scene::FemScene, VideoTruth)>, RenderError> {
+    use super::fem_scene::{scene_bounds, FemScene};
+    use crate::fit::{bending_angle_from_circle_deg, fit_circle_pratt};
+    let (lo, hi) = scene_bounds(face, origin);
+    face.steps
+        .iter()
+        .enumerate()
+        .map(|(i, step)| {
+            let mut scene = FemScene::new(face, step, origin, marker_diameter_mm);
+            if distractor {
+                scene.distractor = Some((Point2::new(hi.x + 0.5 * DISTRACTOR_ROOM_MM, 0.5 * (lo.y + hi.y)), 8.0));
+            }
+            let m = scene.markers_mm().to_vec();
+            if m.len() < 3 {
+                return Err(RenderError::Fem(format!("step {} has {} markers; need 3 or more", i + 1, m.len())));
+            }
+            let circle = fit_circle_pratt(&m).map_err(|e| RenderError::Fem(e.to_string()))?;
+            let angle = bending_angle_from_circle_deg(m[0], m[m.len() - 1], &circle)
+                .map_err(|e| RenderError::Fem(e.to_string()))?;
+            let truth = VideoTruth {
+                file: video_name(i),
+                pressure_kpa: step.pressure_kpa,
+                radius_mm: circle.radius,
+                bending_angle_deg: angle,
+                markers_mm: m.iter().map(|p| [p.x, p.y]).collect(),
+            };
+            Ok((scene, truth))
+        })
+        .collect()
 }
