@@ -19,6 +19,7 @@
 //!   uses `anyhow`.
 
 pub mod calib;
+pub mod compare;
 pub mod detect;
 pub mod fem;
 pub mod fit;

@@ -14,6 +14,8 @@ fn main() -> ExitCode {
         cli::Command::Process(a) => cli::process::run(a),
         cli::Command::Simulate(a) => cli::simulate::run(a),
         cli::Command::Render(a) => cli::render::run(a),
+        cli::Command::Compare(a) => cli::compare::run(a),
+        cli::Command::Demo(a) => cli::demo::run(a),
     };
     match result {
         Ok(code) => ExitCode::from(code),

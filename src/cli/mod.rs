@@ -12,6 +12,8 @@ macro_rules! out {
 pub(crate) use out;
 
 pub mod calibrate;
+pub mod compare;
+pub mod demo;
 pub mod process;
 pub mod render;
 pub mod scale;
@@ -54,6 +56,10 @@ pub enum Command {
     Simulate(simulate::SimulateArgs),
     /// Render the simulated actuator through a calibrated camera as a session of videos.
     Render(render::RenderArgs),
+    /// Compare measured bending (process output) with the simulation (simulate output).
+    Compare(compare::CompareArgs),
+    /// Run the whole chain on a simulated actuator: simulate, render, calibrate, process, compare.
+    Demo(demo::DemoArgs),
 }
 
 /// A progress bar on stderr (drawn only when stderr is a terminal).
