@@ -64,6 +64,11 @@ struct Cached {
     fingerprint: u64,
     video: VideoRow,
     frames: Vec<CachedFrame>,
+    /// The clamped-end marker (px) of the video's last measured frame: where the next
+    /// video's marker chain starts (an actuator curled past 180 degrees brings its tip
+    /// nearer the clamp side than its clamped end).
+    #[serde(default)]
+    clamp_marker_px: Option<(f64, f64)>,
 }
 
 #[derive(Debug, Serialize, Deserialize)]
@@ -274,6 +279,7 @@ fn process_session(session: &Path, out: &Path, args: &ProcessArgs) -> Result<Ses
     let mut videos: Vec<VideoRow> = Vec::new();
     let mut frames: Vec<FrameRow> = Vec::new();
     let mut per_video_frames: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
+    let mut chain_start = None;
     for entry in &manifest.entries {
         bar.set_message(entry.file.clone());
         let fp = fingerprint(session, entry, fingerprint_base);
@@ -295,11 +301,13 @@ fn process_session(session: &Path, out: &Path, args: &ProcessArgs) -> Result<Ses
                     &config,
                     ramp.as_ref(),
                     fp,
+                    chain_start,
                 );
                 write_json(&cache_path, &c)?;
                 c
             }
         };
+        chain_start = result.clamp_marker_px.or(chain_start);
         for f in &result.frames {
             frames.push(FrameRow {
                 file: entry.file.clone(),
@@ -546,12 +554,16 @@ fn measure_video(
     config: &SessionConfig,
     ramp: Option<&PressureLog>,
     fingerprint: u64,
+    chain_start: Option<(f64, f64)>,
 ) -> Cached {
     let mut rows: Vec<CachedFrame> = Vec::new();
     let mut measurements = Vec::new();
     let mut problems: Vec<String> = Vec::new();
     let mut overlay_done = false;
-    let mut start = ChainStart::Side(config.detect.clamp_side);
+    let mut start = match chain_start {
+        Some((x, y)) => ChainStart::Near(nalgebra::Point2::new(x, y)),
+        None => ChainStart::Side(config.detect.clamp_side),
+    };
     let mut time_offset = 0.0;
     let mut index_offset = 0u64;
     for file in std::iter::once(&entry.file).chain(&entry.chapters) {
@@ -767,7 +779,12 @@ fn measure_video(
     } else {
         format!("partial: {}", problems.join("; "))
     };
+    let clamp_marker_px = match start {
+        ChainStart::Near(p) => Some((p.x, p.y)),
+        ChainStart::Side(_) => chain_start,
+    };
     Cached {
+        clamp_marker_px,
         fingerprint,
         video: VideoRow {
             file: entry.file.clone(),

@@ -1,0 +1,88 @@
+//! The whole image chain on ground truth from the FEM: simulate -> render through a
+//! fisheye camera (noise, blur, vignetting, jitter, a distracting red disc) -> process
+//! (calibrating from the rendered board photos) -> radius and angle against truth.json.
+
+mod common;
+
+use std::path::Path;
+
+use bendscope::compare::read_columns;
+use bendscope::render::session::SessionTruth;
+use common::Run;
+
+fn camera() -> String {
+    common::root()
+        .join("calibration/gopro-synthetic-960x720.yaml")
+        .to_string_lossy()
+        .into_owned()
+}
+
+#[test]
+fn rendered_fem_session_is_measured_within_half_a_percent() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let sim = Run::new(d, &["simulate", "--mesh-size", "3", "--pressures", "30:110:40", "--no-vtu", "-o", "fem"]);
+    assert_eq!(sim.code, 0, "{sim}");
+    let cam = camera();
+    let render = Run::new(
+        d,
+        &[
+            "render", "--fem", "fem", "--calibration", &cam, "--distance-mm", "200", "--frames", "3",
+            "--distractor", "-o", "session",
+        ],
+    );
+    assert_eq!(render.code, 0, "{render}");
+    let process = Run::new(d, &["process", "session", "-o", "measured"]);
+    assert_eq!(process.code, 0, "{process}");
+    let truth: SessionTruth =
+        serde_json::from_str(&std::fs::read_to_string(d.join("session/truth.json")).unwrap()).unwrap();
+    assert_eq!(truth.videos.len(), 3);
+    let cols = read_columns(
+        &d.join("measured/per_video.csv"),
+        &["pressure_kpa", "radius_mm", "bending_angle_deg"],
+    )
+    .unwrap();
+    assert_eq!(cols[0].len(), 3, "every video measured");
+    // The truth is the FEM's own marker circle: rendering keeps its radius exactly.
+    let steps = read_columns(&d.join("fem/steps.csv"), &["pressure_kpa", "radius_mm"]).unwrap();
+    for (k, v) in truth.videos.iter().enumerate() {
+        assert!((v.radius_mm / steps[1][k] - 1.0).abs() < 1e-6, "{} vs {}", v.radius_mm, steps[1][k]);
+        let err = cols[1][k] / v.radius_mm - 1.0;
+        let angle = cols[2][k] - v.bending_angle_deg;
+        eprintln!(
+            "{} kPa: radius {:.3} vs {:.3} mm ({:+.3}%), angle {:.2} vs {:.2} deg",
+            v.pressure_kpa, cols[1][k], v.radius_mm, 100.0 * err, cols[2][k], v.bending_angle_deg
+        );
+        assert!(err.abs() < 0.005, "radius at {} kPa: {err}", v.pressure_kpa);
+        assert!(angle.abs() < 0.5, "angle at {} kPa: {angle}", v.pressure_kpa);
+    }
+    // compare: the measured curves against the simulated ones.
+    let cmp = Run::new(d, &["compare", "--measured", "measured", "--fem", "fem", "-o", "report"]);
+    assert_eq!(cmp.code, 0, "{cmp}");
+    let c = read_columns(&d.join("report/compare.csv"), &["radius_mm_deviation"]).unwrap();
+    assert!(c[0].iter().all(|dev| dev.abs() < 0.5), "{:?}", c[0]);
+    assert!(d.join("report/plots/radius.png").is_file());
+}
+
+#[test]
+fn render_and_compare_refuse_bad_input_in_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir_all(d.join("empty")).unwrap();
+    let cam = camera();
+    Run::new(d, &["render", "--fem", "empty", "--calibration", &cam]).assert_bad_input(&["side_face.json", "simulate"]);
+    let sim = Run::new(d, &["simulate", "--mesh-size", "4", "--pressures", "20", "--no-vtu", "-o", "fem"]);
+    assert_eq!(sim.code, 0, "{sim}");
+    Run::new(d, &["render", "--fem", "fem", "--calibration", &cam, "--distance-mm", "40"])
+        .assert_bad_input(&["does not fit", "--distance-mm"]);
+    Run::new(d, &["render", "--fem", "fem", "--calibration", "fem/steps.csv"]).assert_bad_input(&["steps.csv"]);
+    write(d, "measured/per_video.csv", "file,pressure_kpa,radius_mm,curvature_per_m,bending_angle_deg\na,150,40,25,100\nb,160,38,26,105\nc,170,36,27,110\nd,180,35,28,112\n");
+    Run::new(d, &["compare", "--measured", "measured", "--fem", "fem"]).assert_bad_input(&["do not overlap", "--pressures"]);
+    Run::new(d, &["compare", "--measured", "fem", "--fem", "fem"]).assert_bad_input(&["per_video.csv", "process"]);
+}
+
+fn write(dir: &Path, rel: &str, text: &str) {
+    let p = dir.join(rel);
+    std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+    std::fs::write(p, text).unwrap();
+}
