@@ -65,7 +65,8 @@ pub fn run(args: &DemoArgs) -> Result<u8> {
     write_calibration(&camera_path, &camera)?;
     render::run(&render::RenderArgs {
         fem: dir.join("fem"),
-        calibration: camera_path.clone(),
+        calibration: Some(camera_path.clone()),
+        gopro_like: None,
         distance_mm: 200.0,
         output: dir.join("session"),
         frames: 3,

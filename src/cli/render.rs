@@ -25,8 +25,11 @@ pub struct RenderArgs {
     #[arg(long, value_name = "FEM_OUT")]
     pub fem: PathBuf,
     /// Camera calibration (YAML from `bendscope calibrate`).
-    #[arg(long, value_name = "CAL.yaml")]
-    pub calibration: PathBuf,
+    #[arg(long, value_name = "CAL.yaml", required_unless_present = "gopro_like")]
+    pub calibration: Option<PathBuf>,
+    /// Instead of a calibration: the built-in GoPro-like fisheye at this size, e.g. 1920x1080.
+    #[arg(long, value_name = "WxH", conflicts_with = "calibration")]
+    pub gopro_like: Option<String>,
     /// Distance of the actuator plane from the camera, mm.
     #[arg(long, value_name = "MM", default_value_t = 260.0, allow_hyphen_values = true)]
     pub distance_mm: f64,
@@ -112,8 +115,21 @@ pub fn render_fem_session(face: &SideFaceFile, camera: &Calibration, out: &Path,
 /// Runs `bendscope render`.
 pub fn run(args: &RenderArgs) -> Result<u8> {
     let face = read_side_face(&args.fem)?;
-    let camera = read_calibration(&args.calibration)
-        .with_context(|| format!("cannot use {} as the camera", args.calibration.display()))?;
+    let camera = match (&args.calibration, &args.gopro_like) {
+        (Some(path), _) => read_calibration(path)
+            .with_context(|| format!("cannot use {} as the camera", path.display()))?,
+        (None, Some(size)) => {
+            let parsed = size
+                .split_once(['x', 'X'])
+                .and_then(|(w, h)| Some((w.trim().parse::<u32>().ok()?, h.trim().parse::<u32>().ok()?)))
+                .filter(|(w, h)| (64..=8192).contains(w) && (64..=8192).contains(h));
+            let Some((w, h)) = parsed else {
+                return Err(anyhow!("--gopro-like '{size}': expected WIDTHxHEIGHT, e.g. 1920x1080"));
+            };
+            bendscope::render::fixtures::gopro_like_camera(w, h)
+        }
+        (None, None) => return Err(anyhow!("give --calibration CAL.yaml or --gopro-like WxH")),
+    };
     let started = Instant::now();
     let truth = render_fem_session(&face, &camera, &args.output, args)?;
     let frames = truth.videos.len() * args.frames;

@@ -1,10 +1,20 @@
 //! Finite-element model of the PneuNets actuator.
 //!
-//! So far: [`material`], the Yeoh hyperelastic silicone (neo-Hookean as a special case)
-//! with an isochoric/volumetric split, its first Piola stress and consistent tangent,
-//! verified against the closed-form uniaxial and equibiaxial stresses of method.md §5
-//! and by finite differences. Elements, the pressure load, the Newton solver and the
-//! actuator geometry build on it.
+//! Written here rather than taken from a crate: no Rust FEM library offers a nearly
+//! incompressible finite-strain solid with follower pressure loads; the linear algebra
+//! is faer's (sparse LDLᵀ), the small matrices nalgebra's.
+//!
+//! Data flows: [`material`] (Yeoh silicone, isochoric/volumetric split, stress and
+//! tangent) -> [`hex`] (Q1/P0 mean-dilatation hexahedron) and [`pressure`] (cavity
+//! faces, follower pressure as −p V) -> [`solve`] (Newton on the three-field form,
+//! adaptive load steps) -> [`actuator`] (the parametric PneuNets geometry and its half
+//! mesh) -> [`simulate`] (the pressure ramp and the quantities read off each step) and
+//! [`vtu`] (ParaView files).
+//!
+//! Verified (tests): Yeoh uniaxial and equibiaxial stress against method.md §5; stress,
+//! tangent, pressure force and load stiffness against finite differences; the uniaxial
+//! block exactly; the plane-strain thick cylinder against the analytic inflation
+//! pressure; Cook's membrane against its reference tip displacement.
 
 pub mod actuator;
 pub mod hex;
