@@ -1,6 +1,7 @@
 //! The whole image chain on ground truth from the FEM: simulate -> render through a
 //! fisheye camera (noise, blur, vignetting, jitter, a distracting red disc) -> process
-//! (calibrating from the rendered board photos) -> radius and angle against truth.json.
+//! (calibrating from the rendered board photos) -> radius and angle against truth.json;
+//! and the RGB-D recording of the same steps.
 
 mod common;
 
@@ -28,7 +29,7 @@ fn rendered_fem_session_is_measured_within_half_a_percent() {
         d,
         &[
             "render", "--fem", "fem", "--calibration", &cam, "--distance-mm", "200", "--frames", "3",
-            "--distractor", "-o", "session",
+            "--distractor", "--rgbd", "-o", "session",
         ],
     );
     assert_eq!(render.code, 0, "{render}");
@@ -55,6 +56,22 @@ fn rendered_fem_session_is_measured_within_half_a_percent() {
         );
         assert!(err.abs() < 0.005, "radius at {} kPa: {err}", v.pressure_kpa);
         assert!(angle.abs() < 0.5, "angle at {} kPa: {angle}", v.pressure_kpa);
+    }
+    // The RGB-D recording of the same steps (plane tilted 15 degrees, mm from depth).
+    let rgbd = Run::new(d, &["process", "session/rgbd", "-o", "measured-rgbd"]);
+    assert_eq!(rgbd.code, 0, "{rgbd}");
+    let rows = read_columns(
+        &d.join("measured-rgbd/per_video.csv"),
+        &["pressure_kpa", "radius_mm", "bending_angle_deg"],
+    )
+    .unwrap();
+    assert_eq!(rows[0].len(), 3, "one row per pressure step");
+    for (k, v) in truth.videos.iter().enumerate() {
+        assert!((rows[0][k] - v.pressure_kpa).abs() < 1e-6);
+        let err = rows[1][k] / v.radius_mm - 1.0;
+        eprintln!("RGB-D {} kPa: radius {:+.3}%, angle {:+.2} deg", v.pressure_kpa, 100.0 * err, rows[2][k] - v.bending_angle_deg);
+        assert!(err.abs() < 0.005, "RGB-D radius at {} kPa: {err}", v.pressure_kpa);
+        assert!((rows[2][k] - v.bending_angle_deg).abs() < 0.5, "RGB-D angle at {} kPa", v.pressure_kpa);
     }
     // compare: the measured curves against the simulated ones.
     let cmp = Run::new(d, &["compare", "--measured", "measured", "--fem", "fem", "-o", "report"]);

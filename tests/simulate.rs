@@ -130,3 +130,22 @@ fn nonsense_parameters_get_one_line_naming_them() {
     Run::new(dir.path(), &["simulate", "--config", "typo.toml"]).assert_bad_input(&["typo.toml", "widht"]);
     assert!(!dir.path().join("fem-out").exists(), "nothing written on bad input");
 }
+
+#[test]
+fn radius_at_115_kpa_changes_less_than_3_percent_on_a_refined_mesh() {
+    // Mesh convergence of the reference actuator: the default mesh (2 mm) against a
+    // refined one (1.5 mm; two elements through the 2 mm side walls), gravity on.
+    let dir = tempfile::tempdir().unwrap();
+    let radius = |mesh: &str, out: &str| {
+        let run = Run::new(dir.path(), &["simulate", "--mesh-size", mesh, "--pressures", "115", "--no-vtu", "-o", out]);
+        assert_eq!(run.code, 0, "{run}");
+        let (h, rows) = read_csv(&dir.path().join(out).join("steps.csv"));
+        rows[0][col(&h, "radius_mm")]
+    };
+    let coarse = radius("2", "default");
+    let fine = radius("1.5", "refined");
+    eprintln!("radius at 115 kPa: {coarse:.3} mm (2 mm mesh), {fine:.3} mm (1.5 mm mesh)");
+    assert!((coarse / fine - 1.0).abs() < 0.03, "{coarse} vs {fine}");
+    // And the curl is that of a working PneuNets actuator: well past 90 degrees.
+    assert!(fine > 30.0 && fine < 60.0, "{fine}");
+}

@@ -75,6 +75,7 @@ pub fn run(args: &DemoArgs) -> Result<u8> {
         supersample: 3,
         distractor: false,
         clean: false,
+        rgbd: false,
         seed: 7,
     })?;
     lap("render", &mut t);

@@ -9,7 +9,9 @@ use bendscope::calib::file::read_calibration;
 use bendscope::calib::Calibration;
 use bendscope::fem::simulate::SideFaceFile;
 use bendscope::render::actuator::FrameLook;
-use bendscope::render::session::{fem_videos, place_fem_actuator, render_session, SessionSpec, SessionTruth};
+use bendscope::render::session::{
+    fem_videos, place_fem_actuator, render_session, write_fem_rgbd, RgbdSpec, SessionSpec, SessionTruth,
+};
 use clap::Args;
 
 use super::EXIT_OK;
@@ -54,6 +56,11 @@ pub struct RenderArgs {
     /// No blur, noise, vignetting or light gradient.
     #[arg(long)]
     pub clean: bool,
+    /// Also write an RGB-D recording of the same actuator into SESSION/rgbd/ (640x480
+    /// pinhole colour + aligned 16-bit depth, plane tilted 15 degrees, 3 frames per step,
+    /// pressure_log.csv, intrinsics.json): bendscope process SESSION/rgbd.
+    #[arg(long)]
+    pub rgbd: bool,
     /// Random seed (noise, jitter, board poses).
     #[arg(long, default_value_t = 7)]
     pub seed: u64,
@@ -109,6 +116,22 @@ pub fn render_fem_session(face: &SideFaceFile, camera: &Calibration, out: &Path,
     let bar = super::progress_bar(videos.len() as u64, "rendering");
     let truth = render_session(out, &spec, videos, &|_| bar.inc(1))?;
     bar.finish_and_clear();
+    if args.rgbd {
+        write_fem_rgbd(
+            &out.join("rgbd"),
+            face,
+            &RgbdSpec {
+                distance_mm: args.distance_mm,
+                tilt_deg: 15.0,
+                frames_per_step: 3,
+                fps: 10.0,
+                supersample: args.supersample.max(4),
+                marker_diameter_mm: args.marker_diameter_mm,
+                look: spec.look,
+                seed: args.seed,
+            },
+        )?;
+    }
     Ok(truth)
 }
 

@@ -572,6 +572,20 @@ pub fn solve_static(model: &Model, settings: &NewtonSettings) -> Result<NewtonRe
 mod tests {
     use super::*;
 
+    /// The hexahedron of grid cell (i, j, k) in the local node order of `hex`.
+    fn cell(id: impl Fn(usize, usize, usize) -> usize, i: usize, j: usize, k: usize) -> [usize; 8] {
+        [
+            id(i, j, k),
+            id(i + 1, j, k),
+            id(i + 1, j + 1, k),
+            id(i, j + 1, k),
+            id(i, j, k + 1),
+            id(i + 1, j, k + 1),
+            id(i + 1, j + 1, k + 1),
+            id(i, j + 1, k + 1),
+        ]
+    }
+
     /// Cook's membrane (method.md §5) as its reference values were computed: a 3D slab
     /// one element (1 mm) thick with both z faces traction-free (the reference table is
     /// that of deal.II's code-gallery example, whose u_z = 0 boundary is never applied,
@@ -605,16 +619,7 @@ mod tests {
         let mut elements = Vec::new();
         for j in 0..n {
             for i in 0..n {
-                elements.push([
-                    id(i, j, 0),
-                    id(i + 1, j, 0),
-                    id(i + 1, j + 1, 0),
-                    id(i, j + 1, 0),
-                    id(i, j, 1),
-                    id(i + 1, j, 1),
-                    id(i + 1, j + 1, 1),
-                    id(i, j + 1, 1),
-                ]);
+                elements.push(cell(id, i, j, 0));
             }
         }
         let mut fixed = vec![false; 3 * nodes.len()];
@@ -698,16 +703,7 @@ mod tests {
         for k in 0..nz {
             for j in 0..ny {
                 for i in 0..nx {
-                    elements.push([
-                        id(i, j, k),
-                        id(i + 1, j, k),
-                        id(i + 1, j + 1, k),
-                        id(i, j + 1, k),
-                        id(i, j, k + 1),
-                        id(i + 1, j, k + 1),
-                        id(i + 1, j + 1, k + 1),
-                        id(i, j + 1, k + 1),
-                    ]);
+                    elements.push(cell(id, i, j, k));
                 }
             }
         }
@@ -806,16 +802,7 @@ mod tests {
         let mut elements = Vec::new();
         for j in 0..nt {
             for i in 0..nr {
-                elements.push([
-                    id(i, j, 0),
-                    id(i + 1, j, 0),
-                    id(i + 1, j + 1, 0),
-                    id(i, j + 1, 0),
-                    id(i, j, 1),
-                    id(i + 1, j, 1),
-                    id(i + 1, j + 1, 1),
-                    id(i, j + 1, 1),
-                ]);
+                elements.push(cell(id, i, j, 0));
             }
         }
         let mut fixed = vec![false; 3 * nodes.len()];

@@ -326,3 +326,122 @@ pub fn fem_videos(
         })
         .collect()
 }
+
+/// An RGB-D recording of the simulated actuator: what to render.
+#[derive(Debug, Clone)]
+pub struct RgbdSpec {
+    /// Distance of the actuator plane on the optical axis, mm.
+    pub distance_mm: f64,
+    /// Tilt of the actuator plane about the vertical axis, degrees (depth varies along it).
+    pub tilt_deg: f64,
+    /// Frames per pressure step.
+    pub frames_per_step: usize,
+    /// Frame rate of the recording (times in pressure_log.csv).
+    pub fps: f64,
+    /// Samples per pixel side.
+    pub supersample: u32,
+    /// Marker disc diameter, mm.
+    pub marker_diameter_mm: f64,
+    /// Look of the colour frames.
+    pub look: FrameLook,
+    /// Seed.
+    pub seed: u64,
+}
+
+/// The RGB-D camera of [`write_fem_rgbd`]: a 640x480 pinhole colour camera, depth
+/// aligned to it.
+pub fn rgbd_camera() -> Calibration {
+    Calibration {
+        model: crate::calib::CameraModel::Pinhole,
+        image_width: 640,
+        image_height: 480,
+        camera_matrix: nalgebra::Matrix3::new(520.0, 0.0, 321.7, 0.0, 520.0, 238.2, 0.0, 0.0, 1.0),
+        distortion: vec![0.0; 5],
+        avg_reprojection_error: 0.0,
+        per_view_errors: vec![],
+        board: None,
+        views_used: vec![],
+        views_rejected: vec![],
+    }
+}
+
+/// Depth unit of the 16-bit depth frames, m.
+const DEPTH_SCALE_M: f64 = 0.0001;
+
+/// Writes an RGB-D session of the simulated actuator into `dir`: `color/` and 16-bit
+/// `depth/` PNG frames (each pressure step held for `frames_per_step` frames),
+/// `intrinsics.json`, `pressure_log.csv` and `truth.json` (the truths of the steps).
+pub fn write_fem_rgbd(
+    dir: &Path,
+    face: &crate::fem::simulate::SideFaceFile,
+    spec: &RgbdSpec,
+) -> Result<Vec<VideoTruth>, RenderError> {
+    let err = |e: std::io::Error| {
+        RenderError::Camera(crate::calib::CalibError::Io {
+            path: dir.to_path_buf(),
+            source: e,
+        })
+    };
+    let camera = rgbd_camera();
+    let origin = place_fem_actuator(face, &camera, spec.distance_mm)?;
+    let videos = fem_videos(face, origin, spec.marker_diameter_mm, false)?;
+    for sub in ["color", "depth"] {
+        std::fs::create_dir_all(dir.join(sub)).map_err(err)?;
+    }
+    let plane = BoardPose {
+        rotation: Rotation3::from_euler_angles(0.0, spec.tilt_deg.to_radians(), 0.0),
+        translation_mm: Vector3::new(0.0, 0.0, spec.distance_mm),
+    };
+    let sampler = PlaneSampler::new(&camera, &plane, spec.supersample, spec.seed)?;
+    let und = Undistorter::new(&camera, UndistortSettings::default())?;
+    let normal = plane.rotation * Vector3::z();
+    let offset = normal.dot(&plane.translation_mm);
+    let (w, h) = (camera.image_width, camera.image_height);
+    let pixels: Vec<Point2<f64>> = (0..h)
+        .flat_map(|y| (0..w).map(move |x| Point2::new(x as f64, y as f64)))
+        .collect();
+    let rays = und.rays_from_pixels(&pixels)?;
+    let depth = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_fn(w, h, |x, y| {
+        let ray = rays[(y * w + x) as usize];
+        let z_mm = offset / normal.dot(&ray) * ray.z;
+        image::Luma([(z_mm / (DEPTH_SCALE_M * 1000.0)).round().clamp(0.0, 65535.0) as u16])
+    });
+    let mut depth_png = Vec::new();
+    depth
+        .write_to(&mut std::io::Cursor::new(&mut depth_png), image::ImageFormat::Png)
+        .map_err(|e| err(std::io::Error::other(e.to_string())))?;
+    let mut log = String::from("time_s,pressure_kpa\n");
+    let mut frame = 0usize;
+    let mut truths = Vec::new();
+    for (i, (scene, mut truth)) in videos.into_iter().enumerate() {
+        let t0 = frame as f64 / spec.fps;
+        for _ in 0..spec.frames_per_step {
+            let img = sampler.render(&scene, [0.0, 0.0], &spec.look, spec.seed.wrapping_add(frame as u64));
+            let mut png = Vec::new();
+            img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+                .map_err(|e| err(std::io::Error::other(e.to_string())))?;
+            write_atomic(&dir.join(format!("color/{frame:06}.png")), &png).map_err(err)?;
+            write_atomic(&dir.join(format!("depth/{frame:06}.png")), &depth_png).map_err(err)?;
+            frame += 1;
+        }
+        let t1 = (frame - 1) as f64 / spec.fps;
+        let p = truth.pressure_kpa;
+        log.push_str(&format!("{:.4},{p}\n{:.4},{p}\n", t0 - 0.3 / spec.fps, t1 + 0.3 / spec.fps));
+        truth.file = format!("step {}", i + 1);
+        truths.push(truth);
+    }
+    write_atomic(&dir.join("pressure_log.csv"), log.as_bytes()).map_err(err)?;
+    let k = camera.camera_matrix;
+    let intrinsics = format!(
+        "{{\"width\": {w}, \"height\": {h}, \"fx\": {}, \"fy\": {}, \"cx\": {}, \"cy\": {}, \"depth_scale_m\": {DEPTH_SCALE_M}, \"fps\": {}}}\n",
+        k[(0, 0)],
+        k[(1, 1)],
+        k[(0, 2)],
+        k[(1, 2)],
+        spec.fps
+    );
+    write_atomic(&dir.join(crate::rgbd::INTRINSICS), intrinsics.as_bytes()).map_err(err)?;
+    let json = serde_json::to_string_pretty(&truths).map_err(|e| err(e.into()))?;
+    write_atomic(&dir.join("truth.json"), json.as_bytes()).map_err(err)?;
+    Ok(truths)
+}
