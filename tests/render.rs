@@ -1,5 +1,5 @@
 //! The whole image chain on ground truth from the FEM: simulate -> render through a
-//! fisheye camera (noise, blur, vignetting, jitter, a distracting red disc) -> process
+//! fisheye camera (noise, blur, vignetting, light gradient, jitter) -> process
 //! (calibrating from the rendered board photos) -> radius and angle against truth.json;
 //! and the RGB-D recording of the same steps.
 
@@ -29,7 +29,7 @@ fn rendered_fem_session_is_measured_within_half_a_percent() {
         d,
         &[
             "render", "--fem", "fem", "--calibration", &cam, "--distance-mm", "200", "--frames", "3",
-            "--distractor", "--rgbd", "-o", "session",
+            "--rgbd", "-o", "session",
         ],
     );
     assert_eq!(render.code, 0, "{render}");
