@@ -75,7 +75,9 @@ pub fn read_columns(path: &Path, names: &[&str]) -> Result<Vec<Vec<f64>>, Compar
         cols.push(v);
     }
     let n = cols.first().map(|c| c.len()).unwrap_or(0);
-    let keep: Vec<usize> = (0..n).filter(|i| cols.iter().all(|c| c[*i].is_finite())).collect();
+    let keep: Vec<usize> = (0..n)
+        .filter(|i| cols.iter().all(|c| c[*i].is_finite()))
+        .collect();
     Ok(cols
         .into_iter()
         .map(|c| keep.iter().map(|i| c[*i]).collect())
@@ -118,11 +120,17 @@ pub struct QuantityComparison {
 
 fn range(v: &[f64]) -> (f64, f64) {
     v.iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(*x), b.max(*x)))
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+            (a.min(*x), b.max(*x))
+        })
 }
 
 /// Fits both curves and compares them on the overlap of their pressure ranges.
-pub fn compare_quantity(name: &str, measured: &Curve, fem: &Curve) -> Result<QuantityComparison, CompareError> {
+pub fn compare_quantity(
+    name: &str,
+    measured: &Curve,
+    fem: &Curve,
+) -> Result<QuantityComparison, CompareError> {
     let (m0, m1) = range(&measured.pressure_kpa);
     let (f0, f1) = range(&fem.pressure_kpa);
     let (lo, hi) = (m0.max(f0), m1.min(f1));
@@ -173,15 +181,26 @@ mod tests {
         let law = |p: f64| 300.0 * p.powf(-0.45) + 5.0;
         let measured = Curve {
             pressure_kpa: vec![12.0, 27.0, 41.0, 66.0, 80.0, 97.0],
-            value: vec![12.0, 27.0, 41.0, 66.0, 80.0, 97.0].iter().map(|p| law(*p)).collect(),
+            value: vec![12.0, 27.0, 41.0, 66.0, 80.0, 97.0]
+                .iter()
+                .map(|p| law(*p))
+                .collect(),
         };
         let fem = Curve {
             pressure_kpa: (2..=23).map(|k| 5.0 * k as f64).collect(),
             value: (2..=23).map(|k| law(5.0 * k as f64)).collect(),
         };
         let c = compare_quantity("radius_mm", &measured, &fem).unwrap();
-        assert!(c.rmse < 1e-4 && c.max_abs_deviation < 1e-4, "{} {}", c.rmse, c.max_abs_deviation);
-        assert!((c.grid_kpa[0] - 12.0).abs() < 1e-12 && (c.grid_kpa[GRID_POINTS - 1] - 97.0).abs() < 1e-12);
+        assert!(
+            c.rmse < 1e-4 && c.max_abs_deviation < 1e-4,
+            "{} {}",
+            c.rmse,
+            c.max_abs_deviation
+        );
+        assert!(
+            (c.grid_kpa[0] - 12.0).abs() < 1e-12
+                && (c.grid_kpa[GRID_POINTS - 1] - 97.0).abs() < 1e-12
+        );
         // A simulated curve 2 mm above: RMSE and max deviation 2 mm.
         let shifted = Curve {
             value: fem.value.iter().map(|v| v + 2.0).collect(),
@@ -193,7 +212,12 @@ mod tests {
             pressure_kpa: vec![150.0, 160.0, 170.0, 180.0],
             value: vec![1.0, 2.0, 3.0, 4.0],
         };
-        let e = compare_quantity("radius_mm", &measured, &apart).unwrap_err().to_string();
-        assert!(e.contains("do not overlap") && e.contains("12.0-97.0"), "{e}");
+        let e = compare_quantity("radius_mm", &measured, &apart)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("do not overlap") && e.contains("12.0-97.0"),
+            "{e}"
+        );
     }
 }

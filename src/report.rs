@@ -224,7 +224,11 @@ impl NumColumn {
 }
 
 /// Writes numeric columns as CSV (polars; `precision` decimals), atomically.
-pub fn write_table_csv(path: &Path, columns: Vec<NumColumn>, precision: usize) -> Result<(), ReportError> {
+pub fn write_table_csv(
+    path: &Path,
+    columns: Vec<NumColumn>,
+    precision: usize,
+) -> Result<(), ReportError> {
     let render = |e: PolarsError| ReportError::Render {
         path: path.to_path_buf(),
         message: e.to_string(),

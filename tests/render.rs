@@ -22,21 +22,44 @@ fn camera() -> String {
 fn rendered_fem_session_is_measured_within_half_a_percent() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let sim = Run::new(d, &["simulate", "--mesh-size", "3", "--pressures", "30:110:40", "--no-vtu", "-o", "fem"]);
+    let sim = Run::new(
+        d,
+        &[
+            "simulate",
+            "--mesh-size",
+            "3",
+            "--pressures",
+            "30:110:40",
+            "--no-vtu",
+            "-o",
+            "fem",
+        ],
+    );
     assert_eq!(sim.code, 0, "{sim}");
     let cam = camera();
     let render = Run::new(
         d,
         &[
-            "render", "--fem", "fem", "--calibration", &cam, "--distance-mm", "200", "--frames", "3",
-            "--rgbd", "-o", "session",
+            "render",
+            "--fem",
+            "fem",
+            "--calibration",
+            &cam,
+            "--distance-mm",
+            "200",
+            "--frames",
+            "3",
+            "--rgbd",
+            "-o",
+            "session",
         ],
     );
     assert_eq!(render.code, 0, "{render}");
     let process = Run::new(d, &["process", "session", "-o", "measured"]);
     assert_eq!(process.code, 0, "{process}");
     let truth: SessionTruth =
-        serde_json::from_str(&std::fs::read_to_string(d.join("session/truth.json")).unwrap()).unwrap();
+        serde_json::from_str(&std::fs::read_to_string(d.join("session/truth.json")).unwrap())
+            .unwrap();
     assert_eq!(truth.videos.len(), 3);
     let cols = read_columns(
         &d.join("measured/per_video.csv"),
@@ -47,15 +70,29 @@ fn rendered_fem_session_is_measured_within_half_a_percent() {
     // The truth is the FEM's own marker circle: rendering keeps its radius exactly.
     let steps = read_columns(&d.join("fem/steps.csv"), &["pressure_kpa", "radius_mm"]).unwrap();
     for (k, v) in truth.videos.iter().enumerate() {
-        assert!((v.radius_mm / steps[1][k] - 1.0).abs() < 1e-6, "{} vs {}", v.radius_mm, steps[1][k]);
+        assert!(
+            (v.radius_mm / steps[1][k] - 1.0).abs() < 1e-6,
+            "{} vs {}",
+            v.radius_mm,
+            steps[1][k]
+        );
         let err = cols[1][k] / v.radius_mm - 1.0;
         let angle = cols[2][k] - v.bending_angle_deg;
         eprintln!(
             "{} kPa: radius {:.3} vs {:.3} mm ({:+.3}%), angle {:.2} vs {:.2} deg",
-            v.pressure_kpa, cols[1][k], v.radius_mm, 100.0 * err, cols[2][k], v.bending_angle_deg
+            v.pressure_kpa,
+            cols[1][k],
+            v.radius_mm,
+            100.0 * err,
+            cols[2][k],
+            v.bending_angle_deg
         );
         assert!(err.abs() < 0.005, "radius at {} kPa: {err}", v.pressure_kpa);
-        assert!(angle.abs() < 0.5, "angle at {} kPa: {angle}", v.pressure_kpa);
+        assert!(
+            angle.abs() < 0.5,
+            "angle at {} kPa: {angle}",
+            v.pressure_kpa
+        );
     }
     // The RGB-D recording of the same steps (plane tilted 15 degrees, mm from depth).
     let rgbd = Run::new(d, &["process", "session/rgbd", "-o", "measured-rgbd"]);
@@ -69,12 +106,36 @@ fn rendered_fem_session_is_measured_within_half_a_percent() {
     for (k, v) in truth.videos.iter().enumerate() {
         assert!((rows[0][k] - v.pressure_kpa).abs() < 1e-6);
         let err = rows[1][k] / v.radius_mm - 1.0;
-        eprintln!("RGB-D {} kPa: radius {:+.3}%, angle {:+.2} deg", v.pressure_kpa, 100.0 * err, rows[2][k] - v.bending_angle_deg);
-        assert!(err.abs() < 0.005, "RGB-D radius at {} kPa: {err}", v.pressure_kpa);
-        assert!((rows[2][k] - v.bending_angle_deg).abs() < 0.5, "RGB-D angle at {} kPa", v.pressure_kpa);
+        eprintln!(
+            "RGB-D {} kPa: radius {:+.3}%, angle {:+.2} deg",
+            v.pressure_kpa,
+            100.0 * err,
+            rows[2][k] - v.bending_angle_deg
+        );
+        assert!(
+            err.abs() < 0.005,
+            "RGB-D radius at {} kPa: {err}",
+            v.pressure_kpa
+        );
+        assert!(
+            (rows[2][k] - v.bending_angle_deg).abs() < 0.5,
+            "RGB-D angle at {} kPa",
+            v.pressure_kpa
+        );
     }
     // compare: the measured curves against the simulated ones.
-    let cmp = Run::new(d, &["compare", "--measured", "measured", "--fem", "fem", "-o", "report"]);
+    let cmp = Run::new(
+        d,
+        &[
+            "compare",
+            "--measured",
+            "measured",
+            "--fem",
+            "fem",
+            "-o",
+            "report",
+        ],
+    );
     assert_eq!(cmp.code, 0, "{cmp}");
     let c = read_columns(&d.join("report/compare.csv"), &["radius_mm_deviation"]).unwrap();
     assert!(c[0].iter().all(|dev| dev.abs() < 0.5), "{:?}", c[0]);
@@ -87,15 +148,45 @@ fn render_and_compare_refuse_bad_input_in_one_line() {
     let d = dir.path();
     std::fs::create_dir_all(d.join("empty")).unwrap();
     let cam = camera();
-    Run::new(d, &["render", "--fem", "empty", "--calibration", &cam]).assert_bad_input(&["side_face.json", "simulate"]);
-    let sim = Run::new(d, &["simulate", "--mesh-size", "4", "--pressures", "20", "--no-vtu", "-o", "fem"]);
+    Run::new(d, &["render", "--fem", "empty", "--calibration", &cam])
+        .assert_bad_input(&["side_face.json", "simulate"]);
+    let sim = Run::new(
+        d,
+        &[
+            "simulate",
+            "--mesh-size",
+            "4",
+            "--pressures",
+            "20",
+            "--no-vtu",
+            "-o",
+            "fem",
+        ],
+    );
     assert_eq!(sim.code, 0, "{sim}");
-    Run::new(d, &["render", "--fem", "fem", "--calibration", &cam, "--distance-mm", "40"])
-        .assert_bad_input(&["does not fit", "--distance-mm"]);
-    Run::new(d, &["render", "--fem", "fem", "--calibration", "fem/steps.csv"]).assert_bad_input(&["steps.csv"]);
+    Run::new(
+        d,
+        &[
+            "render",
+            "--fem",
+            "fem",
+            "--calibration",
+            &cam,
+            "--distance-mm",
+            "40",
+        ],
+    )
+    .assert_bad_input(&["does not fit", "--distance-mm"]);
+    Run::new(
+        d,
+        &["render", "--fem", "fem", "--calibration", "fem/steps.csv"],
+    )
+    .assert_bad_input(&["steps.csv"]);
     write(d, "measured/per_video.csv", "file,pressure_kpa,radius_mm,curvature_per_m,bending_angle_deg\na,150,40,25,100\nb,160,38,26,105\nc,170,36,27,110\nd,180,35,28,112\n");
-    Run::new(d, &["compare", "--measured", "measured", "--fem", "fem"]).assert_bad_input(&["do not overlap", "--pressures"]);
-    Run::new(d, &["compare", "--measured", "fem", "--fem", "fem"]).assert_bad_input(&["per_video.csv", "process"]);
+    Run::new(d, &["compare", "--measured", "measured", "--fem", "fem"])
+        .assert_bad_input(&["do not overlap", "--pressures"]);
+    Run::new(d, &["compare", "--measured", "fem", "--fem", "fem"])
+        .assert_bad_input(&["per_video.csv", "process"]);
 }
 
 fn write(dir: &Path, rel: &str, text: &str) {

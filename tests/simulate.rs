@@ -16,7 +16,11 @@ fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
         .map(str::to_string)
         .collect();
     let rows = lines
-        .map(|l| l.split(',').map(|v| v.parse::<f64>().unwrap_or(f64::NAN)).collect())
+        .map(|l| {
+            l.split(',')
+                .map(|v| v.parse::<f64>().unwrap_or(f64::NAN))
+                .collect()
+        })
         .collect();
     (header, rows)
 }
@@ -33,7 +37,16 @@ fn coarse_ramp_writes_steps_markers_fields_force_and_plots() {
     let dir = tempfile::tempdir().unwrap();
     let run = Run::new(
         dir.path(),
-        &["simulate", "--mesh-size", "3", "--pressures", "20:60:20", "--blocked", "-o", "fem"],
+        &[
+            "simulate",
+            "--mesh-size",
+            "3",
+            "--pressures",
+            "20:60:20",
+            "--blocked",
+            "-o",
+            "fem",
+        ],
     );
     assert_eq!(run.code, 0, "{run}");
     let out = dir.path().join("fem");
@@ -54,14 +67,24 @@ fn coarse_ramp_writes_steps_markers_fields_force_and_plots() {
         col(&h, name);
     }
     assert_eq!(rows.len(), 3);
-    let (p, r, k) = (col(&h, "pressure_kpa"), col(&h, "radius_mm"), col(&h, "curvature_per_m"));
+    let (p, r, k) = (
+        col(&h, "pressure_kpa"),
+        col(&h, "radius_mm"),
+        col(&h, "curvature_per_m"),
+    );
     for row in &rows {
         // curvature_per_m = 1000 / radius_mm (rounded to 4 decimals in the file).
         assert!((row[k] * row[r] / 1000.0 - 1.0).abs() < 1e-3, "{row:?}");
         let sf = row[col(&h, "safety_factor")] * row[col(&h, "max_principal_stress_mpa")];
-        assert!((sf - 3.447).abs() < 2e-3, "safety factor = 3.447 MPa / stress: {sf}");
+        assert!(
+            (sf - 3.447).abs() < 2e-3,
+            "safety factor = 3.447 MPa / stress: {sf}"
+        );
     }
-    assert_eq!(rows.iter().map(|r| r[p]).collect::<Vec<_>>(), vec![20.0, 40.0, 60.0]);
+    assert_eq!(
+        rows.iter().map(|r| r[p]).collect::<Vec<_>>(),
+        vec![20.0, 40.0, 60.0]
+    );
     assert!(rows[0][r] > rows[1][r] && rows[1][r] > rows[2][r]);
 
     // markers.csv: 8 markers, the same Pratt radius as steps.csv.
@@ -72,7 +95,12 @@ fn coarse_ramp_writes_steps_markers_fields_force_and_plots() {
             .map(|m| nalgebra::Point2::new(mrow[1 + 2 * m], mrow[2 + 2 * m]))
             .collect();
         let c = bendscope::fit::fit_circle_pratt(&pts).unwrap();
-        assert!((c.radius / srow[r] - 1.0).abs() < 1e-4, "{} vs {}", c.radius, srow[r]);
+        assert!(
+            (c.radius / srow[r] - 1.0).abs() < 1e-4,
+            "{} vs {}",
+            c.radius,
+            srow[r]
+        );
     }
 
     let (fh, frows) = read_csv(&out.join("force.csv"));
@@ -81,13 +109,31 @@ fn coarse_ramp_writes_steps_markers_fields_force_and_plots() {
     let gf = frows[2][col(&fh, "force_gf")];
     assert!((gf / (frows[2][f] * 1000.0 / 9.80665) - 1.0).abs() < 1e-3);
 
-    for file in ["vtu/step_001.vtu", "vtu/step_003.vtu", "actuator.pvd", "config.toml", "summary.json"] {
+    for file in [
+        "vtu/step_001.vtu",
+        "vtu/step_003.vtu",
+        "actuator.pvd",
+        "config.toml",
+        "summary.json",
+    ] {
         assert!(out.join(file).is_file(), "{file} missing");
     }
     let pvd = std::fs::read_to_string(out.join("actuator.pvd")).unwrap();
-    assert!(pvd.contains("timestep=\"60\" file=\"vtu/step_003.vtu\""), "{pvd}");
-    for plot in ["radius", "curvature", "bending_angle", "safety_factor", "force"] {
-        assert!(out.join("plots").join(format!("{plot}.png")).is_file(), "{plot}.png");
+    assert!(
+        pvd.contains("timestep=\"60\" file=\"vtu/step_003.vtu\""),
+        "{pvd}"
+    );
+    for plot in [
+        "radius",
+        "curvature",
+        "bending_angle",
+        "safety_factor",
+        "force",
+    ] {
+        assert!(
+            out.join("plots").join(format!("{plot}.png")).is_file(),
+            "{plot}.png"
+        );
     }
     // The resolved config reproduces the run.
     let cfg: bendscope::fem::actuator::ActuatorConfig =
@@ -101,7 +147,15 @@ fn sweep_writes_one_row_per_design() {
     let run = Run::new(
         dir.path(),
         &[
-            "simulate", "--mesh-size", "3", "--pressures", "30", "--no-gravity", "--sweep", "f=4:6:2", "-o",
+            "simulate",
+            "--mesh-size",
+            "3",
+            "--pressures",
+            "30",
+            "--no-gravity",
+            "--sweep",
+            "f=4:6:2",
+            "-o",
             "sweep",
         ],
     );
@@ -116,23 +170,36 @@ fn sweep_writes_one_row_per_design() {
     let r = col(&h, "radius_mm");
     assert!(rows[1][r] > rows[0][r], "{rows:?}");
     assert!(rows[1][e].abs() < rows[0][e].abs(), "{rows:?}");
-    assert!(run.stdout.contains("smallest f with |bottom elongation|"), "{run}");
+    assert!(
+        run.stdout.contains("smallest f with |bottom elongation|"),
+        "{run}"
+    );
 }
 
 #[test]
 fn nonsense_parameters_get_one_line_naming_them() {
     let dir = tempfile::tempdir().unwrap();
-    Run::new(dir.path(), &["simulate", "--pressures", "-10:20:5"]).assert_bad_input(&["pressures", ">= 0"]);
-    Run::new(dir.path(), &["simulate", "--mesh-size", "0"]).assert_bad_input(&["mesh size", "positive"]);
-    Run::new(dir.path(), &["simulate", "--bulk-modulus", "-1"]).assert_bad_input(&["bulk_modulus_mpa"]);
-    Run::new(dir.path(), &["simulate", "--sweep", "zz=1:2:1"]).assert_bad_input(&["no such parameter"]);
+    Run::new(dir.path(), &["simulate", "--pressures", "-10:20:5"])
+        .assert_bad_input(&["pressures", ">= 0"]);
+    Run::new(dir.path(), &["simulate", "--mesh-size", "0"])
+        .assert_bad_input(&["mesh size", "positive"]);
+    Run::new(dir.path(), &["simulate", "--bulk-modulus", "-1"])
+        .assert_bad_input(&["bulk_modulus_mpa"]);
+    Run::new(dir.path(), &["simulate", "--sweep", "zz=1:2:1"])
+        .assert_bad_input(&["no such parameter"]);
     std::fs::write(dir.path().join("wide.toml"), "[geometry]\nl = 15.0\n").unwrap();
-    Run::new(dir.path(), &["simulate", "--config", "wide.toml"]).assert_bad_input(&["parameter l", "narrower"]);
+    Run::new(dir.path(), &["simulate", "--config", "wide.toml"])
+        .assert_bad_input(&["parameter l", "narrower"]);
     std::fs::write(dir.path().join("long.toml"), "[geometry]\nchambers = 11\n").unwrap();
-    Run::new(dir.path(), &["simulate", "--config", "long.toml"]).assert_bad_input(&["chambers", "raise b"]);
+    Run::new(dir.path(), &["simulate", "--config", "long.toml"])
+        .assert_bad_input(&["chambers", "raise b"]);
     std::fs::write(dir.path().join("typo.toml"), "[geometry]\nwidht = 15.0\n").unwrap();
-    Run::new(dir.path(), &["simulate", "--config", "typo.toml"]).assert_bad_input(&["typo.toml", "widht"]);
-    assert!(!dir.path().join("fem-out").exists(), "nothing written on bad input");
+    Run::new(dir.path(), &["simulate", "--config", "typo.toml"])
+        .assert_bad_input(&["typo.toml", "widht"]);
+    assert!(
+        !dir.path().join("fem-out").exists(),
+        "nothing written on bad input"
+    );
 }
 
 #[test]
@@ -141,7 +208,19 @@ fn radius_at_115_kpa_changes_less_than_3_percent_on_a_refined_mesh() {
     // refined one (1.5 mm; two elements through the 2 mm side walls), gravity on.
     let dir = tempfile::tempdir().unwrap();
     let radius = |mesh: &str, out: &str| {
-        let run = Run::new(dir.path(), &["simulate", "--mesh-size", mesh, "--pressures", "115", "--no-vtu", "-o", out]);
+        let run = Run::new(
+            dir.path(),
+            &[
+                "simulate",
+                "--mesh-size",
+                mesh,
+                "--pressures",
+                "115",
+                "--no-vtu",
+                "-o",
+                out,
+            ],
+        );
         assert_eq!(run.code, 0, "{run}");
         let (h, rows) = read_csv(&dir.path().join(out).join("steps.csv"));
         rows[0][col(&h, "radius_mm")]

@@ -16,10 +16,12 @@ const N_PER_GF: f64 = 9.806_65e-3;
 
 /// Compare measured bending with the simulation.
 #[derive(Debug, Args)]
-#[command(after_help = "Reads MEASURED/per_video.csv (bendscope process) and FEM/steps.csv (+ force.csv) \
+#[command(
+    after_help = "Reads MEASURED/per_video.csv (bendscope process) and FEM/steps.csv (+ force.csv) \
 (bendscope simulate). Each curve is fitted with y = a p^b + c and the fits are compared on a common pressure grid \
 over the range both cover. Writes in REPORT: compare.csv (the curves and their deviation), summary.txt, \
-compare.json and plots/ (PNG + SVG).")]
+compare.json and plots/ (PNG + SVG)."
+)]
 pub struct CompareArgs {
     /// Output folder of `bendscope process` (per_video.csv).
     #[arg(long, value_name = "OUT")]
@@ -53,14 +55,26 @@ const QUANTITIES: [(&str, &str, &str); 3] = [
 pub fn run(args: &CompareArgs) -> Result<u8> {
     let per_video = args.measured.join("per_video.csv");
     let steps = args.fem.join("steps.csv");
-    for (p, what) in [(&per_video, "bendscope process"), (&steps, "bendscope simulate")] {
+    for (p, what) in [
+        (&per_video, "bendscope process"),
+        (&steps, "bendscope simulate"),
+    ] {
         if !p.is_file() {
-            return Err(anyhow!("{} is missing: give the output folder of `{what}`", p.display()));
+            return Err(anyhow!(
+                "{} is missing: give the output folder of `{what}`",
+                p.display()
+            ));
         }
     }
     let mut pairs: Vec<(String, String, String, Curve, Curve)> = Vec::new();
     for (name, title, axis) in QUANTITIES {
-        pairs.push((name.into(), title.into(), axis.into(), curve(&per_video, name, 1.0)?, curve(&steps, name, 1.0)?));
+        pairs.push((
+            name.into(),
+            title.into(),
+            axis.into(),
+            curve(&per_video, name, 1.0)?,
+            curve(&steps, name, 1.0)?,
+        ));
     }
     if let Some(force) = &args.force {
         let measured = curve(force, "force_g", N_PER_GF)?;
@@ -71,7 +85,13 @@ pub fn run(args: &CompareArgs) -> Result<u8> {
                 fem_force.display()
             ));
         }
-        pairs.push(("force_n".into(), "Blocked tip force".into(), "force (N)".into(), measured, curve(&fem_force, "force_n", 1.0)?));
+        pairs.push((
+            "force_n".into(),
+            "Blocked tip force".into(),
+            "force (N)".into(),
+            measured,
+            curve(&fem_force, "force_n", 1.0)?,
+        ));
     }
     std::fs::create_dir_all(&args.output)?;
     let mut results: Vec<QuantityComparison> = Vec::new();
@@ -101,26 +121,76 @@ pub fn run(args: &CompareArgs) -> Result<u8> {
             c.grid_kpa[0],
             c.grid_kpa[c.grid_kpa.len() - 1]
         );
-        let stem = args.output.join("plots").join(name.trim_end_matches("_mm").trim_end_matches("_per_m").trim_end_matches("_deg").trim_end_matches("_n"));
+        let stem = args.output.join("plots").join(
+            name.trim_end_matches("_mm")
+                .trim_end_matches("_per_m")
+                .trim_end_matches("_deg")
+                .trim_end_matches("_n"),
+        );
         plot_xy(
             &stem,
             &format!("{title}: measured vs FEM"),
             "pressure (kPa)",
             axis,
             &[
-                Series { label: "measured", points: m.pressure_kpa.iter().copied().zip(m.value.iter().copied()).collect(), line: false },
-                Series { label: "measured fit", points: c.grid_kpa.iter().copied().zip(c.measured.iter().copied()).collect(), line: true },
-                Series { label: "FEM", points: f.pressure_kpa.iter().copied().zip(f.value.iter().copied()).collect(), line: false },
-                Series { label: "FEM fit", points: c.grid_kpa.iter().copied().zip(c.fem.iter().copied()).collect(), line: true },
+                Series {
+                    label: "measured",
+                    points: m
+                        .pressure_kpa
+                        .iter()
+                        .copied()
+                        .zip(m.value.iter().copied())
+                        .collect(),
+                    line: false,
+                },
+                Series {
+                    label: "measured fit",
+                    points: c
+                        .grid_kpa
+                        .iter()
+                        .copied()
+                        .zip(c.measured.iter().copied())
+                        .collect(),
+                    line: true,
+                },
+                Series {
+                    label: "FEM",
+                    points: f
+                        .pressure_kpa
+                        .iter()
+                        .copied()
+                        .zip(f.value.iter().copied())
+                        .collect(),
+                    line: false,
+                },
+                Series {
+                    label: "FEM fit",
+                    points: c
+                        .grid_kpa
+                        .iter()
+                        .copied()
+                        .zip(c.fem.iter().copied())
+                        .collect(),
+                    line: true,
+                },
             ],
         )?;
         results.push(c);
     }
     if let Some(first) = results.first() {
-        let mut cols = vec![NumColumn::new("pressure_kpa", first.grid_kpa.iter().copied())];
+        let mut cols = vec![NumColumn::new(
+            "pressure_kpa",
+            first.grid_kpa.iter().copied(),
+        )];
         for c in &results {
-            cols.push(NumColumn::new(format!("{}_measured", c.name), c.measured.iter().copied()));
-            cols.push(NumColumn::new(format!("{}_fem", c.name), c.fem.iter().copied()));
+            cols.push(NumColumn::new(
+                format!("{}_measured", c.name),
+                c.measured.iter().copied(),
+            ));
+            cols.push(NumColumn::new(
+                format!("{}_fem", c.name),
+                c.fem.iter().copied(),
+            ));
             cols.push(NumColumn::new(
                 format!("{}_deviation", c.name),
                 c.fem.iter().zip(&c.measured).map(|(f, m)| f - m),
@@ -131,7 +201,11 @@ pub fn run(args: &CompareArgs) -> Result<u8> {
         if results.iter().all(|c| c.grid_kpa == first.grid_kpa) {
             write_table_csv(&args.output.join("compare.csv"), cols, 5)?;
         } else {
-            write_table_csv(&args.output.join("compare.csv"), cols.into_iter().take(1 + 3 * 3).collect(), 5)?;
+            write_table_csv(
+                &args.output.join("compare.csv"),
+                cols.into_iter().take(1 + 3 * 3).collect(),
+                5,
+            )?;
         }
     }
     write_json(&args.output.join("compare.json"), &results)?;

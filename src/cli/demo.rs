@@ -26,7 +26,9 @@ fn stage(name: &str, code: u8) -> Result<()> {
     if code == EXIT_OK {
         Ok(())
     } else {
-        Err(anyhow!("the demo's {name} stage ended with exit code {code}"))
+        Err(anyhow!(
+            "the demo's {name} stage ended with exit code {code}"
+        ))
     }
 }
 
@@ -59,7 +61,9 @@ pub fn run(args: &DemoArgs) -> Result<u8> {
         })?,
     )?;
     lap("simulate", &mut t);
-    eprintln!("2/4 render: a GoPro-like 960x720 fisheye at 200 mm, 3 frames per pressure, board photos");
+    eprintln!(
+        "2/4 render: a GoPro-like 960x720 fisheye at 200 mm, 3 frames per pressure, board photos"
+    );
     let camera = gopro_like_camera(960, 720);
     let camera_path = dir.join("camera.yaml");
     write_calibration(&camera_path, &camera)?;
@@ -104,11 +108,20 @@ pub fn run(args: &DemoArgs) -> Result<u8> {
     lap("compare", &mut t);
 
     // The measured radii against the rendered truth.
-    let truth: SessionTruth = serde_json::from_str(&std::fs::read_to_string(dir.join("session/truth.json"))?)?;
-    let cols = read_columns(&dir.join("measured/per_video.csv"), &["pressure_kpa", "radius_mm", "bending_angle_deg"])?;
-    super::out!("\npressure_kpa  true_radius_mm  measured_mm  error_%  true_angle_deg  measured_deg");
+    let truth: SessionTruth =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("session/truth.json"))?)?;
+    let cols = read_columns(
+        &dir.join("measured/per_video.csv"),
+        &["pressure_kpa", "radius_mm", "bending_angle_deg"],
+    )?;
+    super::out!(
+        "\npressure_kpa  true_radius_mm  measured_mm  error_%  true_angle_deg  measured_deg"
+    );
     for v in &truth.videos {
-        if let Some(k) = cols[0].iter().position(|p| (p - v.pressure_kpa).abs() < 1e-6) {
+        if let Some(k) = cols[0]
+            .iter()
+            .position(|p| (p - v.pressure_kpa).abs() < 1e-6)
+        {
             super::out!(
                 "{:>12.1}  {:>14.3}  {:>11.3}  {:>+7.3}  {:>14.2}  {:>12.2}",
                 v.pressure_kpa,

@@ -10,7 +10,8 @@ use bendscope::calib::Calibration;
 use bendscope::fem::simulate::SideFaceFile;
 use bendscope::render::actuator::FrameLook;
 use bendscope::render::session::{
-    fem_videos, place_fem_actuator, render_session, write_fem_rgbd, RgbdSpec, SessionSpec, SessionTruth,
+    fem_videos, place_fem_actuator, render_session, write_fem_rgbd, RgbdSpec, SessionSpec,
+    SessionTruth,
 };
 use clap::Args;
 
@@ -18,10 +19,12 @@ use super::EXIT_OK;
 
 /// Render the simulated actuator as a session of videos (ground truth for `process`).
 #[derive(Debug, Args)]
-#[command(after_help = "Writes into SESSION: one H.264 video per FEM pressure step (GX01xxxx.MP4), pressures.csv, \
+#[command(
+    after_help = "Writes into SESSION: one H.264 video per FEM pressure step (GX01xxxx.MP4), pressures.csv, \
 scale.jpg (a 9x6 board of 10 mm squares in the actuator plane), calib/ (board photos through the same camera), \
 bendscope.toml and truth.json (camera, and per video the radius and bending angle of the rendered marker centres).
-Then: bendscope process SESSION.")]
+Then: bendscope process SESSION."
+)]
 pub struct RenderArgs {
     /// Output folder of `bendscope simulate` (side_face.json).
     #[arg(long, value_name = "FEM_OUT")]
@@ -33,16 +36,31 @@ pub struct RenderArgs {
     #[arg(long, value_name = "WxH", conflicts_with = "calibration")]
     pub gopro_like: Option<String>,
     /// Distance of the actuator plane from the camera, mm.
-    #[arg(long, value_name = "MM", default_value_t = 260.0, allow_hyphen_values = true)]
+    #[arg(
+        long,
+        value_name = "MM",
+        default_value_t = 260.0,
+        allow_hyphen_values = true
+    )]
     pub distance_mm: f64,
     /// Output session folder.
-    #[arg(short, long, value_name = "SESSION", default_value = "rendered-session")]
+    #[arg(
+        short,
+        long,
+        value_name = "SESSION",
+        default_value = "rendered-session"
+    )]
     pub output: PathBuf,
     /// Frames per video.
     #[arg(long, default_value_t = 5)]
     pub frames: usize,
     /// Marker disc diameter, mm.
-    #[arg(long, value_name = "MM", default_value_t = 3.0, allow_hyphen_values = true)]
+    #[arg(
+        long,
+        value_name = "MM",
+        default_value_t = 3.0,
+        allow_hyphen_values = true
+    )]
     pub marker_diameter_mm: f64,
     /// Calibration photos to render into calib/.
     #[arg(long, default_value_t = 14)]
@@ -75,16 +93,31 @@ pub fn read_side_face(fem: &Path) -> Result<SideFaceFile> {
             fem.display()
         )
     })?;
-    serde_json::from_str(&text).map_err(|e| anyhow!("{} is not a bendscope side face file: {e}", path.display()))
+    serde_json::from_str(&text)
+        .map_err(|e| anyhow!("{} is not a bendscope side face file: {e}", path.display()))
 }
 
 /// Renders `face` through `camera` into `out`, with a progress bar.
-pub fn render_fem_session(face: &SideFaceFile, camera: &Calibration, out: &Path, args: &RenderArgs) -> Result<SessionTruth> {
+pub fn render_fem_session(
+    face: &SideFaceFile,
+    camera: &Calibration,
+    out: &Path,
+    args: &RenderArgs,
+) -> Result<SessionTruth> {
     if !(args.distance_mm.is_finite() && args.distance_mm > 0.0) {
-        return Err(anyhow!("--distance-mm {}: must be a positive distance", args.distance_mm));
+        return Err(anyhow!(
+            "--distance-mm {}: must be a positive distance",
+            args.distance_mm
+        ));
     }
-    if !(args.marker_diameter_mm.is_finite() && args.marker_diameter_mm > 0.0 && args.marker_diameter_mm < 12.0) {
-        return Err(anyhow!("--marker-diameter-mm {}: use a diameter between 0 and 12 mm", args.marker_diameter_mm));
+    if !(args.marker_diameter_mm.is_finite()
+        && args.marker_diameter_mm > 0.0
+        && args.marker_diameter_mm < 12.0)
+    {
+        return Err(anyhow!(
+            "--marker-diameter-mm {}: use a diameter between 0 and 12 mm",
+            args.marker_diameter_mm
+        ));
     }
     if args.frames == 0 || args.supersample == 0 {
         return Err(anyhow!("--frames and --supersample must be at least 1"));
@@ -144,10 +177,14 @@ pub fn run(args: &RenderArgs) -> Result<u8> {
         (None, Some(size)) => {
             let parsed = size
                 .split_once(['x', 'X'])
-                .and_then(|(w, h)| Some((w.trim().parse::<u32>().ok()?, h.trim().parse::<u32>().ok()?)))
+                .and_then(|(w, h)| {
+                    Some((w.trim().parse::<u32>().ok()?, h.trim().parse::<u32>().ok()?))
+                })
                 .filter(|(w, h)| (64..=8192).contains(w) && (64..=8192).contains(h));
             let Some((w, h)) = parsed else {
-                return Err(anyhow!("--gopro-like '{size}': expected WIDTHxHEIGHT, e.g. 1920x1080"));
+                return Err(anyhow!(
+                    "--gopro-like '{size}': expected WIDTHxHEIGHT, e.g. 1920x1080"
+                ));
             };
             bendscope::render::fixtures::gopro_like_camera(w, h)
         }

@@ -22,12 +22,14 @@ pub const BOTTOM_ELONGATION_LIMIT_PCT: f64 = 10.0;
 
 /// Simulate the actuator under a pressure ramp (FEM).
 #[derive(Debug, Args)]
-#[command(after_help = "Outputs in OUT: steps.csv (one row per converged pressure), markers.csv (marker x, z per step), \
+#[command(
+    after_help = "Outputs in OUT: steps.csv (one row per converged pressure), markers.csv (marker x, z per step), \
 side_face.json (the filmed face per step, input of bendscope render), vtu/ + actuator.pvd (deformed mesh, displacement and stress, for ParaView), plots/, config.toml (the resolved \
 actuator), summary.json; with --blocked force.csv; with --sweep sweep.csv.
 Config sections: [geometry] chambers b i f m p r c g d e l n top_wall roof (mm, method.md §4 names); \
 [material] preset c1 c2 c3 bulk_modulus_mpa density_g_cm3 tensile_strength_mpa; [mesh] size_mm; \
-[load] pressures_kpa gravity. Print the defaults with --print-config.")]
+[load] pressures_kpa gravity. Print the defaults with --print-config."
+)]
 pub struct SimulateArgs {
     /// Actuator file (TOML) [default: the reference actuator, Dragon Skin 30].
     #[arg(long, value_name = "FILE")]
@@ -36,10 +38,20 @@ pub struct SimulateArgs {
     #[arg(short, long, value_name = "OUT", default_value = "fem-out")]
     pub output: PathBuf,
     /// Largest element edge, mm [default: 2].
-    #[arg(long, value_name = "MM", visible_alias = "mesh-size-mm", allow_hyphen_values = true)]
+    #[arg(
+        long,
+        value_name = "MM",
+        visible_alias = "mesh-size-mm",
+        allow_hyphen_values = true
+    )]
     pub mesh_size: Option<f64>,
     /// Pressure steps, kPa: start:stop:step or a,b,c [default: 10:115:5].
-    #[arg(long, value_name = "KPA", visible_alias = "pressures-kpa", allow_hyphen_values = true)]
+    #[arg(
+        long,
+        value_name = "KPA",
+        visible_alias = "pressures-kpa",
+        allow_hyphen_values = true
+    )]
     pub pressures: Option<String>,
     /// Material preset: proposed, stiffer, softer, ecoflex0030.
     #[arg(long, value_name = "NAME")]
@@ -131,7 +143,10 @@ pub fn run(args: &SimulateArgs) -> Result<u8> {
     }
     let out = &args.output;
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
-    write_atomic(&out.join("config.toml"), toml::to_string_pretty(&cfg)?.as_bytes())?;
+    write_atomic(
+        &out.join("config.toml"),
+        toml::to_string_pretty(&cfg)?.as_bytes(),
+    )?;
     let pressures = cfg.pressures_kpa()?;
     let mesh = build_mesh(&cfg)?;
     eprintln!(
@@ -142,7 +157,12 @@ pub fn run(args: &SimulateArgs) -> Result<u8> {
         mesh.model.pressure_faces.len()
     );
     let started = Instant::now();
-    let (ramp, vtu_files, face) = ramp_with_outputs(&mesh, &pressures, false, (!args.no_vtu).then_some(out.as_path()))?;
+    let (ramp, vtu_files, face) = ramp_with_outputs(
+        &mesh,
+        &pressures,
+        false,
+        (!args.no_vtu).then_some(out.as_path()),
+    )?;
     write_json(&out.join("side_face.json"), &face)?;
     let seconds = started.elapsed().as_secs_f64();
     write_steps(out, &ramp.steps)?;
@@ -218,7 +238,11 @@ fn ramp_with_outputs(
 ) -> Result<(Ramp, Vec<(f64, String)>, SideFaceFile)> {
     let bar = super::progress_bar(
         pressures.len() as u64,
-        if blocked { "blocked tip" } else { "pressure steps" },
+        if blocked {
+            "blocked tip"
+        } else {
+            "pressure steps"
+        },
     );
     let mut files = Vec::new();
     let mut io_error = None;
@@ -231,7 +255,13 @@ fn ramp_with_outputs(
         face.push(mesh, &face_nodes, step, fields.displacement);
         if let Some(dir) = vtu_dir {
             let name = format!("vtu/step_{:03}.vtu", files.len() + 1);
-            match write_vtu(&dir.join(&name), &mesh.model.nodes, &mesh.model.elements, fields.displacement, fields.stresses) {
+            match write_vtu(
+                &dir.join(&name),
+                &mesh.model.nodes,
+                &mesh.model.elements,
+                fields.displacement,
+                fields.stresses,
+            ) {
                 Ok(()) => files.push((step.pressure_kpa, name)),
                 Err(e) => {
                     io_error.get_or_insert(e);
@@ -261,7 +291,9 @@ fn write_steps(out: &Path, steps: &[StepResult]) -> Result<()> {
             col("bending_angle_deg", steps, |s| s.bending_angle_deg),
             col("tip_x_mm", steps, |s| s.tip_x_mm),
             col("tip_z_mm", steps, |s| s.tip_z_mm),
-            col("max_principal_stress_mpa", steps, |s| s.max_principal_stress_mpa),
+            col("max_principal_stress_mpa", steps, |s| {
+                s.max_principal_stress_mpa
+            }),
             col("safety_factor", steps, |s| s.safety_factor),
             col("bottom_elongation_pct", steps, |s| s.bottom_elongation_pct),
             col("cavity_volume_mm3", steps, |s| s.cavity_volume_mm3),
@@ -272,8 +304,14 @@ fn write_steps(out: &Path, steps: &[StepResult]) -> Result<()> {
     let n_markers = steps.first().map(|s| s.markers_mm.len()).unwrap_or(0);
     let mut cols = vec![col("pressure_kpa", steps, |s| s.pressure_kpa)];
     for k in 0..n_markers {
-        cols.push(NumColumn::new(format!("m{}_x_mm", k + 1), steps.iter().map(|s| s.markers_mm[k].0)));
-        cols.push(NumColumn::new(format!("m{}_z_mm", k + 1), steps.iter().map(|s| s.markers_mm[k].1)));
+        cols.push(NumColumn::new(
+            format!("m{}_x_mm", k + 1),
+            steps.iter().map(|s| s.markers_mm[k].0),
+        ));
+        cols.push(NumColumn::new(
+            format!("m{}_z_mm", k + 1),
+            steps.iter().map(|s| s.markers_mm[k].1),
+        ));
     }
     write_table_csv(&out.join("markers.csv"), cols, 5)?;
     Ok(())
@@ -288,7 +326,9 @@ fn write_force(out: &Path, steps: &[StepResult]) -> Result<()> {
             NumColumn::new("force_n", steps.iter().map(force)),
             NumColumn::new(
                 "force_gf",
-                steps.iter().map(|s| force(s) / bendscope::fem::actuator::GRAVITY_M_S2 * 1000.0),
+                steps
+                    .iter()
+                    .map(|s| force(s) / bendscope::fem::actuator::GRAVITY_M_S2 * 1000.0),
             ),
         ],
         5,
@@ -314,12 +354,37 @@ fn plot_steps(out: &Path, steps: &[StepResult], force: &[StepResult]) -> Result<
             }],
         )
     };
-    one("radius", "Radius of curvature vs pressure", "radius (mm)", xy(|s| s.radius_mm, steps))?;
-    one("curvature", "Curvature vs pressure", "curvature (1/m)", xy(|s| s.curvature_per_m, steps))?;
-    one("bending_angle", "Bending angle vs pressure", "bending angle (deg)", xy(|s| s.bending_angle_deg, steps))?;
-    one("safety_factor", "Safety factor vs pressure", "tensile strength / max principal stress", xy(|s| s.safety_factor, steps))?;
+    one(
+        "radius",
+        "Radius of curvature vs pressure",
+        "radius (mm)",
+        xy(|s| s.radius_mm, steps),
+    )?;
+    one(
+        "curvature",
+        "Curvature vs pressure",
+        "curvature (1/m)",
+        xy(|s| s.curvature_per_m, steps),
+    )?;
+    one(
+        "bending_angle",
+        "Bending angle vs pressure",
+        "bending angle (deg)",
+        xy(|s| s.bending_angle_deg, steps),
+    )?;
+    one(
+        "safety_factor",
+        "Safety factor vs pressure",
+        "tensile strength / max principal stress",
+        xy(|s| s.safety_factor, steps),
+    )?;
     if !force.is_empty() {
-        one("force", "Blocked tip force vs pressure", "force (N)", xy(|s| s.blocked_force_n.unwrap_or(f64::NAN), force))?;
+        one(
+            "force",
+            "Blocked tip force vs pressure",
+            "force (N)",
+            xy(|s| s.blocked_force_n.unwrap_or(f64::NAN), force),
+        )?;
     }
     Ok(())
 }
@@ -340,7 +405,10 @@ fn run_sweep(base: &ActuatorConfig, spec: &str, out: &Path) -> Result<u8> {
     };
     let mut designs = Vec::new();
     for v in &values {
-        match base.with_parameter(name, *v).and_then(|c| c.validate().map(|_| c)) {
+        match base
+            .with_parameter(name, *v)
+            .and_then(|c| c.validate().map(|_| c))
+        {
             Ok(c) => designs.push(c),
             Err(e) => {
                 eprintln!("error: --sweep {name} = {v}: {e}");
@@ -354,7 +422,8 @@ fn run_sweep(base: &ActuatorConfig, spec: &str, out: &Path) -> Result<u8> {
     let mut rows: Vec<(f64, Option<StepResult>, String)> = Vec::new();
     for (v, cfg) in values.iter().zip(&designs) {
         bar.set_message(format!("{name} = {v}"));
-        let result = build_mesh(cfg).and_then(|mesh| run_ramp(&mesh, &pressures, &RampSettings::default(), |_, _| {}));
+        let result = build_mesh(cfg)
+            .and_then(|mesh| run_ramp(&mesh, &pressures, &RampSettings::default(), |_, _| {}));
         let row = match result {
             Ok(ramp) => {
                 let status = match &ramp.failure {
@@ -373,7 +442,9 @@ fn run_sweep(base: &ActuatorConfig, spec: &str, out: &Path) -> Result<u8> {
     }
     bar.finish_and_clear();
     let g = |f: fn(&StepResult) -> f64| -> Vec<f64> {
-        rows.iter().map(|(_, s, _)| s.as_ref().map(f).unwrap_or(f64::NAN)).collect()
+        rows.iter()
+            .map(|(_, s, _)| s.as_ref().map(f).unwrap_or(f64::NAN))
+            .collect()
     };
     let cols = vec![
         NumColumn::new(name, values.iter().copied()),
@@ -383,7 +454,10 @@ fn run_sweep(base: &ActuatorConfig, spec: &str, out: &Path) -> Result<u8> {
         NumColumn::new("bending_angle_deg", g(|s| s.bending_angle_deg)),
         NumColumn::new("tip_x_mm", g(|s| s.tip_x_mm)),
         NumColumn::new("tip_z_mm", g(|s| s.tip_z_mm)),
-        NumColumn::new("max_principal_stress_mpa", g(|s| s.max_principal_stress_mpa)),
+        NumColumn::new(
+            "max_principal_stress_mpa",
+            g(|s| s.max_principal_stress_mpa),
+        ),
         NumColumn::new("safety_factor", g(|s| s.safety_factor)),
         NumColumn::new("bottom_elongation_pct", g(|s| s.bottom_elongation_pct)),
         NumColumn::new("cavity_volume_mm3", g(|s| s.cavity_volume_mm3)),
@@ -393,18 +467,51 @@ fn run_sweep(base: &ActuatorConfig, spec: &str, out: &Path) -> Result<u8> {
         values.iter().copied().zip(g(f)).collect()
     };
     for (file, title, y, f) in [
-        ("sweep_radius", "Radius at the top pressure", "radius (mm)", (|s: &StepResult| s.radius_mm) as fn(&StepResult) -> f64),
-        ("sweep_bottom_elongation", "Bottom elongation at the top pressure", "bottom elongation (%)", |s: &StepResult| s.bottom_elongation_pct),
-        ("sweep_bending_angle", "Bending angle at the top pressure", "bending angle (deg)", |s: &StepResult| s.bending_angle_deg),
+        (
+            "sweep_radius",
+            "Radius at the top pressure",
+            "radius (mm)",
+            (|s: &StepResult| s.radius_mm) as fn(&StepResult) -> f64,
+        ),
+        (
+            "sweep_bottom_elongation",
+            "Bottom elongation at the top pressure",
+            "bottom elongation (%)",
+            |s: &StepResult| s.bottom_elongation_pct,
+        ),
+        (
+            "sweep_bending_angle",
+            "Bending angle at the top pressure",
+            "bending angle (deg)",
+            |s: &StepResult| s.bending_angle_deg,
+        ),
     ] {
-        plot_xy(&out.join("plots").join(file), title, name, y, &[Series { label: "FEM", points: pts(f), line: true }])?;
+        plot_xy(
+            &out.join("plots").join(file),
+            title,
+            name,
+            y,
+            &[Series {
+                label: "FEM",
+                points: pts(f),
+                line: true,
+            }],
+        )?;
     }
     let top = pressures.last().copied().unwrap_or(0.0);
-    let complete: Vec<&(f64, Option<StepResult>, String)> =
-        rows.iter().filter(|(_, s, st)| st == "ok" && s.is_some()).collect();
-    super::out!("{} of {} designs reached {top} kPa -> {}", complete.len(), rows.len(), out.join("sweep.csv").display());
+    let complete: Vec<&(f64, Option<StepResult>, String)> = rows
+        .iter()
+        .filter(|(_, s, st)| st == "ok" && s.is_some())
+        .collect();
+    super::out!(
+        "{} of {} designs reached {top} kPa -> {}",
+        complete.len(),
+        rows.len(),
+        out.join("sweep.csv").display()
+    );
     let selected = complete.iter().find(|(_, s, _)| {
-        s.as_ref().is_some_and(|s| s.bottom_elongation_pct.abs() <= BOTTOM_ELONGATION_LIMIT_PCT)
+        s.as_ref()
+            .is_some_and(|s| s.bottom_elongation_pct.abs() <= BOTTOM_ELONGATION_LIMIT_PCT)
     });
     match selected {
         Some((v, _, _)) => super::out!(

@@ -203,7 +203,10 @@ impl Geometry {
         if self.r >= self.b {
             return Err(bad(
                 "r",
-                format!("channel length {} mm must be shorter than b = {} mm", self.r, self.b),
+                format!(
+                    "channel length {} mm must be shorter than b = {} mm",
+                    self.r, self.b
+                ),
             ));
         }
         let x0 = 0.5 * (self.b - self.r);
@@ -292,7 +295,10 @@ impl MaterialConfig {
         if !(m.bulk_modulus.is_finite() && m.bulk_modulus > 0.0) {
             return Err(bad(
                 "bulk_modulus_mpa",
-                format!("{} MPa: must be positive (silicone: ~1000 x the shear modulus)", m.bulk_modulus),
+                format!(
+                    "{} MPa: must be positive (silicone: ~1000 x the shear modulus)",
+                    m.bulk_modulus
+                ),
             ));
         }
         for (name, v) in [
@@ -370,7 +376,10 @@ pub fn parse_range(text: &str, what: &str) -> Result<Vec<f64>, FemError> {
         let v: f64 = s.trim().parse().map_err(|_| {
             bad(
                 what,
-                format!("'{}' is not a number (expected start:stop:step or a,b,c)", s.trim()),
+                format!(
+                    "'{}' is not a number (expected start:stop:step or a,b,c)",
+                    s.trim()
+                ),
             )
         })?;
         if v.is_finite() {
@@ -392,7 +401,10 @@ pub fn parse_range(text: &str, what: &str) -> Result<Vec<f64>, FemError> {
             }
             let count = ((b - a) / s + 1e-9).floor() as usize + 1;
             if count > 10_000 {
-                return Err(bad(what, format!("'{text}' gives {count} values: use a larger step")));
+                return Err(bad(
+                    what,
+                    format!("'{text}' gives {count} values: use a larger step"),
+                ));
             }
             (0..count).map(|k| a + k as f64 * s).collect()
         }
@@ -472,9 +484,10 @@ impl ActuatorConfig {
                 "no such parameter (geometry: chambers b i f m p r c g d e l n top_wall roof; material: c1 c2 c3 bulk_modulus_mpa density_g_cm3 tensile_strength_mpa; mesh: size_mm)".into(),
             ));
         }
-        doc.try_into().map_err(|e: toml::de::Error| FemError::Model {
-            why: format!("config: {e}"),
-        })
+        doc.try_into()
+            .map_err(|e: toml::de::Error| FemError::Model {
+                why: format!("config: {e}"),
+            })
     }
 }
 
@@ -710,7 +723,9 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
         }
     }
 
-    let at = |x: f64, y: f64, z: f64| node_of[grid_id(index_of(&xs, x), index_of(&ys, y), index_of(&zs, z))];
+    let at = |x: f64, y: f64, z: f64| {
+        node_of[grid_id(index_of(&xs, x), index_of(&ys, y), index_of(&zs, z))]
+    };
     let markers: Vec<usize> = g
         .marker_x()
         .iter()
@@ -720,7 +735,10 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
     let side_face: Vec<[usize; 4]> = (0..nz)
         .flat_map(|k| (0..nx).map(move |i| (i, k)))
         .filter(|(i, k)| cells[cell_id(*i, ny - 1, *k)] == Cell::Solid)
-        .map(|(i, k)| [(i, k), (i + 1, k), (i + 1, k + 1), (i, k + 1)].map(|(a, c)| node_of[grid_id(a, ny, c)]))
+        .map(|(i, k)| {
+            [(i, k), (i + 1, k), (i + 1, k + 1), (i, k + 1)]
+                .map(|(a, c)| node_of[grid_id(a, ny, c)])
+        })
         .collect();
     let tip_support: Vec<usize> = (0..=ny).map(|j| node_of[grid_id(nx, j, 0)]).collect();
     let bottom_line: Vec<usize> = (0..=nx)
@@ -799,7 +817,11 @@ mod tests {
         let cavities = g.chambers as f64 * g.e * g.l * g.n;
         let channel = g.r * g.p * g.m;
         let solid = g.b * g.i * g.height() - gaps - cavities - channel;
-        assert!((2.0 * volume - solid).abs() < 1e-6 * solid, "{} vs {solid}", 2.0 * volume);
+        assert!(
+            (2.0 * volume - solid).abs() < 1e-6 * solid,
+            "{} vs {solid}",
+            2.0 * volume
+        );
         let faces_volume: f64 = mesh
             .model
             .pressure_faces
@@ -811,7 +833,11 @@ mod tests {
             .sum();
         // Channel (z ∈ [f, f+m]) and chamber cavities (above) do not overlap.
         let cavity = cavities + channel;
-        assert!((2.0 * faces_volume - cavity).abs() < 1e-6 * cavity, "{} vs {cavity}", 2.0 * faces_volume);
+        assert!(
+            (2.0 * faces_volume - cavity).abs() < 1e-6 * cavity,
+            "{} vs {cavity}",
+            2.0 * faces_volume
+        );
         // Markers on the side face at mid cavity height, centre of chambers 2..9.
         for (n, x) in mesh.markers.iter().zip(g.marker_x()) {
             let p = mesh.model.nodes[*n];
@@ -833,7 +859,11 @@ mod tests {
             let err = cfg.validate().unwrap_err().to_string();
             assert!(err.contains(name) && err.contains(expect), "{name}: {err}");
         }
-        assert!(base.with_parameter("zz", 1.0).unwrap_err().to_string().contains("no such parameter"));
+        assert!(base
+            .with_parameter("zz", 1.0)
+            .unwrap_err()
+            .to_string()
+            .contains("no such parameter"));
         let neg = ActuatorConfig {
             load: LoadConfig {
                 pressures_kpa: "-5,10".into(),

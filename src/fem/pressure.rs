@@ -76,8 +76,7 @@ pub fn face_volume(x: &[Vector3<f64>; 4], w: &Vector3<f64>) -> (f64, FaceVector,
             for b in 0..4 {
                 // Second derivatives of the triple product (W x) · (t1 × t2), trilinear
                 // in (x, t1, t2) with coefficients (N, N_ξ, N_η).
-                let h = n[a] * dxi[b] * s2w.transpose()
-                    + dxi[a] * n[b] * s2w
+                let h = n[a] * dxi[b] * s2w.transpose() + dxi[a] * n[b] * s2w
                     - n[a] * deta[b] * s1w.transpose()
                     - deta[a] * n[b] * s1w
                     + (dxi[a] * deta[b] - deta[a] * dxi[b]) * (-sq);
@@ -155,10 +154,16 @@ mod tests {
                 1.2 * ((a >= 4) as u8) as f64,
             )
         });
-        let v: f64 = BOX_FACES.iter().map(|f| face_volume(&faces_of(&b, f), &CLOSED).0).sum();
+        let v: f64 = BOX_FACES
+            .iter()
+            .map(|f| face_volume(&faces_of(&b, f), &CLOSED).0)
+            .sum();
         assert!((v - 3.6).abs() < 1e-12, "{v}");
         let x = distorted_box();
-        let v: f64 = BOX_FACES.iter().map(|f| face_volume(&faces_of(&x, f), &CLOSED).0).sum();
+        let v: f64 = BOX_FACES
+            .iter()
+            .map(|f| face_volume(&faces_of(&x, f), &CLOSED).0)
+            .sum();
         let geom = crate::fem::hex::HexGeometry::new(&x).unwrap();
         assert!((v - geom.volume).abs() < 1e-12, "{v} vs {}", geom.volume);
     }
@@ -179,7 +184,12 @@ mod tests {
             }
         }
         for a in 0..8 {
-            assert!((grad[a] - follow[a]).norm() < 1e-12, "{a}: {} vs {}", grad[a], follow[a]);
+            assert!(
+                (grad[a] - follow[a]).norm() < 1e-12,
+                "{a}: {} vs {}",
+                grad[a],
+                follow[a]
+            );
         }
     }
 
@@ -199,7 +209,12 @@ mod tests {
             assert!(((vp - vm) / (2.0 * eps) - g[d]).abs() < 1e-8, "grad {d}");
             let col = (gp - gm) / (2.0 * eps);
             for r in 0..12 {
-                assert!((col[r] - h[(r, d)]).abs() < 1e-8, "H[{r},{d}] {} vs {}", h[(r, d)], col[r]);
+                assert!(
+                    (col[r] - h[(r, d)]).abs() < 1e-8,
+                    "H[{r},{d}] {} vs {}",
+                    h[(r, d)],
+                    col[r]
+                );
             }
         }
         assert!((h - h.transpose()).norm() < 1e-12);

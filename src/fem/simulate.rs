@@ -102,7 +102,13 @@ impl SideFaceFile {
     }
 
     /// Appends a converged step (`nodes` from [`Self::new`]).
-    pub fn push(&mut self, mesh: &ActuatorMesh, nodes: &[usize], step: &StepResult, displacement: &[f64]) {
+    pub fn push(
+        &mut self,
+        mesh: &ActuatorMesh,
+        nodes: &[usize],
+        step: &StepResult,
+        displacement: &[f64],
+    ) {
         let at = |n: usize| {
             let x = mesh.model.nodes[n];
             [x.x + displacement[3 * n], x.z + displacement[3 * n + 2]]
@@ -200,7 +206,14 @@ pub fn run_ramp(
         ) {
             Ok(report) => {
                 let stresses = solver.element_stresses();
-                let result = step_result(mesh, &solver, &stresses, p, report.iterations, settings.blocked)?;
+                let result = step_result(
+                    mesh,
+                    &solver,
+                    &stresses,
+                    p,
+                    report.iterations,
+                    settings.blocked,
+                )?;
                 on_step(
                     &result,
                     &StepFields {
@@ -328,7 +341,10 @@ mod tests {
         assert!(r.windows(2).all(|w| w[1] < w[0]), "radius must fall: {r:?}");
         let angles: Vec<f64> = free.steps.iter().map(|s| s.bending_angle_deg).collect();
         assert!(angles.windows(2).all(|w| w[1] > w[0]), "{angles:?}");
-        assert!(free.steps.iter().all(|s| s.tip_z_mm < 0.0), "bends towards -z");
+        assert!(
+            free.steps.iter().all(|s| s.tip_z_mm < 0.0),
+            "bends towards -z"
+        );
         let v: Vec<f64> = free.steps.iter().map(|s| s.cavity_volume_mm3).collect();
         assert!(v.windows(2).all(|w| w[1] > w[0]), "cavity inflates: {v:?}");
         let blocked = run_ramp(
@@ -341,7 +357,11 @@ mod tests {
             |_, _| {},
         )
         .unwrap();
-        let f: Vec<f64> = blocked.steps.iter().map(|s| s.blocked_force_n.unwrap()).collect();
+        let f: Vec<f64> = blocked
+            .steps
+            .iter()
+            .map(|s| s.blocked_force_n.unwrap())
+            .collect();
         assert!(f.windows(2).all(|w| w[1] > w[0]) && f[3] > 0.0, "{f:?}");
         // At zero pressure the support carries a share of the weight only: the body is
         // about 3.2e4 mm³ of 1.08 g/cm³ silicone, 0.34 N in all (3/8 of the free part

@@ -9,8 +9,12 @@
 //! the pressure's load stiffness is symmetric (for a closed cavity), so faer's sparse
 //! LDLᵀ factorizes it (it may be indefinite away from equilibrium); its symbolic analysis is computed once and reused for every
 //! Newton iteration and load step; element and face terms are computed in parallel
-//! (rayon). A step that inverts an element is halved; a load increment that does not
-//! converge is cut in half and retried.
+//! (rayon). A step that inverts an element is halved (a line search on validity only:
+//! the three-field system is a saddle point, not a minimum, so there is no energy to
+//! descend; an energy line search on the displacement-only form crawled, ~100
+//! iterations per 5 kPa step, against ~6 now); a load increment that does not converge
+//! is cut in half and retried. `BENDSCOPE_DEBUG_NEWTON=1` prints every iteration's
+//! residual to stderr.
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
@@ -265,7 +269,9 @@ impl<'m> Solver<'m> {
     pub fn reactions(&self) -> Vec<f64> {
         let mut f = vec![0.0; self.u.len()];
         for (el, g) in self.model.elements.iter().zip(&self.geom) {
-            if let Some((_, fe, _)) = element_response(g, &self.model.material, &gather(&self.u, el)) {
+            if let Some((_, fe, _)) =
+                element_response(g, &self.model.material, &gather(&self.u, el))
+            {
                 for a in 0..24 {
                     f[3 * el[a / 3] + a % 3] += fe[a];
                 }
@@ -287,7 +293,11 @@ impl<'m> Solver<'m> {
 
     /// Moves the load from the current state to `target` in adaptive sub-steps, each
     /// solved by Newton; on failure the state is left at the last converged sub-step.
-    pub fn advance(&mut self, target: LoadState, s: &NewtonSettings) -> Result<StepReport, FemError> {
+    pub fn advance(
+        &mut self,
+        target: LoadState,
+        s: &NewtonSettings,
+    ) -> Result<StepReport, FemError> {
         let start = self.load;
         let (mut t, mut step) = (0.0f64, s.initial_step.clamp(s.min_step, 1.0));
         let mut report = StepReport {
@@ -328,7 +338,13 @@ impl<'m> Solver<'m> {
     /// computed on the first call and reused.
     fn factor_and_solve(&mut self, k: &SparseColMat<usize, f64>, r: &[f64]) -> Option<Vec<f64>> {
         if self.symbolic.is_none() {
-            let sym = factorize_symbolic_cholesky(k.symbolic(), Side::Lower, Default::default(), Default::default()).ok()?;
+            let sym = factorize_symbolic_cholesky(
+                k.symbolic(),
+                Side::Lower,
+                Default::default(),
+                Default::default(),
+            )
+            .ok()?;
             self.factor = vec![0.0; sym.len_val()];
             self.symbolic = Some(sym);
         }
@@ -357,7 +373,13 @@ impl<'m> Solver<'m> {
         x.iter().all(|v| v.is_finite()).then_some(x)
     }
 
-    fn assemble(&self, u: &[f64], theta: &[f64], pressure: &[f64], load: LoadState) -> Option<Assembled> {
+    fn assemble(
+        &self,
+        u: &[f64],
+        theta: &[f64],
+        pressure: &[f64],
+        load: LoadState,
+    ) -> Option<Assembled> {
         let model = self.model;
         let material = &model.material;
         let parts: Option<Vec<(ElementVector, ElementMatrix, Condensed)>> = model
@@ -399,23 +421,24 @@ impl<'m> Solver<'m> {
         let mut shift = vec![0.0; self.n_eq]; // G (U'' R_p + R_θ) / V
         let mut ext = vec![0.0; self.n_eq];
         let mut trip = Vec::with_capacity(model.elements.len() * 300 + faces.len() * 78);
-        let mut scatter = |nodes: &[usize], f: &[f64], k: &dyn Fn(usize, usize) -> f64, r: &mut [f64]| {
-            let n = 3 * nodes.len();
-            for a in 0..n {
-                let Some(ra) = eq[3 * nodes[a / 3] + a % 3] else {
-                    continue;
-                };
-                r[ra] += f[a];
-                for b in 0..n {
-                    let Some(cb) = eq[3 * nodes[b / 3] + b % 3] else {
+        let mut scatter =
+            |nodes: &[usize], f: &[f64], k: &dyn Fn(usize, usize) -> f64, r: &mut [f64]| {
+                let n = 3 * nodes.len();
+                for a in 0..n {
+                    let Some(ra) = eq[3 * nodes[a / 3] + a % 3] else {
                         continue;
                     };
-                    if ra >= cb {
-                        trip.push(Triplet::new(ra, cb, k(a, b)));
+                    r[ra] += f[a];
+                    for b in 0..n {
+                        let Some(cb) = eq[3 * nodes[b / 3] + b % 3] else {
+                            continue;
+                        };
+                        if ra >= cb {
+                            trip.push(Triplet::new(ra, cb, k(a, b)));
+                        }
                     }
                 }
-            }
-        };
+            };
         let mut volume_error: f64 = 0.0;
         for ((el, (f, k, c)), g) in model.elements.iter().zip(&parts).zip(&self.geom) {
             scatter(el, f.as_slice(), &|a, b| k[(a, b)], &mut r);
@@ -464,7 +487,8 @@ impl<'m> Solver<'m> {
     /// when converged (the state is then updated).
     fn newton(&mut self, load: LoadState, s: &NewtonSettings) -> Option<usize> {
         let debug = std::env::var_os("BENDSCOPE_DEBUG_NEWTON").is_some();
-        let (mut u, mut theta, mut pressure) = (self.u.clone(), self.theta.clone(), self.pressure.clone());
+        let (mut u, mut theta, mut pressure) =
+            (self.u.clone(), self.theta.clone(), self.pressure.clone());
         let mut cur = self.assemble(&u, &theta, &pressure, load)?;
         let first_norm = cur.equilibrium_norm.max(s.absolute_tolerance);
         for it in 0..=s.max_iterations {
@@ -484,8 +508,12 @@ impl<'m> Solver<'m> {
             if it == s.max_iterations || cur.equilibrium_norm > DIVERGENCE_FACTOR * first_norm {
                 return None;
             }
-            let k = SparseColMat::<usize, f64>::try_new_from_triplets(self.n_eq, self.n_eq, &cur.triplets)
-                .ok()?;
+            let k = SparseColMat::<usize, f64>::try_new_from_triplets(
+                self.n_eq,
+                self.n_eq,
+                &cur.triplets,
+            )
+            .ok()?;
             let Some(du) = self.factor_and_solve(&k, &cur.residual) else {
                 if debug {
                     eprintln!("newton {it}: singular tangent: cutting the step");
@@ -521,8 +549,16 @@ impl<'m> Solver<'m> {
             let mut accepted = None;
             for _ in 0..12 {
                 let tu: Vec<f64> = u.iter().zip(&du_full).map(|(a, b)| a + alpha * b).collect();
-                let tt: Vec<f64> = theta.iter().zip(&updates).map(|(a, b)| a + alpha * b.0).collect();
-                let tp: Vec<f64> = pressure.iter().zip(&updates).map(|(a, b)| a + alpha * b.1).collect();
+                let tt: Vec<f64> = theta
+                    .iter()
+                    .zip(&updates)
+                    .map(|(a, b)| a + alpha * b.0)
+                    .collect();
+                let tp: Vec<f64> = pressure
+                    .iter()
+                    .zip(&updates)
+                    .map(|(a, b)| a + alpha * b.1)
+                    .collect();
                 if let Some(next) = self.assemble(&tu, &tt, &tp, load) {
                     accepted = Some((tu, tt, tp, next));
                     break;
@@ -674,7 +710,11 @@ mod tests {
         );
         assert!(d[0] < d[1] && d[1] < d[2] && d[2] < d[3], "{d:?}");
         assert!(d[3] - d[2] < 0.5 * (d[2] - d[1]), "{d:?}");
-        assert!((d[3] / 14.33 - 1.0).abs() < 0.01, "finest mesh {} vs 14.33 mm", d[3]);
+        assert!(
+            (d[3] / 14.33 - 1.0).abs() < 0.01,
+            "finest mesh {} vs 14.33 mm",
+            d[3]
+        );
     }
 
     /// A block under a uniform dead traction T on x = L, with symmetry planes x = 0,
@@ -851,11 +891,16 @@ mod tests {
                 (x.x * x.x + x.y * x.y).sqrt()
             })
             .collect();
-        let spread = radii.iter().cloned().fold(0.0, f64::max) - radii.iter().cloned().fold(f64::MAX, f64::min);
+        let spread = radii.iter().cloned().fold(0.0, f64::max)
+            - radii.iter().cloned().fold(f64::MAX, f64::min);
         assert!(spread < 1e-6 * a, "axisymmetric: spread {spread}");
         let v = solver.cavity_volume();
-        let polygon = 0.5 * radii[0].powi(2) * (std::f64::consts::FRAC_PI_2 / nt as f64).sin() * nt as f64;
-        assert!((v - polygon).abs() < 1e-9 * polygon, "cavity volume {v} vs {polygon}");
+        let polygon =
+            0.5 * radii[0].powi(2) * (std::f64::consts::FRAC_PI_2 / nt as f64).sin() * nt as f64;
+        assert!(
+            (v - polygon).abs() < 1e-9 * polygon,
+            "cavity volume {v} vs {polygon}"
+        );
         radii[0] / a
     }
 
@@ -878,8 +923,14 @@ mod tests {
             // analytic one: within 2% (method.md §5 / the FEM issue).
             let exact = cylinder_pressure(&m, 10.0, 15.0, reached);
             let err = p / exact - 1.0;
-            eprintln!("cylinder λa {lambda_a}: FEM reached {reached:.5}, p error {:.3}%", 100.0 * err);
-            assert!(err.abs() < 0.02, "λa {lambda_a}: {reached} under {p} MPa, exact {exact}");
+            eprintln!(
+                "cylinder λa {lambda_a}: FEM reached {reached:.5}, p error {:.3}%",
+                100.0 * err
+            );
+            assert!(
+                err.abs() < 0.02,
+                "λa {lambda_a}: {reached} under {p} MPa, exact {exact}"
+            );
             assert!((reached - lambda_a).abs() < 0.05, "{reached} vs {lambda_a}");
         }
     }
@@ -939,7 +990,13 @@ mod assembly_tests {
         let solver = Solver::new(&mesh.model).unwrap();
         let n = mesh.model.nodes.len();
         let u: Vec<f64> = (0..3 * n)
-            .map(|d| if mesh.model.fixed[d] { 0.0 } else { 0.05 * ((d as f64) * 0.37).sin() })
+            .map(|d| {
+                if mesh.model.fixed[d] {
+                    0.0
+                } else {
+                    0.05 * ((d as f64) * 0.37).sin()
+                }
+            })
             .collect();
         let load = LoadState {
             dead: 1.0,
@@ -951,7 +1008,12 @@ mod assembly_tests {
         };
         let a = at(&u);
         assert!(a.volume_error < 1e-14);
-        let k = SparseColMat::<usize, f64>::try_new_from_triplets(solver.n_eq, solver.n_eq, &a.triplets).unwrap();
+        let k = SparseColMat::<usize, f64>::try_new_from_triplets(
+            solver.n_eq,
+            solver.n_eq,
+            &a.triplets,
+        )
+        .unwrap();
         let dense = k.to_dense();
         let free: Vec<usize> = (0..3 * n).filter(|d| !mesh.model.fixed[*d]).collect();
         let h = 1e-6;
@@ -963,14 +1025,25 @@ mod assembly_tests {
             up[d] += h;
             um[d] -= h;
             let de = (energy(&solver, &up, load) - energy(&solver, &um, load)) / (2.0 * h);
-            assert!((de - a.residual[col]).abs() < 1e-6 * scale, "dE/du {de} vs r {}", a.residual[col]);
+            assert!(
+                (de - a.residual[col]).abs() < 1e-6 * scale,
+                "dE/du {de} vs r {}",
+                a.residual[col]
+            );
             let (ap, am) = (at(&up), at(&um));
             for row in 0..solver.n_eq {
                 let fd = (ap.residual[row] - am.residual[row]) / (2.0 * h);
-                let kv = if row >= col { dense[(row, col)] } else { dense[(col, row)] };
+                let kv = if row >= col {
+                    dense[(row, col)]
+                } else {
+                    dense[(col, row)]
+                };
                 worst = worst.max((fd - kv).abs());
             }
         }
-        assert!(worst < 1e-5 * scale, "worst |K - FD| {worst} (scale {scale})");
+        assert!(
+            worst < 1e-5 * scale,
+            "worst |K - FD| {worst} (scale {scale})"
+        );
     }
 }

@@ -39,7 +39,9 @@ pub fn write_vtu(
         nodes.len(),
         elements.len()
     );
-    s.push_str("<Points>\n<DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"ascii\">\n");
+    s.push_str(
+        "<Points>\n<DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"ascii\">\n",
+    );
     for (a, x) in nodes.iter().enumerate() {
         let _ = writeln!(
             s,
@@ -122,7 +124,14 @@ mod tests {
             .map(|a| Vector3::new((a & 1) as f64, ((a >> 1) & 1) as f64, (a >> 2) as f64))
             .collect();
         let path = dir.path().join("one.vtu");
-        write_vtu(&path, &nodes, &[[0, 1, 3, 2, 4, 5, 7, 6]], &[0.5; 24], &[Matrix3::identity()]).unwrap();
+        write_vtu(
+            &path,
+            &nodes,
+            &[[0, 1, 3, 2, 4, 5, 7, 6]],
+            &[0.5; 24],
+            &[Matrix3::identity()],
+        )
+        .unwrap();
         let text = std::fs::read_to_string(&path).unwrap();
         assert!(text.contains("NumberOfPoints=\"8\" NumberOfCells=\"1\""));
         assert!(text.contains("0 1 3 2 4 5 7 6"));

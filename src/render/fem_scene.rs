@@ -86,7 +86,12 @@ fn inside_quad(q: &[Point2<f64>; 4], p: Point2<f64>) -> bool {
 
 impl FemScene {
     /// The scene of `step` of `face`, the FEM origin at `origin` (plane mm).
-    pub fn new(face: &SideFaceFile, step: &SideFaceStep, origin: Point2<f64>, marker_diameter_mm: f64) -> Self {
+    pub fn new(
+        face: &SideFaceFile,
+        step: &SideFaceStep,
+        origin: Point2<f64>,
+        marker_diameter_mm: f64,
+    ) -> Self {
         let quads: Vec<[Point2<f64>; 4]> = face
             .quads
             .iter()
@@ -126,7 +131,11 @@ impl FemScene {
             grid,
             grid_origin: lo,
             grid_size: (nx, ny),
-            markers: step.markers_mm.iter().map(|m| to_plane(origin, *m)).collect(),
+            markers: step
+                .markers_mm
+                .iter()
+                .map(|m| to_plane(origin, *m))
+                .collect(),
             marker_radius_mm: 0.5 * marker_diameter_mm,
             clamp: clamp_rect(face, origin),
             distractor: None,
@@ -140,7 +149,10 @@ impl FemScene {
 
     fn on_body(&self, p: Point2<f64>) -> bool {
         let (nx, ny) = self.grid_size;
-        let (fx, fy) = ((p.x - self.grid_origin.x) / CELL_MM, (p.y - self.grid_origin.y) / CELL_MM);
+        let (fx, fy) = (
+            (p.x - self.grid_origin.x) / CELL_MM,
+            (p.y - self.grid_origin.y) / CELL_MM,
+        );
         if fx < 0.0 || fy < 0.0 || fx >= nx as f64 || fy >= ny as f64 {
             return false;
         }
@@ -186,7 +198,14 @@ mod tests {
             clamp_mm: 5.0,
             steps: vec![SideFaceStep {
                 pressure_kpa: 10.0,
-                points_mm: vec![[0.0, 0.0], [10.0, 0.0], [20.0, 0.0], [0.0, 10.0], [10.0, 10.0], [20.0, 10.0]],
+                points_mm: vec![
+                    [0.0, 0.0],
+                    [10.0, 0.0],
+                    [20.0, 0.0],
+                    [0.0, 10.0],
+                    [10.0, 10.0],
+                    [20.0, 10.0],
+                ],
                 markers_mm: vec![[15.0, 5.0]],
                 radius_mm: f64::INFINITY,
                 bending_angle_deg: 0.0,
@@ -204,8 +223,15 @@ mod tests {
         assert_eq!(s.shade(Point2::new(115.0, 42.0)), BODY_RGB);
         assert_eq!(s.shade(Point2::new(102.0, 45.0)), CLAMP_RGB);
         assert_eq!(s.shade(Point2::new(130.0, 45.0)), SHEET_RGB);
-        assert_eq!(s.shade(Point2::new(115.0, 39.0)), SHEET_RGB, "above the body (z > 10)");
+        assert_eq!(
+            s.shade(Point2::new(115.0, 39.0)),
+            SHEET_RGB,
+            "above the body (z > 10)"
+        );
         let (lo, hi) = scene_bounds(&f, origin);
-        assert!(lo.x <= 94.0 && hi.x >= 120.0 && lo.y <= 36.0 && hi.y >= 54.0, "{lo} {hi}");
+        assert!(
+            lo.x <= 94.0 && hi.x >= 120.0 && lo.y <= 36.0 && hi.y >= 54.0,
+            "{lo} {hi}"
+        );
     }
 }

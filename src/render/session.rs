@@ -228,7 +228,13 @@ const DISTRACTOR_ROOM_MM: f64 = 16.0;
 /// Margin kept between the actuator and the frame border, as a fraction of the frame.
 const VIEW_MARGIN: f64 = 0.04;
 
-fn fits(und: &Undistorter, w: u32, h: u32, corners: &[Point2<f64>], distance_mm: f64) -> Result<bool, RenderError> {
+fn fits(
+    und: &Undistorter,
+    w: u32,
+    h: u32,
+    corners: &[Point2<f64>],
+    distance_mm: f64,
+) -> Result<bool, RenderError> {
     let pts: Vec<Vector3<f64>> = corners
         .iter()
         .map(|c| Vector3::new(c.x, c.y, distance_mm))
@@ -236,7 +242,12 @@ fn fits(und: &Undistorter, w: u32, h: u32, corners: &[Point2<f64>], distance_mm:
     let px = und.project(&pts)?;
     let (mx, my) = (VIEW_MARGIN * w as f64, VIEW_MARGIN * h as f64);
     Ok(px.iter().all(|p| {
-        p.x.is_finite() && p.y.is_finite() && p.x >= mx && p.x <= w as f64 - mx && p.y >= my && p.y <= h as f64 - my
+        p.x.is_finite()
+            && p.y.is_finite()
+            && p.x >= mx
+            && p.x <= w as f64 - mx
+            && p.y >= my
+            && p.y <= h as f64 - my
     }))
 }
 
@@ -250,7 +261,9 @@ pub fn place_fem_actuator(
 ) -> Result<Point2<f64>, RenderError> {
     use super::fem_scene::scene_bounds;
     if face.steps.is_empty() || face.quads.is_empty() {
-        return Err(RenderError::Fem("the FEM output has no converged step to render".into()));
+        return Err(RenderError::Fem(
+            "the FEM output has no converged step to render".into(),
+        ));
     }
     let (lo, mut hi) = scene_bounds(face, Point2::origin());
     // Room on the right for the optional distracting red disc.
@@ -306,11 +319,18 @@ pub fn fem_videos(
         .map(|(i, step)| {
             let mut scene = FemScene::new(face, step, origin, marker_diameter_mm);
             if distractor {
-                scene.distractor = Some((Point2::new(hi.x + 0.5 * DISTRACTOR_ROOM_MM, 0.5 * (lo.y + hi.y)), 8.0));
+                scene.distractor = Some((
+                    Point2::new(hi.x + 0.5 * DISTRACTOR_ROOM_MM, 0.5 * (lo.y + hi.y)),
+                    8.0,
+                ));
             }
             let m = scene.markers_mm().to_vec();
             if m.len() < 3 {
-                return Err(RenderError::Fem(format!("step {} has {} markers; need 3 or more", i + 1, m.len())));
+                return Err(RenderError::Fem(format!(
+                    "step {} has {} markers; need 3 or more",
+                    i + 1,
+                    m.len()
+                )));
             }
             let circle = fit_circle_pratt(&m).map_err(|e| RenderError::Fem(e.to_string()))?;
             let angle = bending_angle_from_circle_deg(m[0], m[m.len() - 1], &circle)
@@ -404,11 +424,16 @@ pub fn write_fem_rgbd(
     let depth = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_fn(w, h, |x, y| {
         let ray = rays[(y * w + x) as usize];
         let z_mm = offset / normal.dot(&ray) * ray.z;
-        image::Luma([(z_mm / (DEPTH_SCALE_M * 1000.0)).round().clamp(0.0, 65535.0) as u16])
+        image::Luma([(z_mm / (DEPTH_SCALE_M * 1000.0))
+            .round()
+            .clamp(0.0, 65535.0) as u16])
     });
     let mut depth_png = Vec::new();
     depth
-        .write_to(&mut std::io::Cursor::new(&mut depth_png), image::ImageFormat::Png)
+        .write_to(
+            &mut std::io::Cursor::new(&mut depth_png),
+            image::ImageFormat::Png,
+        )
         .map_err(|e| err(std::io::Error::other(e.to_string())))?;
     let mut log = String::from("time_s,pressure_kpa\n");
     let mut frame = 0usize;
@@ -416,7 +441,12 @@ pub fn write_fem_rgbd(
     for (i, (scene, mut truth)) in videos.into_iter().enumerate() {
         let t0 = frame as f64 / spec.fps;
         for _ in 0..spec.frames_per_step {
-            let img = sampler.render(&scene, [0.0, 0.0], &spec.look, spec.seed.wrapping_add(frame as u64));
+            let img = sampler.render(
+                &scene,
+                [0.0, 0.0],
+                &spec.look,
+                spec.seed.wrapping_add(frame as u64),
+            );
             let mut png = Vec::new();
             img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
                 .map_err(|e| err(std::io::Error::other(e.to_string())))?;
@@ -426,7 +456,11 @@ pub fn write_fem_rgbd(
         }
         let t1 = (frame - 1) as f64 / spec.fps;
         let p = truth.pressure_kpa;
-        log.push_str(&format!("{:.4},{p}\n{:.4},{p}\n", t0 - 0.3 / spec.fps, t1 + 0.3 / spec.fps));
+        log.push_str(&format!(
+            "{:.4},{p}\n{:.4},{p}\n",
+            t0 - 0.3 / spec.fps,
+            t1 + 0.3 / spec.fps
+        ));
         truth.file = format!("step {}", i + 1);
         truths.push(truth);
     }
