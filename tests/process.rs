@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use bendscope::render::session::SessionTruth;
 use bendscope::video::{EncodeSettings, VideoWriter};
-use common::{fixture, Run};
+use common::{col, fixture, read_csv, Run};
 
 /// Accuracy the issue asks for on every video.
 const RADIUS_TOLERANCE: f64 = 0.005;
@@ -20,38 +20,6 @@ fn example() -> PathBuf {
 
 fn truth() -> SessionTruth {
     serde_json::from_str(&fs::read_to_string(example().join("truth.json")).unwrap()).unwrap()
-}
-
-/// per_video.csv as (header -> column index, rows).
-fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
-    let text = fs::read_to_string(path).unwrap();
-    let mut lines = text.lines();
-    let header: Vec<String> = lines.next().unwrap().split(',').map(String::from).collect();
-    let rows = lines
-        .map(|l| {
-            // Quoted fields (messages with commas) are kept whole.
-            let mut out = vec![];
-            let mut cur = String::new();
-            let mut q = false;
-            for c in l.chars() {
-                match c {
-                    '"' => q = !q,
-                    ',' if !q => out.push(std::mem::take(&mut cur)),
-                    c => cur.push(c),
-                }
-            }
-            out.push(cur);
-            out
-        })
-        .collect();
-    (header, rows)
-}
-
-fn col(header: &[String], name: &str) -> usize {
-    header
-        .iter()
-        .position(|h| h == name)
-        .unwrap_or_else(|| panic!("no column {name} in {header:?}"))
 }
 
 fn copy_dir(from: &Path, to: &Path) {

@@ -4,32 +4,20 @@ mod common;
 
 use std::path::Path;
 
-use common::Run;
+use common::{col, Run};
 
+/// A numeric CSV as (header, rows); non-numeric fields are NaN.
 fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
-    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let mut lines = text.lines();
-    let header: Vec<String> = lines
-        .next()
-        .unwrap()
-        .split(',')
-        .map(str::to_string)
-        .collect();
-    let rows = lines
-        .map(|l| {
-            l.split(',')
+    let (header, rows) = common::read_csv(path);
+    let rows = rows
+        .iter()
+        .map(|r| {
+            r.iter()
                 .map(|v| v.parse::<f64>().unwrap_or(f64::NAN))
                 .collect()
         })
         .collect();
     (header, rows)
-}
-
-fn col(header: &[String], name: &str) -> usize {
-    header
-        .iter()
-        .position(|h| h == name)
-        .unwrap_or_else(|| panic!("no column {name} in {header:?}"))
 }
 
 #[test]

@@ -70,3 +70,36 @@ impl std::fmt::Display for Run {
         )
     }
 }
+
+/// A CSV as (header, rows of fields); quoted fields (messages with commas) kept whole.
+pub fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut lines = text.lines();
+    let header: Vec<String> = lines.next().unwrap().split(',').map(String::from).collect();
+    let rows = lines
+        .map(|l| {
+            // Quoted fields (messages with commas) are kept whole.
+            let mut out = vec![];
+            let mut cur = String::new();
+            let mut q = false;
+            for c in l.chars() {
+                match c {
+                    '"' => q = !q,
+                    ',' if !q => out.push(std::mem::take(&mut cur)),
+                    c => cur.push(c),
+                }
+            }
+            out.push(cur);
+            out
+        })
+        .collect();
+    (header, rows)
+}
+
+/// Index of column `name`.
+pub fn col(header: &[String], name: &str) -> usize {
+    header
+        .iter()
+        .position(|h| h == name)
+        .unwrap_or_else(|| panic!("no column {name} in {header:?}"))
+}
