@@ -416,28 +416,18 @@ fn ramp_protocol_interpolates_pressure_per_frame() {
 
 #[test]
 fn rgbd_session_gives_mm_from_depth_without_a_scale_photo() {
-    use bendscope::calib::{Calibration, CameraModel, UndistortSettings, Undistorter};
+    use bendscope::calib::{UndistortSettings, Undistorter};
     use bendscope::render::actuator::{ArcScene, FrameLook, PlaneSampler};
     use bendscope::render::board::BoardPose;
     use bendscope::render::session::reference_marker_positions_mm;
-    use nalgebra::{Matrix3, Point2, Rotation3, Vector3};
+    use nalgebra::{Point2, Rotation3, Vector3};
     let dir = tempfile::tempdir().unwrap();
     let s = dir.path().join("rgbd");
     fs::create_dir_all(s.join("color")).unwrap();
     fs::create_dir_all(s.join("depth")).unwrap();
-    let (w, h) = (640u32, 480u32);
-    let camera = Calibration {
-        model: CameraModel::Pinhole,
-        image_width: w,
-        image_height: h,
-        camera_matrix: Matrix3::new(520.0, 0.0, 321.7, 0.0, 520.0, 238.2, 0.0, 0.0, 1.0),
-        distortion: vec![0.0; 5],
-        avg_reprojection_error: 0.0,
-        per_view_errors: vec![],
-        board: None,
-        views_used: vec![],
-        views_rejected: vec![],
-    };
+    // The renderer's RGB-D camera: 640x480 pinhole, fx = fy = 520, (321.7, 238.2).
+    let camera = bendscope::render::session::rgbd_camera();
+    let (w, h) = (camera.image_width, camera.image_height);
     // The actuator plane is tilted 15° about the vertical axis: depth varies along it.
     let plane = BoardPose {
         rotation: Rotation3::from_euler_angles(0.0, 15f64.to_radians(), 0.0),
