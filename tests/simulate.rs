@@ -220,3 +220,48 @@ fn radius_at_115_kpa_changes_less_than_3_percent_on_a_refined_mesh() {
     // And the curl is that of a working PneuNets actuator: well past 90 degrees.
     assert!(fine > 30.0 && fine < 60.0, "{fine}");
 }
+
+#[test]
+fn a_step_that_does_not_converge_is_named_and_the_converged_ones_are_kept() {
+    // One Newton iteration per increment cannot meet the tolerance, however small the
+    // increment: the ramp stops at its second step.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("strict.toml"),
+        "[solver]\nmax_iterations = 1\n",
+    )
+    .unwrap();
+    let run = Run::new(
+        dir.path(),
+        &[
+            "simulate",
+            "--config",
+            "strict.toml",
+            "--no-gravity",
+            "--mesh-size",
+            "4",
+            "--pressures",
+            "0,100",
+            "--no-vtu",
+            "-o",
+            "fem",
+        ],
+    );
+    assert_eq!(run.code, 1, "{run}");
+    assert!(!run.stderr.contains("panicked"), "{run}");
+    for needle in [
+        "from 0 to 100 kPa did not converge",
+        "smaller pressure steps",
+        "1 converged step(s) are written",
+    ] {
+        assert!(
+            run.stderr.contains(needle),
+            "stderr lacks `{needle}`: {run}"
+        );
+    }
+    let (h, rows) = read_csv(&dir.path().join("fem/steps.csv"));
+    assert_eq!(rows.len(), 1);
+    assert_eq!(rows[0][col(&h, "pressure_kpa")], 0.0);
+    let summary = std::fs::read_to_string(dir.path().join("fem/summary.json")).unwrap();
+    assert!(summary.contains("did not converge"), "{summary}");
+}

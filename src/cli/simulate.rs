@@ -28,7 +28,7 @@ side_face.json (the filmed face per step, input of bendscope render), vtu/ + act
 actuator), summary.json; with --blocked force.csv; with --sweep sweep.csv.
 Config sections: [geometry] chambers b i f m p r c g d e l n top_wall roof (mm, method.md §4 names); \
 [material] preset c1 c2 c3 bulk_modulus_mpa density_g_cm3 tensile_strength_mpa; [mesh] size_mm; \
-[load] pressures_kpa gravity. Print the defaults with --print-config."
+[load] pressures_kpa gravity; [solver] max_iterations tolerance. Print the defaults with --print-config."
 )]
 pub struct SimulateArgs {
     /// Actuator file (TOML) [default: the reference actuator, Dragon Skin 30].
@@ -160,6 +160,7 @@ pub fn run(args: &SimulateArgs) -> Result<u8> {
     let (ramp, vtu_files, face) = ramp_with_outputs(
         &mesh,
         &pressures,
+        &cfg,
         false,
         (!args.no_vtu).then_some(out.as_path()),
     )?;
@@ -172,7 +173,7 @@ pub fn run(args: &SimulateArgs) -> Result<u8> {
     let mut failure = ramp.failure.as_ref().map(|e| e.to_string());
     let mut force_steps = Vec::new();
     if args.blocked {
-        let blocked = ramp_with_outputs(&mesh, &pressures, true, None)?.0;
+        let blocked = ramp_with_outputs(&mesh, &pressures, &cfg, true, None)?.0;
         write_force(out, &blocked.steps)?;
         force_steps = blocked.steps;
         if let Some(e) = blocked.failure {
@@ -233,6 +234,7 @@ pub fn run(args: &SimulateArgs) -> Result<u8> {
 fn ramp_with_outputs(
     mesh: &ActuatorMesh,
     pressures: &[f64],
+    cfg: &ActuatorConfig,
     blocked: bool,
     vtu_dir: Option<&Path>,
 ) -> Result<(Ramp, Vec<(f64, String)>, SideFaceFile)> {
@@ -249,7 +251,7 @@ fn ramp_with_outputs(
     let (mut face, face_nodes) = SideFaceFile::new(mesh);
     let settings = RampSettings {
         blocked,
-        ..Default::default()
+        newton: cfg.solver.newton(),
     };
     let ramp = run_ramp(mesh, pressures, &settings, |step, fields| {
         face.push(mesh, &face_nodes, step, fields.displacement);
@@ -422,8 +424,13 @@ fn run_sweep(base: &ActuatorConfig, spec: &str, out: &Path) -> Result<u8> {
     let mut rows: Vec<(f64, Option<StepResult>, String)> = Vec::new();
     for (v, cfg) in values.iter().zip(&designs) {
         bar.set_message(format!("{name} = {v}"));
-        let result = build_mesh(cfg)
-            .and_then(|mesh| run_ramp(&mesh, &pressures, &RampSettings::default(), |_, _| {}));
+        let result = build_mesh(cfg).and_then(|mesh| {
+            let settings = RampSettings {
+                blocked: false,
+                newton: cfg.solver.newton(),
+            };
+            run_ramp(&mesh, &pressures, &settings, |_, _| {})
+        });
         let row = match result {
             Ok(ramp) => {
                 let status = match &ramp.failure {

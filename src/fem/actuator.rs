@@ -26,7 +26,7 @@ use serde::{Deserialize, Serialize};
 use super::hex::{nodal_volumes, HexGeometry};
 use super::material::{MaterialPreset, Yeoh, DEFAULT_BULK_TO_SHEAR};
 use super::pressure::CLOSED;
-use super::solve::Model;
+use super::solve::{Model, NewtonSettings};
 use super::FemError;
 
 /// Standard gravity, m/s².
@@ -336,6 +336,37 @@ impl Default for MeshConfig {
     }
 }
 
+/// Newton settings of a simulation.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SolverConfig {
+    /// Newton iterations per load increment before the increment is halved.
+    pub max_iterations: usize,
+    /// Residual tolerance relative to the external forces.
+    pub tolerance: f64,
+}
+
+impl Default for SolverConfig {
+    fn default() -> Self {
+        let n = NewtonSettings::default();
+        Self {
+            max_iterations: n.max_iterations,
+            tolerance: n.tolerance,
+        }
+    }
+}
+
+impl SolverConfig {
+    /// The Newton settings of a pressure step (each step starts with its whole increment).
+    pub fn newton(&self) -> NewtonSettings {
+        NewtonSettings {
+            max_iterations: self.max_iterations,
+            tolerance: self.tolerance,
+            ..NewtonSettings::default()
+        }
+    }
+}
+
 /// Everything that defines a simulated actuator.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 #[serde(default, deny_unknown_fields)]
@@ -348,6 +379,8 @@ pub struct ActuatorConfig {
     pub mesh: MeshConfig,
     /// Loads.
     pub load: LoadConfig,
+    /// Newton settings.
+    pub solver: SolverConfig,
 }
 
 /// Loads of a simulation.
@@ -446,6 +479,16 @@ impl ActuatorConfig {
         if !(h.is_finite() && h > 0.0) {
             return Err(bad("mesh size", format!("{h} mm: must be positive")));
         }
+        if self.solver.max_iterations == 0 {
+            return Err(bad("max_iterations", "must be at least 1".into()));
+        }
+        let t = self.solver.tolerance;
+        if !(t > 0.0 && t <= 1e-3) {
+            return Err(bad(
+                "tolerance",
+                format!("{t}: use a relative tolerance in (0, 1e-3]"),
+            ));
+        }
         Ok(())
     }
 
@@ -481,7 +524,7 @@ impl ActuatorConfig {
         if !hit {
             return Err(bad(
                 name,
-                "no such parameter (geometry: chambers b i f m p r c g d e l n top_wall roof; material: c1 c2 c3 bulk_modulus_mpa density_g_cm3 tensile_strength_mpa; mesh: size_mm)".into(),
+                "no such parameter (geometry: chambers b i f m p r c g d e l n top_wall roof; material: c1 c2 c3 bulk_modulus_mpa density_g_cm3 tensile_strength_mpa; mesh: size_mm; solver: max_iterations tolerance)".into(),
             ));
         }
         doc.try_into()
