@@ -411,8 +411,8 @@ impl<'m> Solver<'m> {
             .pressure_faces
             .par_iter()
             .map(|f| {
-                let x: [Vector3<f64>; 4] =
-                    std::array::from_fn(|k| model.nodes[f[k]] + gather(u, f)[k]);
+                let du = gather(u, f);
+                let x: [Vector3<f64>; 4] = std::array::from_fn(|k| model.nodes[f[k]] + du[k]);
                 face_volume(&x, &model.volume_weights)
             })
             .collect();
@@ -966,7 +966,8 @@ mod assembly_tests {
             .map(|(el, g)| element_response(g, &m.material, &gather(u, el)).unwrap().0)
             .sum();
         for f in &m.pressure_faces {
-            let x: [Vector3<f64>; 4] = std::array::from_fn(|k| m.nodes[f[k]] + gather(u, f)[k]);
+            let du = gather(u, f);
+            let x: [Vector3<f64>; 4] = std::array::from_fn(|k| m.nodes[f[k]] + du[k]);
             e -= load.pressure_mpa * face_volume(&x, &m.volume_weights).0;
         }
         for d in 0..u.len() {
