@@ -562,10 +562,18 @@ pub enum ChainStart {
 /// the clamped end and the tip; `start` says which is which. When the tree is not a path
 /// (irregular spacing), a nearest-neighbour walk from the chosen end is used.
 pub fn order_markers(points: &[Point2<f64>], start: ChainStart) -> Vec<Point2<f64>> {
+    order_marker_indices(points, start)
+        .into_iter()
+        .map(|i| points[i])
+        .collect()
+}
+
+/// [`order_markers`] as indices into `points`.
+pub fn order_marker_indices(points: &[Point2<f64>], start: ChainStart) -> Vec<usize> {
     let n = points.len();
     if n < 3 {
-        let mut v = points.to_vec();
-        v.sort_by(|a, b| chain_key(a, start).total_cmp(&chain_key(b, start)));
+        let mut v: Vec<usize> = (0..n).collect();
+        v.sort_by(|a, b| chain_key(&points[*a], start).total_cmp(&chain_key(&points[*b], start)));
         return v;
     }
     // Prim's algorithm, O(n²): n is the marker count.
@@ -623,7 +631,7 @@ pub fn order_markers(points: &[Point2<f64>], start: ChainStart) -> Vec<Point2<f6
             None => break,
         }
     }
-    order.into_iter().map(|i| points[i]).collect()
+    order
 }
 
 /// Smaller is nearer the chain's start.

@@ -1,41 +1,142 @@
 //! Small file helpers shared by every stage.
 //!
-//! Every result file bendscope writes goes through [`write_atomic`]: the bytes go to a
-//! temporary file in the destination folder, which is then renamed over the destination,
-//! so a reader (or a crash) never sees a half-written file.
+//! Every result file bendscope writes goes through [`write_atomic`] (or
+//! [`write_atomic_with`] for writers that stream): the bytes go to a temporary file in
+//! the destination folder (tempfile's `NamedTempFile`), which is then renamed over the
+//! destination, so a reader (or a crash) never sees a half-written file, and the
+//! temporary file is removed when anything fails on the way.
+//!
+//! [`bounded_file_name`] keeps file names derived from user data (video names) within
+//! what file systems accept; [`content_key`] is the stable fingerprint the caches use.
 
 use std::fs;
-use std::io::Write;
+use std::io::{Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
+
+use xxhash_rust::xxh3::Xxh3;
 
 /// Writes `bytes` to `path` atomically (temporary file in the same folder, then rename).
 /// Creates the parent folder when missing.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    write_atomic_with(path, |f| f.write_all(bytes))
+}
+
+/// Like [`write_atomic`], with `write` filling the temporary file.
+pub fn write_atomic_with(
+    path: &Path,
+    write: impl FnOnce(&mut fs::File) -> std::io::Result<()>,
+) -> std::io::Result<()> {
     let parent = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
     };
     fs::create_dir_all(&parent)?;
-    let file_name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "out".to_string());
-    let tmp = parent.join(format!(".{file_name}.{}.tmp", std::process::id()));
-    let result = (|| {
-        let mut f = fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        fs::rename(&tmp, path)
-    })();
-    if result.is_err() {
-        let _ = fs::remove_file(&tmp);
+    // Dropped on any error below: the temporary file is removed.
+    let mut tmp = tempfile::Builder::new()
+        .prefix(".bendscope-")
+        .suffix(".tmp")
+        .tempfile_in(&parent)?;
+    write(tmp.as_file_mut())?;
+    tmp.as_file().sync_all()?;
+    tmp.persist(path).map_err(|e| e.error)?;
+    Ok(())
+}
+
+/// Longest file name (bytes) bendscope derives from user data; longer names are cut and
+/// given a hash suffix (most file systems stop at 255 bytes, and `.png`, `.json` or a
+/// temporary prefix must still fit).
+pub const MAX_NAME_BYTES: usize = 120;
+
+/// `name` + `ext` as a file name of at most [`MAX_NAME_BYTES`] bytes: unchanged when it
+/// fits, else the first part of `name` (cut at a character boundary), `-` and 16 hex
+/// digits of its hash, so distinct long names stay distinct. Path separators become `_`.
+pub fn bounded_file_name(name: &str, ext: &str) -> String {
+    let clean: String = name
+        .chars()
+        .map(|c| {
+            if matches!(c, '/' | '\\' | '\0') {
+                '_'
+            } else {
+                c
+            }
+        })
+        .collect();
+    if clean.len() + ext.len() <= MAX_NAME_BYTES {
+        return format!("{clean}{ext}");
     }
-    result
+    let keep = MAX_NAME_BYTES - ext.len() - 17;
+    let mut cut = keep.min(clean.len());
+    while !clean.is_char_boundary(cut) {
+        cut -= 1;
+    }
+    let hash = xxhash_rust::xxh3::xxh3_64(name.as_bytes());
+    format!("{}-{hash:016x}{ext}", &clean[..cut])
+}
+
+/// Bytes read from each end of a large file by [`content_key`].
+pub const KEY_SAMPLE_BYTES: u64 = 1 << 20;
+
+/// A stable fingerprint of a file's content (xxh3-128, the same across Rust releases
+/// and machines): size, modification time and the bytes themselves, or, for files
+/// larger than 2 x [`KEY_SAMPLE_BYTES`], their first and last MiB (a replaced video
+/// differs there; hashing a 4 GB video whole on every rerun would cost more than it
+/// saves).
+pub fn content_key(path: &Path) -> std::io::Result<u128> {
+    let mut f = fs::File::open(path)?;
+    let meta = f.metadata()?;
+    let mut h = Xxh3::new();
+    h.update(&meta.len().to_le_bytes());
+    let mtime = meta
+        .modified()
+        .ok()
+        .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
+        .map(|d| d.as_nanos())
+        .unwrap_or(0);
+    h.update(&mtime.to_le_bytes());
+    let mut buf = vec![0u8; 64 * 1024];
+    let mut feed = |f: &mut fs::File, mut left: u64, h: &mut Xxh3| -> std::io::Result<()> {
+        while left > 0 {
+            let want = left.min(buf.len() as u64) as usize;
+            let n = f.read(&mut buf[..want])?;
+            if n == 0 {
+                break;
+            }
+            h.update(&buf[..n]);
+            left -= n as u64;
+        }
+        Ok(())
+    };
+    if meta.len() <= 2 * KEY_SAMPLE_BYTES {
+        feed(&mut f, meta.len(), &mut h)?;
+    } else {
+        feed(&mut f, KEY_SAMPLE_BYTES, &mut h)?;
+        f.seek(SeekFrom::End(-(KEY_SAMPLE_BYTES as i64)))?;
+        feed(&mut f, KEY_SAMPLE_BYTES, &mut h)?;
+    }
+    Ok(h.digest128())
+}
+
+/// A stable hash of several parts (xxh3-128), each length-prefixed so that ("ab", "c")
+/// and ("a", "bc") differ.
+pub fn hash_parts<'a>(parts: impl IntoIterator<Item = &'a [u8]>) -> u128 {
+    let mut h = Xxh3::new();
+    for p in parts {
+        h.update(&(p.len() as u64).to_le_bytes());
+        h.update(p);
+    }
+    h.digest128()
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn names(dir: &Path) -> Vec<std::ffi::OsString> {
+        fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect()
+    }
 
     #[test]
     fn writes_and_replaces_without_leaving_temporaries() {
@@ -44,10 +145,62 @@ mod tests {
         write_atomic(&path, b"one").unwrap();
         write_atomic(&path, b"two").unwrap();
         assert_eq!(fs::read(&path).unwrap(), b"two");
-        let names: Vec<_> = fs::read_dir(path.parent().unwrap())
+        assert_eq!(names(path.parent().unwrap()).len(), 1);
+    }
+
+    #[test]
+    fn a_failed_write_leaves_the_old_file_and_no_temporary() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.txt");
+        write_atomic(&path, b"old").unwrap();
+        let e = write_atomic_with(&path, |f| {
+            f.write_all(b"half")?;
+            Err(std::io::Error::other("disk full"))
+        });
+        assert!(e.is_err());
+        assert_eq!(fs::read(&path).unwrap(), b"old");
+        assert_eq!(names(dir.path()).len(), 1, "{:?}", names(dir.path()));
+    }
+
+    #[test]
+    fn long_names_are_bounded_and_stay_distinct() {
+        assert_eq!(
+            bounded_file_name("GX010101.MP4", ".png"),
+            "GX010101.MP4.png"
+        );
+        let a = "é".repeat(127) + "a.mp4";
+        let b = "é".repeat(127) + "b.mp4";
+        let (na, nb) = (
+            bounded_file_name(&a, ".json"),
+            bounded_file_name(&b, ".json"),
+        );
+        assert!(na.len() <= MAX_NAME_BYTES && nb.len() <= MAX_NAME_BYTES);
+        assert_ne!(na, nb);
+        assert!(na.ends_with(".json"));
+        assert_eq!(bounded_file_name("a/b", ""), "a_b");
+    }
+
+    #[test]
+    fn content_key_sees_a_replaced_file_of_the_same_size_and_time() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("v.bin");
+        let mut bytes = vec![7u8; 3 << 20];
+        fs::write(&p, &bytes).unwrap();
+        let t = fs::metadata(&p).unwrap().modified().unwrap();
+        let k1 = content_key(&p).unwrap();
+        bytes[10] = 8;
+        fs::write(&p, &bytes).unwrap();
+        fs::File::options()
+            .write(true)
+            .open(&p)
             .unwrap()
-            .map(|e| e.unwrap().file_name())
-            .collect();
-        assert_eq!(names.len(), 1, "left {names:?}");
+            .set_modified(t)
+            .unwrap();
+        assert_ne!(content_key(&p).unwrap(), k1);
+        assert_eq!(content_key(&p).unwrap(), content_key(&p).unwrap());
+        assert_ne!(
+            hash_parts([b"ab".as_slice(), b"c"]),
+            hash_parts([b"a".as_slice(), b"bc"])
+        );
     }
 }

@@ -8,7 +8,8 @@
 //!   depth/             16-bit PNG depth frames aligned to the colour frames, same names
 //!   intrinsics.json    {"width", "height", "fx", "fy", "cx", "cy", "depth_scale_m",
 //!                       "fps", "distortion": [k1, k2, p1, p2, k3] (optional)}
-//!   pressure_log.csv   time_s, pressure_<unit> (frame i is at i / fps)
+//!   pressure_log.csv   time_s, pressure_<unit>
+//!   frames.csv         optional: frame,time_s (else times from the frame names)
 //! ```
 //!
 //! `depth_scale_m` is metres per depth unit (RealSense convention: 0.001 by default,
@@ -22,6 +23,7 @@ use nalgebra::{Matrix3, Point2, Point3};
 use serde::Deserialize;
 
 use crate::calib::{Calibration, CameraModel, UndistortSettings, Undistorter};
+use crate::pipeline::records::FrameStatus;
 
 /// Name of the intrinsics file.
 pub const INTRINSICS: &str = "intrinsics.json";
@@ -57,7 +59,7 @@ pub struct RgbdIntrinsics {
     pub cy: f64,
     /// Metres per depth unit.
     pub depth_scale_m: f64,
-    /// Frames per second (frame i is at i / fps).
+    /// Frames per second (times frames named by frame number: number / fps).
     #[serde(default = "default_fps")]
     pub fps: f64,
     /// Brown coefficients k1 k2 p1 p2 k3 (empty: none).
@@ -113,17 +115,30 @@ impl RgbdIntrinsics {
     }
 }
 
-/// One colour + depth frame pair.
+/// One colour frame and its depth frame.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RgbdFrame {
-    /// 0-based index in name order.
+    /// Frame number (from the name, see [`list_frames`]).
     pub index: u64,
-    /// Time, s (index / fps).
+    /// Time, s (from the name or `frames.csv`).
     pub time_s: f64,
     /// Colour frame.
     pub color: PathBuf,
-    /// Depth frame.
-    pub depth: PathBuf,
+    /// Depth frame of the same stem, when there is one.
+    pub depth: Option<PathBuf>,
+}
+
+/// The frames of an RGB-D folder.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RgbdListing {
+    /// The colour camera.
+    pub intrinsics: RgbdIntrinsics,
+    /// Colour frames in time order (an orphan colour frame has `depth: None`).
+    pub frames: Vec<RgbdFrame>,
+    /// Depth frames with no colour frame of the same stem, by name.
+    pub orphan_depth: Vec<String>,
+    /// How the frames were timed, for the log.
+    pub timing: String,
 }
 
 /// True when `session` has `color/` and `depth/` folders.
@@ -131,53 +146,197 @@ pub fn is_rgbd_session(session: &Path) -> bool {
     session.join("color").is_dir() && session.join("depth").is_dir()
 }
 
-/// Lists the frame pairs (matched by file stem) and reads the intrinsics.
-pub fn list_frames(session: &Path) -> Result<(RgbdIntrinsics, Vec<RgbdFrame>), RgbdError> {
-    let intr = RgbdIntrinsics::read(&session.join(INTRINSICS))?;
+/// Name of the optional frame time table of an RGB-D session (`frame,time_s`).
+pub const FRAME_TIMES: &str = "frames.csv";
+
+/// The number a frame's name ends with: `000123` -> 123, `color_1700000000123.456` ->
+/// 1700000000123.456.
+fn trailing_number(stem: &str) -> Option<f64> {
+    let start = stem
+        .char_indices()
+        .rev()
+        .take_while(|(_, c)| c.is_ascii_digit() || *c == '.')
+        .last()
+        .map(|(i, _)| i)?;
+    stem[start..].trim_matches('.').parse::<f64>().ok()
+}
+
+/// Lists the colour frames with their depth frames (matched by file stem) and times
+/// them, never by their position in the list (a dropped frame must not shift the later
+/// ones): from `frames.csv` (`frame,time_s`, frame = the colour file's stem) when
+/// present, else from the number each name ends with: consecutive integers
+/// (`000123.png`) are frame numbers, time = number / fps; other numbers (a RealSense
+/// timestamp) are milliseconds, time = (t - t_first) / 1000.
+pub fn list_frames(session: &Path) -> Result<RgbdListing, RgbdError> {
+    let intrinsics = RgbdIntrinsics::read(&session.join(INTRINSICS))?;
     let list = |dir: &Path| -> Vec<PathBuf> {
         let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
             .map(|rd| {
                 rd.flatten()
                     .map(|e| e.path())
-                    .filter(|p| p.is_file())
+                    .filter(|p| p.is_file() && !is_hidden(p))
                     .collect()
             })
             .unwrap_or_default();
         v.sort();
         v
     };
-    let depth_dir = session.join("depth");
-    let mut frames = Vec::new();
-    for color in list(&session.join("color")) {
-        let stem = color
-            .file_stem()
+    let stem = |p: &Path| {
+        p.file_stem()
             .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        let depth = depth_dir.join(format!("{stem}.png"));
-        if !depth.is_file() {
-            return Err(RgbdError::Layout {
-                path: depth,
-                why: format!(
-                    "no depth frame for {}: depth/ needs a 16-bit PNG of the same name",
-                    color.display()
-                ),
-            });
-        }
-        let index = frames.len() as u64;
-        frames.push(RgbdFrame {
-            index,
-            time_s: index as f64 / intr.fps,
-            color,
-            depth,
-        });
-    }
-    if frames.is_empty() {
+            .unwrap_or_default()
+    };
+    let colors = list(&session.join("color"));
+    if colors.is_empty() {
         return Err(RgbdError::Layout {
             path: session.join("color"),
             why: "no colour frames".into(),
         });
     }
-    Ok((intr, frames))
+    let mut depth_by_stem: std::collections::BTreeMap<String, PathBuf> =
+        list(&session.join("depth"))
+            .into_iter()
+            .map(|p| (stem(&p), p))
+            .collect();
+    let times_path = session.join(FRAME_TIMES);
+    let (times, timing) = if times_path.is_file() {
+        (
+            read_frame_times(&times_path, &colors, stem)?,
+            format!("times from {FRAME_TIMES}"),
+        )
+    } else {
+        times_from_names(&colors, intrinsics.fps, stem).map_err(|why| RgbdError::Layout {
+            path: session.join("color"),
+            why,
+        })?
+    };
+    let mut frames: Vec<RgbdFrame> = colors
+        .into_iter()
+        .zip(times)
+        .map(|(color, (index, time_s))| RgbdFrame {
+            index,
+            time_s,
+            depth: depth_by_stem.remove(&stem(&color)),
+            color,
+        })
+        .collect();
+    frames.sort_by(|a, b| a.time_s.total_cmp(&b.time_s));
+    let orphan_depth = depth_by_stem
+        .into_values()
+        .map(|p| {
+            format!(
+                "depth/{}",
+                p.file_name()
+                    .map(|n| n.to_string_lossy().into_owned())
+                    .unwrap_or_default()
+            )
+        })
+        .collect();
+    Ok(RgbdListing {
+        intrinsics,
+        frames,
+        orphan_depth,
+        timing,
+    })
+}
+
+fn is_hidden(p: &Path) -> bool {
+    p.file_name()
+        .map(|n| n.to_string_lossy().starts_with('.'))
+        .unwrap_or(false)
+}
+
+/// (index, time) of each colour frame from the numbers its name ends with.
+fn times_from_names(
+    colors: &[PathBuf],
+    fps: f64,
+    stem: impl Fn(&Path) -> String,
+) -> Result<(Vec<(u64, f64)>, String), String> {
+    let mut numbers = Vec::with_capacity(colors.len());
+    for c in colors {
+        match trailing_number(&stem(c)) {
+            Some(n) if n.is_finite() && n >= 0.0 => numbers.push(n),
+            _ => {
+                return Err(format!(
+                    "cannot time {}: name colour frames by frame number (000123.png) or timestamp in ms, or give {FRAME_TIMES} (frame,time_s)",
+                    c.display()
+                ))
+            }
+        }
+    }
+    let mut sorted = numbers.clone();
+    sorted.sort_by(f64::total_cmp);
+    let steps: Vec<f64> = sorted.windows(2).map(|w| w[1] - w[0]).collect();
+    if steps.iter().any(|s| *s == 0.0) {
+        return Err(format!(
+            "two colour frames carry the same number: give {FRAME_TIMES} (frame,time_s)"
+        ));
+    }
+    let integers = numbers.iter().all(|n| n.fract() == 0.0);
+    let frame_numbers =
+        integers && (steps.is_empty() || crate::pipeline::stats::median(&steps) <= 1.0);
+    Ok(if frame_numbers {
+        (
+            numbers.iter().map(|n| (*n as u64, n / fps)).collect(),
+            format!("frame numbers from the names at {fps} fps"),
+        )
+    } else {
+        let t0 = sorted[0];
+        (
+            numbers
+                .iter()
+                .map(|n| (n.round() as u64, (n - t0) / 1000.0))
+                .collect(),
+            "timestamps in ms from the names".to_string(),
+        )
+    })
+}
+
+/// (index, time) of each colour frame from `frames.csv`: header `frame,time_s`, `frame`
+/// the colour file's stem (or its number).
+fn read_frame_times(
+    path: &Path,
+    colors: &[PathBuf],
+    stem: impl Fn(&Path) -> String,
+) -> Result<Vec<(u64, f64)>, RgbdError> {
+    let table = crate::table::Table::read(path).map_err(|e| RgbdError::Layout {
+        path: path.to_path_buf(),
+        why: e.to_string(),
+    })?;
+    let bad = |why: String| RgbdError::Layout {
+        path: path.to_path_buf(),
+        why,
+    };
+    let hint = "write the header `frame,time_s` and one row per colour frame";
+    let fc = table
+        .require("frame", hint)
+        .map_err(|e| bad(e.to_string()))?;
+    let tc = table
+        .require("time_s", hint)
+        .map_err(|e| bad(e.to_string()))?;
+    let mut by_frame = std::collections::HashMap::new();
+    for r in 0..table.len() {
+        let t = table.f64_at(r, tc).map_err(|e| bad(e.to_string()))?;
+        by_frame.insert(table.cell(r, fc).trim().to_string(), t);
+    }
+    colors
+        .iter()
+        .enumerate()
+        .map(|(i, c)| {
+            let s = stem(c);
+            let number = trailing_number(&s);
+            let t = by_frame
+                .get(&s)
+                .or_else(|| number.and_then(|n| by_frame.get(&format!("{n}"))))
+                .copied()
+                .ok_or_else(|| {
+                    bad(format!(
+                        "no time for colour frame {s}: add a row `{s},TIME_S`"
+                    ))
+                })?;
+            Ok((number.map(|n| n as u64).unwrap_or(i as u64), t))
+        })
+        .collect()
 }
 
 /// 3D positions (mm, colour camera frame) of markers at raw pixel `centroids`, with
@@ -189,11 +348,13 @@ pub fn markers_3d_mm(
     depth: &image::ImageBuffer<image::Luma<u16>, Vec<u16>>,
     intr: &RgbdIntrinsics,
     undistorter: &Undistorter,
-) -> Result<Vec<Point3<f64>>, String> {
+) -> Result<Vec<Point3<f64>>, FrameStatus> {
     let (w, h) = depth.dimensions();
     let rays = undistorter
         .rays_from_pixels(centroids)
-        .map_err(|e| e.to_string())?;
+        .map_err(|e| FrameStatus::FitFailed {
+            why: format!("undistortion failed: {e}"),
+        })?;
     let r = window_px.max(1.0);
     let mut out = Vec::with_capacity(centroids.len());
     for (i, (c, ray)) in centroids.iter().zip(&rays).enumerate() {
@@ -215,12 +376,7 @@ pub fn markers_3d_mm(
             }
         }
         if vals.is_empty() {
-            return Err(format!(
-                "no depth at marker {} ({:.0}, {:.0})",
-                i + 1,
-                c.x,
-                c.y
-            ));
+            return Err(FrameStatus::NoDepth { marker: i + 1 });
         }
         vals.sort_unstable();
         let z_mm = vals[vals.len() / 2] as f64 * intr.depth_scale_m * 1000.0;

@@ -85,6 +85,9 @@ pub struct VideoInfo {
     pub duration_s: f64,
     /// Frame count from the container, or duration x fps.
     pub frame_count_estimate: u64,
+    /// Frame count the container states (MP4 `nb_frames`), 0 when it states none: a
+    /// file that decodes to fewer frames is truncated or corrupt.
+    pub container_frames: u64,
     /// Codec name, e.g. `h264`, `hevc`.
     pub codec: String,
 }
@@ -305,6 +308,7 @@ impl VideoReader {
             fps,
             duration_s,
             frame_count_estimate,
+            container_frames: stream.frames().max(0) as u64,
             codec,
         };
         Ok(Self {
@@ -629,6 +633,7 @@ pub struct VideoWriter {
     stream_time_base: ffmpeg::Rational,
     yuv: ffmpeg::frame::Video,
     rgb: ffmpeg::frame::Video,
+    finished: bool,
 }
 
 impl VideoWriter {
@@ -723,6 +728,7 @@ impl VideoWriter {
             stream_time_base,
             yuv: ffmpeg::frame::Video::empty(),
             rgb: ffmpeg::frame::Video::new(Pixel::RGB24, width, height),
+            finished: false,
         })
     }
 
@@ -787,7 +793,18 @@ impl VideoWriter {
             .write_trailer()
             .map_err(|e| fail(e.to_string()))?;
         std::fs::rename(&self.tmp, &self.path).map_err(|e| fail(e.to_string()))?;
+        self.finished = true;
         Ok(self.path.clone())
+    }
+}
+
+impl Drop for VideoWriter {
+    /// A writer dropped before [`VideoWriter::finish`] (an error, a panic upstream)
+    /// removes its partial file: no `.NAME.partial.mp4` is left behind.
+    fn drop(&mut self) {
+        if !self.finished {
+            let _ = std::fs::remove_file(&self.tmp);
+        }
     }
 }
 

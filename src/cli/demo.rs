@@ -7,12 +7,12 @@ use std::time::Instant;
 
 use anyhow::{anyhow, Result};
 use bendscope::calib::file::write_calibration;
-use bendscope::compare::read_columns;
+use bendscope::pipeline::{measure_session, ProcessSettings, Quiet};
 use bendscope::render::fixtures::gopro_like_camera;
-use bendscope::render::session::SessionTruth;
+use bendscope::render::session::{read_side_face, render_fem_session, FemRenderSettings};
 use clap::Args;
 
-use super::{compare, process, render, simulate, EXIT_OK};
+use super::{compare, simulate, EXIT_OK};
 
 /// Run the whole chain on a simulated actuator (no input needed).
 #[derive(Debug, Args)]
@@ -67,33 +67,36 @@ pub fn run(args: &DemoArgs) -> Result<u8> {
     let camera = gopro_like_camera(960, 720);
     let camera_path = dir.join("camera.yaml");
     write_calibration(&camera_path, &camera)?;
-    render::run(&render::RenderArgs {
-        fem: dir.join("fem"),
-        calibration: Some(camera_path.clone()),
-        gopro_like: None,
-        distance_mm: 200.0,
-        output: dir.join("session"),
-        frames: 3,
-        marker_diameter_mm: 3.0,
-        calib_views: 14,
-        supersample: 3,
-        distractor: false,
-        clean: false,
-        rgbd: false,
-        seed: 7,
-    })?;
+    let face = read_side_face(&dir.join("fem"))?;
+    let truth = render_fem_session(
+        &face,
+        &camera,
+        &dir.join("session"),
+        &FemRenderSettings {
+            distance_mm: 200.0,
+            frames: 3,
+            ..FemRenderSettings::default()
+        },
+        &|_| {},
+    )?;
     lap("render", &mut t);
     eprintln!("3/4 process: calibrate from session/calib, measure every video");
-    stage(
-        "process",
-        process::run(&process::ProcessArgs {
-            sessions: vec![dir.join("session")],
-            output: Some(dir.join("measured")),
-            calibration: None,
-            config: None,
+    let measured = measure_session(
+        &dir.join("session"),
+        &dir.join("measured"),
+        &ProcessSettings {
             force: true,
-        })?,
+            ..ProcessSettings::default()
+        },
+        &mut Quiet,
     )?;
+    if measured.failed > 0 {
+        return Err(anyhow!(
+            "the demo's process stage failed on {} video(s): {}",
+            measured.failed,
+            measured.notes.join("; ")
+        ));
+    }
     lap("calibrate + process", &mut t);
     eprintln!("4/4 compare: measured vs simulated");
     stage(
@@ -108,28 +111,24 @@ pub fn run(args: &DemoArgs) -> Result<u8> {
     lap("compare", &mut t);
 
     // The measured radii against the rendered truth.
-    let truth: SessionTruth =
-        serde_json::from_str(&std::fs::read_to_string(dir.join("session/truth.json"))?)?;
-    let cols = read_columns(
-        &dir.join("measured/per_video.csv"),
-        &["pressure_kpa", "radius_mm", "bending_angle_deg"],
-    )?;
+
     super::out!(
         "\npressure_kpa  true_radius_mm  measured_mm  error_%  true_angle_deg  measured_deg"
     );
     for v in &truth.videos {
-        if let Some(k) = cols[0]
+        if let Some(m) = measured
+            .videos
             .iter()
-            .position(|p| (p - v.pressure_kpa).abs() < 1e-6)
+            .find(|m| (m.pressure_kpa - v.pressure_kpa).abs() < 1e-6)
         {
             super::out!(
                 "{:>12.1}  {:>14.3}  {:>11.3}  {:>+7.3}  {:>14.2}  {:>12.2}",
                 v.pressure_kpa,
                 v.radius_mm,
-                cols[1][k],
-                100.0 * (cols[1][k] / v.radius_mm - 1.0),
+                m.stats.radius_mm,
+                100.0 * (m.stats.radius_mm / v.radius_mm - 1.0),
                 v.bending_angle_deg,
-                cols[2][k]
+                m.stats.bending_angle_deg
             );
         }
     }

@@ -1,18 +1,12 @@
 //! `bendscope render`: a session folder of synthetic videos of the simulated actuator,
 //! seen through a calibrated camera: ground truth for the whole image chain.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::{anyhow, Context, Result};
 use bendscope::calib::file::read_calibration;
-use bendscope::calib::Calibration;
-use bendscope::fem::simulate::SideFaceFile;
-use bendscope::render::actuator::FrameLook;
-use bendscope::render::session::{
-    fem_videos, place_fem_actuator, render_session, write_fem_rgbd, RgbdSpec, SessionSpec,
-    SessionTruth,
-};
+use bendscope::render::session::{read_side_face, render_fem_session, FemRenderSettings};
 use clap::Args;
 
 use super::EXIT_OK;
@@ -84,93 +78,25 @@ pub struct RenderArgs {
     pub seed: u64,
 }
 
-/// Reads `FEM_OUT/side_face.json`.
-pub fn read_side_face(fem: &Path) -> Result<SideFaceFile> {
-    let path = fem.join("side_face.json");
-    let text = std::fs::read_to_string(&path).map_err(|_| {
-        anyhow!(
-            "{} has no side_face.json: give the output folder of `bendscope simulate -o FEM_OUT`",
-            fem.display()
-        )
-    })?;
-    serde_json::from_str(&text)
-        .map_err(|e| anyhow!("{} is not a bendscope side face file: {e}", path.display()))
-}
-
-/// Renders `face` through `camera` into `out`, with a progress bar.
-pub fn render_fem_session(
-    face: &SideFaceFile,
-    camera: &Calibration,
-    out: &Path,
-    args: &RenderArgs,
-) -> Result<SessionTruth> {
-    if !(args.distance_mm.is_finite() && args.distance_mm > 0.0) {
-        return Err(anyhow!(
-            "--distance-mm {}: must be a positive distance",
-            args.distance_mm
-        ));
+impl RenderArgs {
+    /// The library's settings from the flags.
+    pub fn settings(&self) -> FemRenderSettings {
+        FemRenderSettings {
+            distance_mm: self.distance_mm,
+            frames: self.frames,
+            marker_diameter_mm: self.marker_diameter_mm,
+            calib_views: self.calib_views,
+            supersample: self.supersample,
+            distractor: self.distractor,
+            clean: self.clean,
+            rgbd: self.rgbd,
+            seed: self.seed,
+        }
     }
-    if !(args.marker_diameter_mm.is_finite()
-        && args.marker_diameter_mm > 0.0
-        && args.marker_diameter_mm < 12.0)
-    {
-        return Err(anyhow!(
-            "--marker-diameter-mm {}: use a diameter between 0 and 12 mm",
-            args.marker_diameter_mm
-        ));
-    }
-    if args.frames == 0 || args.supersample == 0 {
-        return Err(anyhow!("--frames and --supersample must be at least 1"));
-    }
-    let origin = place_fem_actuator(face, camera, args.distance_mm)?;
-    let videos = fem_videos(face, origin, args.marker_diameter_mm, args.distractor)?;
-    let spec = SessionSpec {
-        camera: camera.clone(),
-        distance_mm: args.distance_mm,
-        pressures_kpa: videos.iter().map(|(_, t)| t.pressure_kpa).collect(),
-        radius_law: (0.0, 0.0, 0.0),
-        frames: args.frames,
-        calib_views: args.calib_views,
-        scale_square_mm: 10.0,
-        distractor: args.distractor,
-        supersample: args.supersample,
-        look: if args.clean {
-            FrameLook {
-                blur_sigma_px: 0.0,
-                noise_sigma: 0.0,
-                gradient: 0.0,
-                vignetting: 0.0,
-            }
-        } else {
-            FrameLook::default()
-        },
-        seed: args.seed,
-    };
-    let bar = super::progress_bar(videos.len() as u64, "rendering");
-    let truth = render_session(out, &spec, videos, &|_| bar.inc(1))?;
-    bar.finish_and_clear();
-    if args.rgbd {
-        write_fem_rgbd(
-            &out.join("rgbd"),
-            face,
-            &RgbdSpec {
-                distance_mm: args.distance_mm,
-                tilt_deg: 15.0,
-                frames_per_step: 3,
-                fps: 10.0,
-                supersample: args.supersample.max(4),
-                marker_diameter_mm: args.marker_diameter_mm,
-                look: spec.look,
-                seed: args.seed,
-            },
-        )?;
-    }
-    Ok(truth)
 }
 
 /// Runs `bendscope render`.
 pub fn run(args: &RenderArgs) -> Result<u8> {
-    let face = read_side_face(&args.fem)?;
     let camera = match (&args.calibration, &args.gopro_like) {
         (Some(path), _) => read_calibration(path)
             .with_context(|| format!("cannot use {} as the camera", path.display()))?,
@@ -191,7 +117,12 @@ pub fn run(args: &RenderArgs) -> Result<u8> {
         (None, None) => return Err(anyhow!("give --calibration CAL.yaml or --gopro-like WxH")),
     };
     let started = Instant::now();
-    let truth = render_fem_session(&face, &camera, &args.output, args)?;
+    let face = read_side_face(&args.fem)?;
+    let bar = super::progress_bar(face.steps.len() as u64, "rendering");
+    let truth = render_fem_session(&face, &camera, &args.output, &args.settings(), &|_| {
+        bar.inc(1)
+    })?;
+    bar.finish_and_clear();
     let frames = truth.videos.len() * args.frames;
     super::out!(
         "{} videos ({} frames of {}x{}) in {:.1} s -> {}; next: bendscope process {}",

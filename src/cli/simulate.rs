@@ -148,6 +148,9 @@ pub fn run(args: &SimulateArgs) -> Result<u8> {
         toml::to_string_pretty(&cfg)?.as_bytes(),
     )?;
     let pressures = cfg.pressures_kpa()?;
+    for n in bendscope::fem::simulate::mesh_notes(&cfg) {
+        eprintln!("note: {n}");
+    }
     let mesh = build_mesh(&cfg)?;
     eprintln!(
         "mesh: {} nodes, {} hexahedra (half model, {} mm), {} cavity faces",
@@ -167,6 +170,9 @@ pub fn run(args: &SimulateArgs) -> Result<u8> {
     write_json(&out.join("side_face.json"), &face)?;
     let seconds = started.elapsed().as_secs_f64();
     write_steps(out, &ramp.steps)?;
+    for w in bendscope::fem::simulate::ramp_warnings(&ramp.steps) {
+        eprintln!("warning: {w}");
+    }
     if !vtu_files.is_empty() {
         write_pvd(&out.join("actuator.pvd"), &vtu_files)?;
     }

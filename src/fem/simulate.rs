@@ -369,3 +369,157 @@ mod tests {
         assert!(f[0] > 0.0 && f[0] < 0.3, "{f:?}");
     }
 }
+
+/// The thinnest wall of the actuator, mm, with its name: the top wall, the bottom under
+/// the channel, the side walls beside the cavities and channel, and the chamber walls.
+pub fn thinnest_wall_mm(g: &super::actuator::Geometry) -> (f64, &'static str) {
+    let inner = if g.chambers > 2 { g.g } else { g.c };
+    [
+        (g.top_wall, "top wall"),
+        (g.f, "bottom (f)"),
+        (
+            (g.i - g.l) / 2.0,
+            "side wall beside the chambers ((i - l) / 2)",
+        ),
+        (
+            (g.i - g.p) / 2.0,
+            "side wall beside the channel ((i - p) / 2)",
+        ),
+        ((inner - g.e) / 2.0, "chamber wall ((g - e) / 2)"),
+    ]
+    .into_iter()
+    .min_by(|a, b| a.0.total_cmp(&b.0))
+    .unwrap_or((f64::NAN, "wall"))
+}
+
+/// A note when the mesh is coarser than the thinnest wall (one element through it, far
+/// from converged; the default 2 mm mesh is +2.3% on the radius at 115 kPa).
+pub fn mesh_notes(cfg: &super::actuator::ActuatorConfig) -> Vec<String> {
+    let (t, name) = thinnest_wall_mm(&cfg.geometry);
+    let h = cfg.mesh.size_mm;
+    if h > t + 1e-9 {
+        vec![format!(
+            "mesh size {h} mm is coarser than the thinnest wall ({name}, {t} mm): the walls get one element through and the results are far from converged; use {t} mm or less"
+        )]
+    } else {
+        vec![]
+    }
+}
+
+/// Total turning of the marker chain from the clamp to the tip, degrees: the turns
+/// between successive chords plus half a chord turn at each end (the tangent at an end
+/// marker is half a turn from its chord on a circular arc). More than 360 degrees means
+/// the actuator has curled past a full turn, where the half-angle bending angle wraps.
+pub fn marker_turning_deg(markers: &[(f64, f64)]) -> f64 {
+    let chords: Vec<f64> = markers
+        .windows(2)
+        .map(|w| (w[1].1 - w[0].1).atan2(w[1].0 - w[0].0))
+        .collect();
+    let turns: Vec<f64> = chords
+        .windows(2)
+        .map(|c| {
+            let mut d = c[1] - c[0];
+            while d > std::f64::consts::PI {
+                d -= std::f64::consts::TAU;
+            }
+            while d < -std::f64::consts::PI {
+                d += std::f64::consts::TAU;
+            }
+            d
+        })
+        .collect();
+    if turns.is_empty() {
+        return 0.0;
+    }
+    let sum: f64 = turns.iter().sum();
+    let mean = sum / turns.len() as f64;
+    (sum + mean).abs().to_degrees()
+}
+
+/// What a user must know about a ramp's results: the first step where the safety
+/// factor drops below 1 (the silicone would tear) and the first step where the markers
+/// curl past a full turn (the bending angle wraps and is no longer the total bend).
+pub fn ramp_warnings(steps: &[StepResult]) -> Vec<String> {
+    let mut w = Vec::new();
+    if let Some(s) = steps.iter().find(|s| s.safety_factor < 1.0) {
+        w.push(format!(
+            "safety factor {:.2} < 1 from {} kPa: the max principal stress ({:.2} MPa) exceeds the tensile strength; the silicone would tear there",
+            s.safety_factor, s.pressure_kpa, s.max_principal_stress_mpa
+        ));
+    }
+    if let Some(s) = steps
+        .iter()
+        .find(|s| marker_turning_deg(&s.markers_mm) > 360.0)
+    {
+        w.push(format!(
+            "from {} kPa the markers curl past a full turn ({:.0} deg): the bending angle ({:.0} deg) wraps and no longer measures the total bend",
+            s.pressure_kpa,
+            marker_turning_deg(&s.markers_mm),
+            s.bending_angle_deg
+        ));
+    }
+    w
+}
+
+#[cfg(test)]
+mod warning_tests {
+    use super::*;
+
+    fn arc(turn_deg: f64, n: usize) -> Vec<(f64, f64)> {
+        // n markers evenly on an arc turning `turn_deg` from the first to the last
+        // (plus half a step at each end, as for chamber centres).
+        let step = turn_deg.to_radians() / n as f64;
+        (0..n)
+            .map(|k| {
+                let t = step * (k as f64 + 0.5);
+                (50.0 * t.sin(), 50.0 * (1.0 - t.cos()))
+            })
+            .collect()
+    }
+
+    #[test]
+    fn turning_is_the_angle_between_the_end_markers_tangents() {
+        // Markers at t_k = s (k + 1/2): the tangents at the first and last marker are
+        // s (n - 1) apart, 7/8 of the arc for 8 markers.
+        for turn in [30.0, 170.0, 300.0, 440.0] {
+            let t = marker_turning_deg(&arc(turn, 8));
+            assert!((t - turn * 7.0 / 8.0).abs() < 1e-6, "{turn}: {t}");
+        }
+    }
+
+    #[test]
+    fn warnings_name_the_first_step() {
+        let step = |p: f64, sf: f64, turn: f64| StepResult {
+            pressure_kpa: p,
+            radius_mm: 40.0,
+            curvature_per_m: 25.0,
+            bending_angle_deg: 10.0,
+            tip_x_mm: 0.0,
+            tip_z_mm: 0.0,
+            max_principal_stress_mpa: 3.447 / sf,
+            safety_factor: sf,
+            bottom_elongation_pct: 0.0,
+            cavity_volume_mm3: 0.0,
+            newton_iterations: 3,
+            blocked_force_n: None,
+            markers_mm: arc(turn, 8),
+        };
+        assert!(ramp_warnings(&[step(100.0, 2.0, 200.0)]).is_empty());
+        let w = ramp_warnings(&[
+            step(100.0, 2.0, 200.0),
+            step(300.0, 0.8, 380.0),
+            step(400.0, 0.5, 420.0),
+        ]);
+        assert_eq!(w.len(), 2, "{w:?}");
+        assert!(
+            w[0].contains("safety factor 0.80 < 1 from 300 kPa"),
+            "{}",
+            w[0]
+        );
+        assert!(
+            w[1].contains("from 400 kPa the markers curl past a full turn"),
+            "{}",
+            w[1]
+        );
+    }
+}

@@ -479,3 +479,135 @@ pub fn write_fem_rgbd(
     write_atomic(&dir.join("truth.json"), json.as_bytes()).map_err(err)?;
     Ok(truths)
 }
+
+/// How [`render_fem_session`] films a simulation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FemRenderSettings {
+    /// Distance of the actuator plane from the camera, mm.
+    pub distance_mm: f64,
+    /// Frames per video.
+    pub frames: usize,
+    /// Marker disc diameter, mm.
+    pub marker_diameter_mm: f64,
+    /// Calibration photos to render into calib/.
+    pub calib_views: usize,
+    /// Samples per pixel side.
+    pub supersample: u32,
+    /// A red disc that is not a marker beside the actuator.
+    pub distractor: bool,
+    /// No blur, noise, vignetting or light gradient.
+    pub clean: bool,
+    /// Also an RGB-D recording in `out/rgbd/`.
+    pub rgbd: bool,
+    /// Random seed.
+    pub seed: u64,
+}
+
+impl Default for FemRenderSettings {
+    fn default() -> Self {
+        Self {
+            distance_mm: 260.0,
+            frames: 5,
+            marker_diameter_mm: 3.0,
+            calib_views: 14,
+            supersample: 3,
+            distractor: false,
+            clean: false,
+            rgbd: false,
+            seed: 7,
+        }
+    }
+}
+
+/// Reads `FEM_OUT/side_face.json` (written by `bendscope simulate`).
+pub fn read_side_face(fem: &Path) -> Result<crate::fem::simulate::SideFaceFile, RenderError> {
+    let path = fem.join("side_face.json");
+    let text = std::fs::read_to_string(&path).map_err(|_| {
+        RenderError::Fem(format!(
+            "{} has no side_face.json: give the output folder of `bendscope simulate -o FEM_OUT`",
+            fem.display()
+        ))
+    })?;
+    serde_json::from_str(&text).map_err(|e| {
+        RenderError::Fem(format!(
+            "{} is not a bendscope side face file: {e}",
+            path.display()
+        ))
+    })
+}
+
+/// Films every step of a simulation (`face`) through `camera` into the session folder
+/// `out` (videos, pressures.csv, scale.jpg, calib/, truth.json; RGB-D in `out/rgbd/`
+/// when asked). `on_video` is called after each video.
+pub fn render_fem_session(
+    face: &crate::fem::simulate::SideFaceFile,
+    camera: &Calibration,
+    out: &Path,
+    settings: &FemRenderSettings,
+    on_video: &(dyn Fn(usize) + Sync),
+) -> Result<SessionTruth, RenderError> {
+    let s = settings;
+    if !(s.distance_mm.is_finite() && s.distance_mm > 0.0) {
+        return Err(RenderError::Fem(format!(
+            "distance {} mm: must be a positive distance",
+            s.distance_mm
+        )));
+    }
+    if !(s.marker_diameter_mm.is_finite()
+        && s.marker_diameter_mm > 0.0
+        && s.marker_diameter_mm < 12.0)
+    {
+        return Err(RenderError::Fem(format!(
+            "marker diameter {} mm: use a diameter between 0 and 12 mm",
+            s.marker_diameter_mm
+        )));
+    }
+    if s.frames == 0 || s.supersample == 0 {
+        return Err(RenderError::Fem(
+            "frames and supersampling must be at least 1".into(),
+        ));
+    }
+    let origin = place_fem_actuator(face, camera, s.distance_mm)?;
+    let videos = fem_videos(face, origin, s.marker_diameter_mm, s.distractor)?;
+    let look = if s.clean {
+        FrameLook {
+            blur_sigma_px: 0.0,
+            noise_sigma: 0.0,
+            gradient: 0.0,
+            vignetting: 0.0,
+        }
+    } else {
+        FrameLook::default()
+    };
+    let spec = SessionSpec {
+        camera: camera.clone(),
+        distance_mm: s.distance_mm,
+        pressures_kpa: videos.iter().map(|(_, t)| t.pressure_kpa).collect(),
+        radius_law: (0.0, 0.0, 0.0),
+        frames: s.frames,
+        calib_views: s.calib_views,
+        scale_square_mm: 10.0,
+        distractor: s.distractor,
+        supersample: s.supersample,
+        look,
+        seed: s.seed,
+    };
+    let truth = render_session(out, &spec, videos, on_video)?;
+    if s.rgbd {
+        write_fem_rgbd(
+            &out.join("rgbd"),
+            face,
+            &RgbdSpec {
+                distance_mm: s.distance_mm,
+                tilt_deg: 15.0,
+                frames_per_step: 3,
+                fps: 10.0,
+                supersample: s.supersample.max(4),
+                marker_diameter_mm: s.marker_diameter_mm,
+                look,
+                seed: s.seed,
+            },
+        )?;
+    }
+    Ok(truth)
+}

@@ -1,0 +1,329 @@
+//! One frame: detect -> check the markers -> undistort (or lift to 3D with depth) ->
+//! order from the clamped end -> fit the circle. The same function serves videos, photos
+//! and RGB-D frames; [`Geometry`] says how image points become millimetres.
+
+use image::{GrayImage, ImageBuffer, Luma};
+use nalgebra::Point2;
+
+use crate::calib::Undistorter;
+use crate::detect::{
+    detect_markers_with, order_marker_indices, ChainStart, DetectSettings, PixelSource,
+};
+use crate::fit::{bending_angle_from_circle_deg, fit_circle_3d, fit_circle_pratt};
+use crate::rgbd::{markers_3d_mm, RgbdIntrinsics};
+use crate::select::{select_markers, Candidate};
+use crate::session::SessionConfig;
+use crate::video::Pixels;
+
+use super::records::FrameStatus;
+
+/// A 16-bit depth frame aligned to the colour frame.
+pub type DepthImage = ImageBuffer<Luma<u16>, Vec<u16>>;
+
+/// Share of the median marker radius used as the depth window around a centroid.
+pub const DEPTH_WINDOW_SHARE: f64 = 0.7;
+
+/// How image points become lengths.
+#[derive(Debug, Clone, Copy)]
+pub enum Geometry<'a> {
+    /// Markers in a plane parallel to the image plane: centroids undistorted (`None`: the
+    /// frame itself was undistorted), radius in px times `mm_per_px`.
+    Plane {
+        /// The camera, or `None` for frames already undistorted.
+        undistorter: Option<&'a Undistorter>,
+        /// mm per undistorted px at this frame size.
+        mm_per_px: f64,
+    },
+    /// Colour + aligned depth: 3D markers, circle fitted in their plane (mm directly).
+    Depth {
+        /// The colour camera.
+        undistorter: &'a Undistorter,
+        /// Its intrinsics and depth scale.
+        intrinsics: &'a RgbdIntrinsics,
+    },
+}
+
+/// What stays from frame to frame of one session: where the marker chain starts (the
+/// previous frame's clamped-end marker) and the mask buffer.
+#[derive(Debug, Clone)]
+pub struct Tracker {
+    /// Where the next frame's chain starts.
+    pub start: ChainStart,
+    /// The last measured frame's markers, ordered (favours the chain that moved least
+    /// when a frame has extra red blobs).
+    pub previous: Option<Vec<Point2<f64>>>,
+    mask: GrayImage,
+}
+
+impl Tracker {
+    /// Starts at `start` (the clamp side, or an earlier video's clamped-end marker).
+    pub fn new(start: ChainStart) -> Self {
+        Self {
+            start,
+            previous: None,
+            mask: GrayImage::new(0, 0),
+        }
+    }
+
+    /// The mask of the last frame measured (for overlays).
+    pub fn mask(&self) -> &GrayImage {
+        &self.mask
+    }
+}
+
+/// One frame's measurement.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrameMeasurement {
+    /// Markers found (the expected count when measured).
+    pub n_markers: usize,
+    /// Ordered marker points from the clamped end: undistorted px (plane) or raw px
+    /// (depth); empty when rejected.
+    pub markers_px: Vec<Point2<f64>>,
+    /// Red blobs not taken as markers (same space as `markers_px`).
+    pub ignored_px: Vec<Point2<f64>>,
+    /// Circle centre, undistorted px (plane only).
+    pub center_px: Point2<f64>,
+    /// Radius, undistorted px (plane only; infinite for collinear markers).
+    pub radius_px: f64,
+    /// Radius, mm.
+    pub radius_mm: f64,
+    /// Curvature, 1/m.
+    pub curvature_per_m: f64,
+    /// Bending angle, degrees (tangent at the clamped-end marker vs the chord to the tip,
+    /// half-angle convention of method.md §2.9).
+    pub bending_angle_deg: f64,
+    /// RMS residual of the fit (px for plane, mm for depth).
+    pub fit_rms: f64,
+    /// Outcome.
+    pub status: FrameStatus,
+}
+
+impl FrameMeasurement {
+    /// A rejected frame with `n` markers found.
+    pub fn rejected(n: usize, status: FrameStatus) -> Self {
+        Self {
+            n_markers: n,
+            markers_px: vec![],
+            ignored_px: vec![],
+            center_px: Point2::new(f64::NAN, f64::NAN),
+            radius_px: f64::NAN,
+            radius_mm: f64::NAN,
+            curvature_per_m: f64::NAN,
+            bending_angle_deg: f64::NAN,
+            fit_rms: f64::NAN,
+            status,
+        }
+    }
+}
+
+/// Measures one frame. `depth` is required by [`Geometry::Depth`] and ignored otherwise.
+/// With more red blobs than markers, the markers are the chain [`select_markers`] finds
+/// (the others are counted as ignored). On success the tracker's chain start moves to
+/// this frame's clamped-end marker and its markers are remembered for the next frame.
+pub fn measure_frame<S: PixelSource>(
+    pixels: &S,
+    depth: Option<&DepthImage>,
+    geometry: &Geometry,
+    detect: &DetectSettings,
+    expected_markers: usize,
+    tracker: &mut Tracker,
+) -> FrameMeasurement {
+    let d = detect_markers_with(pixels, detect, &mut tracker.mask);
+    let found = d.blobs.len();
+    if found < expected_markers {
+        return FrameMeasurement::rejected(
+            found,
+            FrameStatus::MarkerCount {
+                found,
+                expected: expected_markers,
+                specks: d.specks,
+                too_large: d.too_large,
+            },
+        );
+    }
+    let raw: Vec<Point2<f64>> = d.blobs.iter().map(|b| b.centroid).collect();
+    // Candidates where the arc is a circle: undistorted px for a plane, raw px with depth
+    // (a nearly distortion-free colour camera; 3D comes later).
+    let working = match geometry {
+        Geometry::Plane {
+            undistorter: Some(u),
+            ..
+        } => match u.undistort_points(&raw) {
+            Ok(p) => p,
+            Err(e) => {
+                return FrameMeasurement::rejected(
+                    found,
+                    FrameStatus::FitFailed {
+                        why: format!("undistortion failed: {e}"),
+                    },
+                )
+            }
+        },
+        _ => raw.clone(),
+    };
+    let order = if found == expected_markers {
+        order_marker_indices(&working, tracker.start)
+    } else {
+        let candidates: Vec<Candidate> = d
+            .blobs
+            .iter()
+            .zip(&working)
+            .map(|(b, p)| {
+                let (w, h) = (
+                    (b.bbox[2] - b.bbox[0] + 1) as f64,
+                    (b.bbox[3] - b.bbox[1] + 1) as f64,
+                );
+                Candidate {
+                    point: *p,
+                    area_px: b.area_px as f64,
+                    elongation: w.max(h) / w.min(h),
+                }
+            })
+            .collect();
+        match select_markers(
+            &candidates,
+            expected_markers,
+            tracker.start,
+            tracker.previous.as_deref(),
+        ) {
+            Ok(order) => order,
+            Err(e) => {
+                return FrameMeasurement::rejected(
+                    found,
+                    FrameStatus::NoMarkerChain { why: e.to_string() },
+                )
+            }
+        }
+    };
+    let ignored_px: Vec<Point2<f64>> = (0..found)
+        .filter(|i| !order.contains(i))
+        .map(|i| working[i])
+        .collect();
+    let chosen: Vec<Point2<f64>> = order.iter().map(|&i| working[i]).collect();
+    let m = match geometry {
+        Geometry::Plane { mm_per_px, .. } => measure_plane(chosen, *mm_per_px),
+        Geometry::Depth {
+            undistorter,
+            intrinsics,
+        } => {
+            let mut areas: Vec<u32> = order.iter().map(|&i| d.blobs[i].area_px).collect();
+            areas.sort_unstable();
+            let window =
+                DEPTH_WINDOW_SHARE * (areas[areas.len() / 2] as f64 / std::f64::consts::PI).sqrt();
+            measure_depth(chosen, window, depth, undistorter, intrinsics)
+        }
+    };
+    if m.status.is_ok() {
+        if let Some(first) = m.markers_px.first() {
+            tracker.start = ChainStart::Near(*first);
+        }
+        tracker.previous = Some(m.markers_px.clone());
+    }
+    FrameMeasurement {
+        n_markers: expected_markers.min(found),
+        ignored_px,
+        ..m
+    }
+}
+
+fn measure_plane(ordered: Vec<Point2<f64>>, mm_per_px: f64) -> FrameMeasurement {
+    let n = ordered.len();
+    let circle = match fit_circle_pratt(&ordered) {
+        Ok(c) => c,
+        Err(e) => {
+            return FrameMeasurement::rejected(n, FrameStatus::FitFailed { why: e.to_string() })
+        }
+    };
+    let angle = match (ordered.first(), ordered.last()) {
+        (Some(o), Some(a)) => bending_angle_from_circle_deg(*o, *a, &circle).unwrap_or(f64::NAN),
+        _ => f64::NAN,
+    };
+    FrameMeasurement {
+        n_markers: n,
+        ignored_px: vec![],
+        center_px: circle.center,
+        radius_px: circle.radius,
+        radius_mm: circle.radius * mm_per_px,
+        curvature_per_m: circle.curvature / mm_per_px * 1000.0,
+        bending_angle_deg: angle,
+        fit_rms: circle.rms,
+        markers_px: ordered,
+        status: FrameStatus::Ok,
+    }
+}
+
+fn measure_depth(
+    ordered: Vec<Point2<f64>>,
+    window_px: f64,
+    depth: Option<&DepthImage>,
+    undistorter: &Undistorter,
+    intrinsics: &RgbdIntrinsics,
+) -> FrameMeasurement {
+    let n = ordered.len();
+    let Some(depth) = depth else {
+        return FrameMeasurement::rejected(
+            n,
+            FrameStatus::BadFrame {
+                why: "no depth frame".into(),
+            },
+        );
+    };
+    let pts = match markers_3d_mm(&ordered, window_px, depth, intrinsics, undistorter) {
+        Ok(p) => p,
+        Err(e) => return FrameMeasurement::rejected(n, e),
+    };
+    let c = match fit_circle_3d(&pts) {
+        Ok(c) => c,
+        Err(e) => {
+            return FrameMeasurement::rejected(n, FrameStatus::FitFailed { why: e.to_string() })
+        }
+    };
+    let angle = match (pts.first(), pts.last()) {
+        (Some(o), Some(a)) => {
+            bending_angle_from_circle_deg(c.to_plane(o), c.to_plane(a), &c.circle)
+                .unwrap_or(f64::NAN)
+        }
+        _ => f64::NAN,
+    };
+    FrameMeasurement {
+        n_markers: n,
+        ignored_px: vec![],
+        center_px: Point2::new(f64::NAN, f64::NAN),
+        radius_px: f64::NAN,
+        radius_mm: c.circle.radius,
+        curvature_per_m: c.circle.curvature * 1000.0,
+        bending_angle_deg: angle,
+        fit_rms: c.circle.rms,
+        markers_px: ordered,
+        status: FrameStatus::Ok,
+    }
+}
+
+/// [`measure_frame`] on decoded [`Pixels`] (YUV planes or RGB) with the session's
+/// detection settings.
+pub fn measure_pixels(
+    pixels: &Pixels,
+    depth: Option<&DepthImage>,
+    geometry: &Geometry,
+    config: &SessionConfig,
+    tracker: &mut Tracker,
+) -> FrameMeasurement {
+    match pixels {
+        Pixels::Yuv(yuv) => measure_frame(
+            yuv,
+            depth,
+            geometry,
+            &config.detect,
+            config.expected_markers,
+            tracker,
+        ),
+        Pixels::Rgb(rgb) => measure_frame(
+            rgb,
+            depth,
+            geometry,
+            &config.detect,
+            config.expected_markers,
+            tracker,
+        ),
+    }
+}

@@ -1,0 +1,947 @@
+//! Measures a session: every frame of every video (or RGB-D frame) to a radius, and the
+//! session's tables, fits, plots, overlays and HTML report.
+//!
+//! ```text
+//! measure_session(session, out, &settings, &mut progress)
+//!   layout     what kind of session (step: pressures.csv; ramp: pressure_log.csv and
+//!              one video; RGB-D: color/ + depth/ + intrinsics.json)
+//!   camera     calibration (given, or calib/ calibrated and cached by content) and
+//!              mm per px from the scale photo; RGB-D: intrinsics and depth
+//!   per item   cache hit (same content key, outputs present) or
+//!              source (video chapters / RGB-D frames) -> frame::measure_frame ->
+//!              FrameRecord; stats::summarize -> VideoRecord; the overlay
+//!   output     per_frame.csv, per_video.csv, fit.json, plots/, report.html
+//! ```
+//!
+//! The binary only parses flags, calls [`measure_session`] once per session with the
+//! output folders [`output_dirs`] chose, prints and turns [`SessionOutcome`]s into an
+//! exit code. Progress and warnings reach the caller through [`Progress`].
+
+pub mod cache;
+pub mod frame;
+pub mod output;
+pub mod overlay;
+pub mod records;
+pub mod source;
+pub mod stats;
+
+use std::path::{Path, PathBuf};
+
+use crate::calib::corners::{detect_views, DetectSettings as CornerSettings, ViewSource};
+use crate::calib::file::{calibration_to_yaml, read_calibration, write_calibration};
+use crate::calib::{
+    calibrate, Board, CalibError, Calibration, CalibrationSettings, UndistortSettings, Undistorter,
+};
+use crate::detect::ChainStart;
+use crate::io::{content_key, hash_parts, write_atomic};
+use crate::rgbd::{is_rgbd_session, list_frames, RgbdError};
+use crate::scale::{scale_from_board_photo, ScaleError};
+use crate::session::{
+    find_scale_image, read_manifest, read_pressure_log, session_videos, Manifest, ManifestEntry,
+    PressureLog, SessionConfig, SessionError, IMAGE_EXTENSIONS, MANIFEST, PRESSURE_LOG,
+};
+
+use cache::{Cache, CacheEntry, ItemKey};
+use frame::{measure_frame, Geometry, Tracker};
+use records::{FrameRecord, FrameStatus, VideoRecord, VideoStatus};
+use source::{FrameSource, Next, RgbdSource, VideoSource};
+
+/// Errors that stop a whole session (the other sessions of a run go on).
+#[derive(Debug, thiserror::Error)]
+pub enum PipelineError {
+    /// Layout, manifest, pressure log or settings.
+    #[error(transparent)]
+    Session(#[from] SessionError),
+    /// RGB-D layout or intrinsics.
+    #[error(transparent)]
+    Rgbd(#[from] RgbdError),
+    /// Calibration.
+    #[error(transparent)]
+    Calib(#[from] CalibError),
+    /// Scale photo.
+    #[error("scale from {path}: {source}")]
+    Scale {
+        /// The photo.
+        path: PathBuf,
+        /// Cause.
+        source: ScaleError,
+    },
+    /// What the session folder holds cannot be measured as it is.
+    #[error("{path}: {why}")]
+    Layout {
+        /// File or folder.
+        path: PathBuf,
+        /// What is wrong and what to do.
+        why: String,
+    },
+    /// An output could not be written.
+    #[error("{path}: cannot write ({source}): check the output folder's space and permissions")]
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// Cause.
+        source: std::io::Error,
+    },
+    /// Plots, JSON or the HTML report.
+    #[error(transparent)]
+    Report(#[from] crate::report::ReportError),
+    /// A table.
+    #[error(transparent)]
+    Table(#[from] crate::table::TableError),
+}
+
+fn write_err(path: &Path) -> impl Fn(std::io::Error) -> PipelineError + '_ {
+    move |source| PipelineError::Write {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+/// How `process` runs, beside what the session's bendscope.toml says.
+#[derive(Debug, Clone, Default)]
+pub struct ProcessSettings {
+    /// Calibration file to use (else the session's `calibration` key, else calib/).
+    pub calibration: Option<PathBuf>,
+    /// Settings file (else SESSION/bendscope.toml when present).
+    pub config: Option<PathBuf>,
+    /// Redo videos whose cached results are current.
+    pub force: bool,
+}
+
+/// Where progress and warnings go (the CLI draws bars and prints lines on stderr).
+pub trait Progress {
+    /// A stage with `total` steps begins.
+    fn start(&mut self, _what: &str, _total: u64) {}
+    /// The item being worked on.
+    fn item(&mut self, _name: &str) {}
+    /// `n` steps done.
+    fn advance(&mut self, _n: u64) {}
+    /// The stage is done.
+    fn finish(&mut self) {}
+    /// A line for the user (a warning or a note), already naming its file.
+    fn note(&mut self, _line: &str) {}
+}
+
+/// A [`Progress`] that shows nothing.
+#[derive(Debug, Default)]
+pub struct Quiet;
+
+impl Progress for Quiet {}
+
+/// What a session gave.
+#[derive(Debug, Clone)]
+pub struct SessionOutcome {
+    /// Where its results are.
+    pub out: PathBuf,
+    /// Rows of per_video.csv (videos, or pressure bins of a ramp).
+    pub videos: Vec<VideoRecord>,
+    /// Items measured (videos, or the one ramp/RGB-D recording).
+    pub measured: usize,
+    /// Items that failed or were skipped.
+    pub failed: usize,
+    /// Warnings and notes, as given to [`Progress::note`].
+    pub notes: Vec<String>,
+}
+
+/// Output folders for `sessions`: `SESSION/bendscope-out` without `output`; `output`
+/// itself for one session; `output/<session name>` for several, with `-2`, `-3`, ...
+/// appended when two sessions have the same folder name (a note says so). Decided before
+/// any work, so no session's results replace another's.
+pub fn output_dirs(sessions: &[PathBuf], output: Option<&Path>) -> Vec<(PathBuf, Option<String>)> {
+    let several = sessions.len() > 1;
+    let mut taken: Vec<String> = Vec::new();
+    sessions
+        .iter()
+        .map(|s| match (output, several) {
+            (None, _) => (s.join("bendscope-out"), None),
+            (Some(o), false) => (o.to_path_buf(), None),
+            (Some(o), true) => {
+                let name = s
+                    .canonicalize()
+                    .ok()
+                    .and_then(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+                    .unwrap_or_else(|| "session".into());
+                let mut unique = name.clone();
+                let mut k = 1;
+                while taken.contains(&unique) {
+                    k += 1;
+                    unique = format!("{name}-{k}");
+                }
+                taken.push(unique.clone());
+                let note = (unique != name).then(|| {
+                    format!(
+                        "{}: another session is also named {name}: its results go to {}",
+                        s.display(),
+                        o.join(&unique).display()
+                    )
+                });
+                (o.join(unique), note)
+            }
+        })
+        .collect()
+}
+
+/// The kind of a session folder.
+enum Layout {
+    /// pressures.csv, one video per pressure.
+    Step(Manifest),
+    /// pressure_log.csv and one video.
+    Ramp(PressureLog, String),
+    /// color/ + depth/ + intrinsics.json + pressure_log.csv.
+    Rgbd(PressureLog),
+}
+
+fn read_layout(session: &Path) -> Result<Layout, PipelineError> {
+    if !session.is_dir() {
+        return Err(PipelineError::Layout {
+            path: session.to_path_buf(),
+            why: "no such session folder".into(),
+        });
+    }
+    let manifest = session.join(MANIFEST);
+    let log = session.join(PRESSURE_LOG);
+    if is_rgbd_session(session) {
+        if !log.is_file() {
+            return Err(PipelineError::Layout {
+                path: log,
+                why: "an RGB-D session needs a pressure log: time_s,pressure_<unit> from the regulator".into(),
+            });
+        }
+        return Ok(Layout::Rgbd(read_pressure_log(&log)?));
+    }
+    match (manifest.exists(), log.is_file()) {
+        (true, true) => Err(PipelineError::Layout {
+            path: session.to_path_buf(),
+            why: format!(
+                "both {MANIFEST} (step protocol) and {PRESSURE_LOG} (ramp protocol): keep the one that describes this session"
+            ),
+        }),
+        (false, true) => {
+            let log = read_pressure_log(&log)?;
+            let videos = session_videos(session);
+            if videos.len() != 1 {
+                return Err(PipelineError::Layout {
+                    path: session.to_path_buf(),
+                    why: format!(
+                        "a ramp session ({PRESSURE_LOG}) holds exactly one video, found {}: keep one video per session folder",
+                        videos.len()
+                    ),
+                });
+            }
+            Ok(Layout::Ramp(log, videos[0].clone()))
+        }
+        _ => {
+            let m = read_manifest(session)?;
+            if m.entries.is_empty() && m.issues.is_empty() {
+                return Err(PipelineError::Layout {
+                    path: session.join(MANIFEST),
+                    why: "lists no videos: add one row per video".into(),
+                });
+            }
+            Ok(Layout::Step(m))
+        }
+    }
+}
+
+/// Collects notes for the outcome and passes them to the caller's progress.
+struct Notes<'a> {
+    lines: Vec<String>,
+    progress: &'a mut dyn Progress,
+}
+
+impl Notes<'_> {
+    fn push(&mut self, line: String) {
+        self.progress.note(&line);
+        self.lines.push(line);
+    }
+}
+
+/// Measures the session folder `session` into `out`.
+pub fn measure_session(
+    session: &Path,
+    out: &Path,
+    settings: &ProcessSettings,
+    progress: &mut dyn Progress,
+) -> Result<SessionOutcome, PipelineError> {
+    let config = match &settings.config {
+        Some(p) => SessionConfig::read(p)?,
+        None => SessionConfig::for_session(session)?,
+    };
+    let layout = read_layout(session)?;
+    std::fs::create_dir_all(out).map_err(write_err(out))?;
+    let mut notes = Notes {
+        lines: vec![],
+        progress,
+    };
+    let cache = Cache::new(out);
+    let mut items: Vec<ItemResult> = Vec::new();
+    let (unit, skipped, binned) = match &layout {
+        Layout::Rgbd(log) => {
+            items.push(measure_rgbd(session, &config, log, &mut notes)?);
+            (log.unit, vec![], Some(config.ramp_bin_kpa))
+        }
+        Layout::Step(m) => {
+            let run = VideoRun::prepare(session, out, &config, settings, None, &mut notes)?;
+            items.extend(run.measure(&m.entries, &cache, settings.force, &mut notes)?);
+            (m.unit, m.issues.clone(), None)
+        }
+        Layout::Ramp(log, video) => {
+            let run = VideoRun::prepare(session, out, &config, settings, Some(log), &mut notes)?;
+            let entry = ManifestEntry {
+                line: 0,
+                file: video.clone(),
+                chapters: vec![],
+                pressure: f64::NAN,
+                pressure_kpa: f64::NAN,
+            };
+            items.extend(run.measure(&[entry], &cache, settings.force, &mut notes)?);
+            (log.unit, vec![], Some(config.ramp_bin_kpa))
+        }
+    };
+    let mut videos: Vec<VideoRecord> = Vec::new();
+    let mut frames: Vec<FrameRecord> = Vec::new();
+    let (mut measured, mut failed) = (0, 0);
+    for item in items {
+        let record = item.record();
+        if record.status.is_measured() {
+            measured += 1;
+        } else {
+            failed += 1;
+        }
+        match &record.status {
+            VideoStatus::Ok => {}
+            other => notes.push(format!("warning: {}: {other}", item.file)),
+        }
+        match binned {
+            Some(bin_kpa) if record.status.is_measured() => {
+                for (p, stats) in stats::bin_by_pressure(&item.frames, bin_kpa) {
+                    videos.push(VideoRecord {
+                        file: item.file.clone(),
+                        pressure_kpa: p,
+                        pressure: p / unit.to_kpa(),
+                        stats,
+                        status: record.status.clone(),
+                    });
+                }
+            }
+            _ => videos.push(record),
+        }
+        frames.extend(item.frames);
+    }
+    for issue in &skipped {
+        let line = issue
+            .line
+            .map(|l| format!(" (line {l})"))
+            .unwrap_or_default();
+        notes.push(format!("warning: {}{line}: {}", issue.file, issue.message));
+        videos.push(VideoRecord::skipped(&issue.file, issue.message.clone()));
+        failed += 1;
+    }
+    let name = session
+        .canonicalize()
+        .ok()
+        .and_then(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+        .unwrap_or_else(|| session.display().to_string());
+    let rms = match layout {
+        Layout::Rgbd(_) => output::RmsUnit::Mm,
+        _ => output::RmsUnit::Px,
+    };
+    output::write_session(out, &name, &frames, &videos, unit, rms)?;
+    Ok(SessionOutcome {
+        out: out.to_path_buf(),
+        videos,
+        measured,
+        failed,
+        notes: notes.lines,
+    })
+}
+
+/// The videos of a step or ramp session with what measuring them needs.
+struct VideoRun<'a> {
+    session: &'a Path,
+    out: &'a Path,
+    config: &'a SessionConfig,
+    calib: Calibration,
+    scale: SessionScale,
+    log: Option<&'a PressureLog>,
+    /// Hash of everything session-wide a video's result depends on.
+    fingerprint: u128,
+}
+
+impl<'a> VideoRun<'a> {
+    /// Calibration, scale and the session's fingerprint.
+    fn prepare(
+        session: &'a Path,
+        out: &'a Path,
+        config: &'a SessionConfig,
+        settings: &ProcessSettings,
+        log: Option<&'a PressureLog>,
+        notes: &mut Notes,
+    ) -> Result<Self, PipelineError> {
+        let calib = session_calibration(session, out, config, settings, notes)?;
+        let scale = session_scale(session, config, &calib, notes)?;
+        let log_bytes = match log {
+            Some(_) => std::fs::read(session.join(PRESSURE_LOG)).unwrap_or_default(),
+            None => vec![],
+        };
+        let fingerprint = hash_parts([
+            toml::to_string(config).unwrap_or_default().as_bytes(),
+            calibration_to_yaml(&calib).unwrap_or_default().as_bytes(),
+            &scale.mm_per_px.to_le_bytes(),
+            &scale.width.to_le_bytes(),
+            &log_bytes,
+        ]);
+        Ok(Self {
+            session,
+            out,
+            config,
+            calib,
+            scale,
+            log,
+            fingerprint,
+        })
+    }
+
+    /// Measures `entries` in order (each video's marker chain starts where the previous
+    /// one's clamped end was), from the cache when current.
+    fn measure(
+        &self,
+        entries: &[ManifestEntry],
+        cache: &Cache,
+        force: bool,
+        notes: &mut Notes,
+    ) -> Result<Vec<ItemResult>, PipelineError> {
+        let mut items = Vec::with_capacity(entries.len());
+        notes.progress.start("videos", entries.len() as u64);
+        let mut chain: Option<(f64, f64)> = None;
+        for entry in entries {
+            notes.progress.item(&entry.file);
+            let files: Vec<u128> = std::iter::once(&entry.file)
+                .chain(&entry.chapters)
+                .map(|f| content_key(&self.session.join(f)).unwrap_or(0))
+                .collect();
+            let start = chain.map(|(x, y)| nalgebra::Point2::new(x, y));
+            // The chain start is an input too: a video measured after another one starts
+            // where that one's clamped end was.
+            let key = ItemKey::new(
+                hash_parts([
+                    self.fingerprint.to_le_bytes().as_slice(),
+                    format!("{start:?}").as_bytes(),
+                ]),
+                &files,
+                entry.pressure_kpa,
+            );
+            let cached = (!force).then(|| cache.get(&entry.file, &key)).flatten();
+            let result = match cached {
+                Some(c) => ItemResult::from_cache(entry, c),
+                None => {
+                    let r = self.measure_video(entry, start);
+                    cache
+                        .put(&entry.file, &r.to_cache(key))
+                        .map_err(write_err(&self.out.join("cache")))?;
+                    r
+                }
+            };
+            chain = result.clamp_marker_px.or(chain);
+            items.push(result);
+            notes.progress.advance(1);
+        }
+        notes.progress.finish();
+        Ok(items)
+    }
+}
+
+/// The session's calibration: `--calibration`, else the config's `calibration`, else
+/// calib/ calibrated and cached in OUT under a key of its photos' content, board and
+/// model (replacing a photo redoes it).
+fn session_calibration(
+    session: &Path,
+    out: &Path,
+    config: &SessionConfig,
+    settings: &ProcessSettings,
+    notes: &mut Notes,
+) -> Result<Calibration, PipelineError> {
+    if let Some(c) = &settings.calibration {
+        return Ok(read_calibration(c)?);
+    }
+    if let Some(c) = &config.calibration {
+        return Ok(read_calibration(&session.join(c))?);
+    }
+    let dir = session.join("calib");
+    if !dir.is_dir() {
+        return Err(PipelineError::Layout {
+            path: dir,
+            why: "no calibration: give --calibration FILE, set `calibration` in bendscope.toml, or put checkerboard photos in this folder".into(),
+        });
+    }
+    let mut photos: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .map_err(|e| PipelineError::Layout {
+            path: dir.clone(),
+            why: e.to_string(),
+        })?
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| {
+            p.extension()
+                .map(|e| {
+                    IMAGE_EXTENSIONS.contains(&e.to_string_lossy().to_ascii_lowercase().as_str())
+                })
+                .unwrap_or(false)
+        })
+        .collect();
+    photos.sort();
+    let b = config.calib_board;
+    let mut parts: Vec<Vec<u8>> = vec![
+        format!(
+            "{}x{}@{}:{}",
+            b.cols,
+            b.rows,
+            b.square_mm,
+            config.model.name()
+        )
+        .into_bytes(),
+        env!("CARGO_PKG_VERSION").as_bytes().to_vec(),
+    ];
+    for p in &photos {
+        parts.push(
+            p.file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default()
+                .into_bytes(),
+        );
+        parts.push(content_key(p).unwrap_or(0).to_le_bytes().to_vec());
+    }
+    let key = format!("{:032x}", hash_parts(parts.iter().map(|p| p.as_slice())));
+    let cached = out.join("calibration.yaml");
+    let key_path = out.join("cache").join("calibration.key");
+    let current = std::fs::read_to_string(&key_path)
+        .map(|k| k.trim() == key)
+        .unwrap_or(false);
+    if current && !settings.force {
+        if let Ok(c) = read_calibration(&cached) {
+            return Ok(c);
+        }
+    }
+    let sources: Vec<ViewSource> = photos.into_iter().map(ViewSource::Image).collect();
+    let board = Board::new(b.cols, b.rows, b.square_mm)?;
+    notes.progress.start("calibrating", 1);
+    let det = detect_views(&sources, &board, &CornerSettings::default(), &|| {});
+    let calib = calibrate(
+        &det,
+        &CalibrationSettings {
+            model: config.model,
+            board,
+            fix_aspect_ratio: false,
+        },
+    );
+    notes.progress.finish();
+    let calib = calib.map_err(|e| PipelineError::Layout {
+        path: dir.clone(),
+        why: format!("calibration failed: {e}"),
+    })?;
+    write_calibration(&cached, &calib)?;
+    write_atomic(&key_path, key.as_bytes()).map_err(write_err(&key_path))?;
+    notes.push(format!(
+        "calibrated {} from {} views (RMS {:.3} px) -> {}",
+        config.model.name(),
+        calib.views_used.len(),
+        calib.avg_reprojection_error,
+        cached.display()
+    ));
+    Ok(calib)
+}
+
+/// mm per undistorted px and the frame width it applies to.
+#[derive(Debug, Clone, Copy)]
+struct SessionScale {
+    mm_per_px: f64,
+    width: u32,
+}
+
+fn session_scale(
+    session: &Path,
+    config: &SessionConfig,
+    calib: &Calibration,
+    notes: &mut Notes,
+) -> Result<SessionScale, PipelineError> {
+    if let Some(m) = config.mm_per_px {
+        return Ok(SessionScale {
+            mm_per_px: m,
+            width: calib.image_width,
+        });
+    }
+    let img = find_scale_image(session, config).ok_or_else(|| PipelineError::Layout {
+        path: session.to_path_buf(),
+        why: "no scale photo: put scale.jpg (a board lying in the actuator plane) in the session, or set mm_per_px in bendscope.toml".into(),
+    })?;
+    let b = config.scale_board;
+    let board = Board::new(b.cols, b.rows, b.square_mm)?;
+    let s = scale_from_board_photo(&img, calib, &board, UndistortSettings::default()).map_err(
+        |source| PipelineError::Scale {
+            path: img.clone(),
+            source,
+        },
+    )?;
+    if s.looks_tilted() {
+        notes.push(format!(
+            "warning: {}: board spacing varies by {:.1}%: not parallel to the image plane?",
+            img.display(),
+            100.0 * s.spread
+        ));
+    }
+    Ok(SessionScale {
+        mm_per_px: s.mm_per_px,
+        width: s.image_width,
+    })
+}
+
+/// A measured item (a video with its chapters, or an RGB-D recording).
+struct ItemResult {
+    file: String,
+    pressure_kpa: f64,
+    pressure: f64,
+    frames: Vec<FrameRecord>,
+    problems: Vec<String>,
+    clamp_marker_px: Option<(f64, f64)>,
+    outputs: Vec<String>,
+}
+
+impl ItemResult {
+    fn from_cache(entry: &ManifestEntry, c: CacheEntry) -> Self {
+        Self {
+            file: entry.file.clone(),
+            pressure_kpa: entry.pressure_kpa,
+            pressure: entry.pressure,
+            frames: c.frames,
+            problems: c.problems,
+            clamp_marker_px: c.clamp_marker_px,
+            outputs: c.outputs,
+        }
+    }
+
+    fn to_cache(&self, key: ItemKey) -> CacheEntry {
+        CacheEntry {
+            key,
+            frames: self.frames.clone(),
+            problems: self.problems.clone(),
+            clamp_marker_px: self.clamp_marker_px,
+            outputs: self.outputs.clone(),
+        }
+    }
+
+    /// The item's row: statistics of its frames and its status.
+    fn record(&self) -> VideoRecord {
+        let stats = stats::summarize(&self.frames);
+        let status = if stats.frames_used == 0 {
+            let why = if self.problems.is_empty() {
+                most_common_rejection(&self.frames).unwrap_or_else(|| "no frames decoded".into())
+            } else {
+                self.problems.join("; ")
+            };
+            VideoStatus::Failed { why }
+        } else if self.problems.is_empty() {
+            VideoStatus::Ok
+        } else {
+            VideoStatus::Partial {
+                problems: self.problems.clone(),
+            }
+        };
+        VideoRecord {
+            file: self.file.clone(),
+            pressure_kpa: self.pressure_kpa,
+            pressure: self.pressure,
+            stats,
+            status,
+        }
+    }
+}
+
+/// The most frequent rejection of `frames`, with a hint.
+fn most_common_rejection(frames: &[FrameRecord]) -> Option<String> {
+    let mut counts: std::collections::BTreeMap<String, usize> = std::collections::BTreeMap::new();
+    for f in frames.iter().filter(|f| !f.status.is_ok()) {
+        *counts.entry(f.status.to_string()).or_default() += 1;
+    }
+    let hint = |s: &str| {
+        if s.contains("markers found") {
+            "check the lighting, the HSV thresholds and expected_markers in bendscope.toml"
+        } else if s.contains("pressure log") {
+            "check that the log covers the recording"
+        } else if s.contains("depth") {
+            "check the depth frames"
+        } else {
+            "see per_frame.csv"
+        }
+    };
+    counts
+        .into_iter()
+        .max_by_key(|(_, n)| *n)
+        .map(|(s, n)| format!("{s} (in {n} of {} frames): {}", frames.len(), hint(&s)))
+}
+
+impl VideoRun<'_> {
+    /// Measures one video (all its chapters), streaming: a decoder thread per chapter
+    /// feeds frames through a bounded channel. Chapter clocks continue each other: a
+    /// chapter starts one frame interval (of its own stream) after the previous
+    /// chapter's last frame.
+    fn measure_video(
+        &self,
+        entry: &ManifestEntry,
+        start: Option<nalgebra::Point2<f64>>,
+    ) -> ItemResult {
+        let (session, out, config, log) = (self.session, self.out, self.config, self.log);
+        let mut tracker = Tracker::new(match start {
+            Some(p) => ChainStart::Near(p),
+            None => ChainStart::Side(config.detect.clamp_side),
+        });
+        let mut result = ItemResult {
+            file: entry.file.clone(),
+            pressure_kpa: entry.pressure_kpa,
+            pressure: entry.pressure,
+            frames: vec![],
+            problems: vec![],
+            clamp_marker_px: None,
+            outputs: vec![],
+        };
+        let mut overlay_pending = true;
+        let (mut time_offset, mut index_offset) = (0.0, 0u64);
+        let mut outside_log = 0usize;
+        for file in std::iter::once(&entry.file).chain(&entry.chapters) {
+            let mut source: Box<dyn FrameSource> = match VideoSource::open(
+                &session.join(file),
+                config.frame_stride,
+                config.full_frame_undistort,
+            ) {
+                Ok(s) => Box::new(s),
+                Err(e) => {
+                    result.problems.push(e);
+                    continue;
+                }
+            };
+            let (w, h) = source.size();
+            let prepared = self
+                .calib
+                .for_resolution(w, h)
+                .and_then(|c| Undistorter::new(&c, UndistortSettings::default()))
+                .and_then(|u| {
+                    let maps = if config.full_frame_undistort {
+                        Some(u.maps()?)
+                    } else {
+                        None
+                    };
+                    Ok((u, maps))
+                });
+            let (undistorter, maps) = match prepared {
+                Ok(p) => p,
+                Err(e) => {
+                    result.problems.push(format!("{file}: {e}"));
+                    let _ = source.finish();
+                    continue;
+                }
+            };
+            // mm per px scales with the frame size (same aspect ratio as the scale photo).
+            let mm_per_px = self.scale.mm_per_px * self.scale.width as f64 / w as f64;
+            let (mut last_time, mut last_index, mut interval) = (f64::NAN, 0u64, 0.0f64);
+            loop {
+                let f = match source.next() {
+                    Next::Frame(f) => f,
+                    Next::Bad { .. } => continue,
+                    Next::End => break,
+                };
+                if last_time.is_finite() && f.time_s > last_time {
+                    interval = f.time_s - last_time;
+                }
+                let (time_s, index) = (f.time_s + time_offset, f.index + index_offset);
+                let pressure_kpa = match log {
+                    Some(log) => log
+                        .pressure_at(time_s + config.ramp_time_offset_s)
+                        .unwrap_or(f64::NAN),
+                    None => entry.pressure_kpa,
+                };
+                let m = if log.is_some() && pressure_kpa.is_nan() {
+                    outside_log += 1;
+                    frame::FrameMeasurement::rejected(0, FrameStatus::OutsidePressureLog)
+                } else {
+                    match &maps {
+                        Some(maps) => {
+                            match overlay::undistort_pixels(&undistorter, maps, &f.pixels) {
+                                Ok(flat) => measure_frame(
+                                    &flat,
+                                    None,
+                                    &Geometry::Plane {
+                                        undistorter: None,
+                                        mm_per_px,
+                                    },
+                                    &config.detect,
+                                    config.expected_markers,
+                                    &mut tracker,
+                                ),
+                                Err(e) => {
+                                    result.problems.push(format!("{file}: {e}"));
+                                    break;
+                                }
+                            }
+                        }
+                        None => frame::measure_pixels(
+                            &f.pixels,
+                            None,
+                            &Geometry::Plane {
+                                undistorter: Some(&undistorter),
+                                mm_per_px,
+                            },
+                            config,
+                            &mut tracker,
+                        ),
+                    }
+                };
+                if m.status.is_ok() && overlay_pending {
+                    overlay_pending = false;
+                    match overlay::write_video_overlay(
+                        out,
+                        &entry.file,
+                        &f.pixels,
+                        &self.calib,
+                        config,
+                        &m,
+                    ) {
+                        Ok(rel) => result.outputs.push(rel),
+                        Err(e) => result.problems.push(format!("overlay not written: {e}")),
+                    }
+                }
+                result.frames.push(FrameRecord {
+                    file: entry.file.clone(),
+                    frame: index,
+                    time_s,
+                    pressure_kpa,
+                    n_markers: m.n_markers,
+                    n_ignored: m.ignored_px.len(),
+                    radius_px: m.radius_px,
+                    radius_mm: m.radius_mm,
+                    curvature_per_m: m.curvature_per_m,
+                    bending_angle_deg: m.bending_angle_deg,
+                    fit_rms: m.fit_rms,
+                    status: m.status,
+                });
+                last_time = f.time_s;
+                last_index = f.index;
+                source.recycle(f.pixels);
+            }
+            result.problems.extend(source.finish());
+            if last_time.is_finite() {
+                time_offset += last_time + interval;
+                index_offset += last_index + 1;
+            }
+        }
+        if outside_log > 0 {
+            result.problems.push(format!(
+            "{outside_log} of {} frames fall outside the pressure log's time span: check that the log covers the recording and ramp_time_offset_s",
+            result.frames.len()
+        ));
+        }
+        if let ChainStart::Near(p) = tracker.start {
+            result.clamp_marker_px = Some((p.x, p.y));
+        }
+        result
+    }
+}
+
+/// Measures the frames of an RGB-D session (one item named `color`).
+fn measure_rgbd(
+    session: &Path,
+    config: &SessionConfig,
+    log: &PressureLog,
+    notes: &mut Notes,
+) -> Result<ItemResult, PipelineError> {
+    let listing = list_frames(session)?;
+    let intr = &listing.intrinsics;
+    let undistorter = crate::rgbd::undistorter(intr)?;
+    for d in &listing.orphan_depth {
+        notes.push(format!(
+            "warning: {d}: no colour frame of the same name: ignored"
+        ));
+    }
+    let geometry = Geometry::Depth {
+        undistorter: &undistorter,
+        intrinsics: intr,
+    };
+    let mut tracker = Tracker::new(ChainStart::Side(config.detect.clamp_side));
+    let total = listing.frames.len();
+    let mut source: Box<dyn FrameSource> =
+        Box::new(RgbdSource::new(listing.frames, (intr.width, intr.height)));
+    let mut result = ItemResult {
+        file: "color".into(),
+        pressure_kpa: f64::NAN,
+        pressure: f64::NAN,
+        frames: Vec::with_capacity(total),
+        problems: vec![],
+        clamp_marker_px: None,
+        outputs: vec![],
+    };
+    let (mut bad, mut outside_log) = (Vec::new(), 0usize);
+    notes.progress.start("RGB-D frames", total as u64);
+    loop {
+        let next = source.next();
+        notes.progress.advance(1);
+        let (index, time_s) = match &next {
+            Next::Frame(f) => (f.index, f.time_s),
+            Next::Bad { index, time_s, .. } => (*index, *time_s),
+            Next::End => break,
+        };
+        let pressure_kpa = log
+            .pressure_at(time_s + config.ramp_time_offset_s)
+            .unwrap_or(f64::NAN);
+        let record = |status: FrameStatus| {
+            FrameRecord::rejected("color", index, time_s, pressure_kpa, status)
+        };
+        let row = match next {
+            Next::Bad { why, .. } => {
+                bad.push(why.clone());
+                record(FrameStatus::BadFrame { why })
+            }
+            Next::Frame(_) if pressure_kpa.is_nan() => {
+                outside_log += 1;
+                record(FrameStatus::OutsidePressureLog)
+            }
+            Next::Frame(f) => {
+                let m = frame::measure_pixels(
+                    &f.pixels,
+                    f.depth.as_ref(),
+                    &geometry,
+                    config,
+                    &mut tracker,
+                );
+                FrameRecord {
+                    file: "color".into(),
+                    frame: index,
+                    time_s,
+                    pressure_kpa,
+                    n_markers: m.n_markers,
+                    n_ignored: m.ignored_px.len(),
+                    radius_px: m.radius_px,
+                    radius_mm: m.radius_mm,
+                    curvature_per_m: m.curvature_per_m,
+                    bending_angle_deg: m.bending_angle_deg,
+                    fit_rms: m.fit_rms,
+                    status: m.status,
+                }
+            }
+            Next::End => break,
+        };
+        result.frames.push(row);
+    }
+    notes.progress.finish();
+    if let Some(first) = bad.first() {
+        result.problems.push(if bad.len() == 1 {
+            first.clone()
+        } else {
+            format!("{} unusable frames, e.g. {first}", bad.len())
+        });
+    }
+    if outside_log > 0 {
+        result.problems.push(format!(
+            "{outside_log} of {total} frames fall outside the pressure log's time span ({}): check that the log covers the recording and ramp_time_offset_s",
+            listing.timing
+        ));
+    }
+    Ok(result)
+}

@@ -1,0 +1,377 @@
+//! A session's outputs from its records: `per_frame.csv`, `per_video.csv`, `fit.json`
+//! (power laws), `plots/` and `report.html`. Every file is written atomically; the
+//! outputs depend only on the records, so a rerun writes identical files.
+
+use std::path::Path;
+
+use serde::Serialize;
+
+use crate::fit::{fit_power_law, PowerLawFit};
+use crate::report::{html, plot_xy, write_json, Series};
+use crate::session::PressureUnit;
+use crate::table::{write_csv, Column};
+
+use super::records::{FrameRecord, VideoRecord};
+use super::PipelineError;
+
+/// Power-law fits y = a x^b + c of a session.
+#[derive(Debug, Clone, Serialize)]
+pub struct SessionFits {
+    /// Model.
+    pub model: &'static str,
+    /// Radius (mm) vs pressure (kPa).
+    pub radius_mm_vs_kpa: Option<PowerLawFit>,
+    /// Curvature (1/m) vs pressure (kPa).
+    pub curvature_per_m_vs_kpa: Option<PowerLawFit>,
+    /// Bending angle (deg) vs pressure (kPa).
+    pub bending_angle_deg_vs_kpa: Option<PowerLawFit>,
+    /// The manifest's pressure unit.
+    pub unit: String,
+    /// Radius (mm) vs pressure in the manifest's unit.
+    pub radius_mm_vs_unit: Option<PowerLawFit>,
+    /// Curvature (1/m) vs pressure in the manifest's unit.
+    pub curvature_per_m_vs_unit: Option<PowerLawFit>,
+    /// Why a fit is missing.
+    pub notes: Vec<String>,
+}
+
+/// Fits the measured rows (pressure > 0, finite values).
+pub fn fit_records(rows: &[VideoRecord], unit: PressureUnit) -> SessionFits {
+    let mut notes = Vec::new();
+    let mut fit = |name: &str,
+                   x: fn(&VideoRecord) -> f64,
+                   y: fn(&VideoRecord) -> f64|
+     -> Option<PowerLawFit> {
+        let (xs, ys): (Vec<f64>, Vec<f64>) = rows
+            .iter()
+            .filter(|r| r.status.is_measured())
+            .map(|r| (x(r), y(r)))
+            .filter(|(a, b)| a.is_finite() && *a > 0.0 && b.is_finite())
+            .unzip();
+        match fit_power_law(&xs, &ys) {
+            Ok(f) => Some(f),
+            Err(e) => {
+                notes.push(format!("{name}: {e}"));
+                None
+            }
+        }
+    };
+    SessionFits {
+        model: "y = a * x^b + c",
+        radius_mm_vs_kpa: fit("radius vs kPa", |r| r.pressure_kpa, |r| r.stats.radius_mm),
+        curvature_per_m_vs_kpa: fit(
+            "curvature vs kPa",
+            |r| r.pressure_kpa,
+            |r| r.stats.curvature_per_m,
+        ),
+        bending_angle_deg_vs_kpa: fit(
+            "angle vs kPa",
+            |r| r.pressure_kpa,
+            |r| r.stats.bending_angle_deg,
+        ),
+        unit: unit.name().to_string(),
+        radius_mm_vs_unit: fit("radius vs unit", |r| r.pressure, |r| r.stats.radius_mm),
+        curvature_per_m_vs_unit: fit(
+            "curvature vs unit",
+            |r| r.pressure,
+            |r| r.stats.curvature_per_m,
+        ),
+        notes,
+    }
+}
+
+/// The unit of the fit RMS column: px for video sessions, mm for RGB-D.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum RmsUnit {
+    /// Undistorted pixels.
+    Px,
+    /// Millimetres (circle fitted in 3D).
+    Mm,
+}
+
+impl RmsUnit {
+    fn column(self) -> &'static str {
+        match self {
+            RmsUnit::Px => "fit_rms_px",
+            RmsUnit::Mm => "fit_rms_mm",
+        }
+    }
+}
+
+/// Writes `per_frame.csv`.
+pub fn write_per_frame_csv(
+    path: &Path,
+    rows: &[FrameRecord],
+    rms: RmsUnit,
+) -> Result<(), PipelineError> {
+    let f = |g: fn(&FrameRecord) -> f64| rows.iter().map(g).collect::<Vec<f64>>();
+    write_csv(
+        path,
+        &[
+            Column::text("file", rows.iter().map(|r| r.file.clone())),
+            Column::int("frame", rows.iter().map(|r| r.frame)),
+            Column::num("time_s", 4, f(|r| r.time_s)),
+            Column::num("pressure_kpa", 3, f(|r| r.pressure_kpa)),
+            Column::int("n_markers", rows.iter().map(|r| r.n_markers as u64)),
+            Column::int("n_ignored", rows.iter().map(|r| r.n_ignored as u64)),
+            Column::num("radius_px", 3, f(|r| r.radius_px)),
+            Column::num("radius_mm", 4, f(|r| r.radius_mm)),
+            Column::num("curvature_per_m", 4, f(|r| r.curvature_per_m)),
+            Column::num("bending_angle_deg", 3, f(|r| r.bending_angle_deg)),
+            Column::num(rms.column(), 4, f(|r| r.fit_rms)),
+            Column::text("status", rows.iter().map(|r| r.status.to_string())),
+        ],
+    )?;
+    Ok(())
+}
+
+/// Writes `per_video.csv` (a `pressure_<unit>` column follows `pressure_kpa` when the
+/// manifest used another unit).
+pub fn write_per_video_csv(
+    path: &Path,
+    rows: &[VideoRecord],
+    unit: PressureUnit,
+    rms: RmsUnit,
+) -> Result<(), PipelineError> {
+    let f = |g: fn(&VideoRecord) -> f64| rows.iter().map(g).collect::<Vec<f64>>();
+    let mut cols = vec![
+        Column::text("file", rows.iter().map(|r| r.file.clone())),
+        Column::num("pressure_kpa", 4, f(|r| r.pressure_kpa)),
+    ];
+    if unit != PressureUnit::Kpa {
+        cols.push(Column::num(
+            format!("pressure_{}", unit.name()),
+            4,
+            f(|r| r.pressure),
+        ));
+    }
+    cols.extend([
+        Column::num("radius_mm", 4, f(|r| r.stats.radius_mm)),
+        Column::num("radius_mm_median", 4, f(|r| r.stats.radius_mm_median)),
+        Column::num("radius_mm_std", 4, f(|r| r.stats.radius_mm_std)),
+        Column::num("curvature_per_m", 4, f(|r| r.stats.curvature_per_m)),
+        Column::num("bending_angle_deg", 4, f(|r| r.stats.bending_angle_deg)),
+        Column::num(rms.column(), 4, f(|r| r.stats.fit_rms)),
+        Column::int(
+            "frames_used",
+            rows.iter().map(|r| r.stats.frames_used as u64),
+        ),
+        Column::int(
+            "frames_rejected",
+            rows.iter().map(|r| r.stats.frames_rejected as u64),
+        ),
+        Column::text("status", rows.iter().map(|r| r.status.to_string())),
+    ]);
+    write_csv(path, &cols)?;
+    Ok(())
+}
+
+/// Writes every output of a session named `name` into `out`.
+pub fn write_session(
+    out: &Path,
+    name: &str,
+    frames: &[FrameRecord],
+    videos: &[VideoRecord],
+    unit: PressureUnit,
+    rms: RmsUnit,
+) -> Result<(), PipelineError> {
+    write_per_frame_csv(&out.join("per_frame.csv"), frames, rms)?;
+    write_per_video_csv(&out.join("per_video.csv"), videos, unit, rms)?;
+    let fits = fit_records(videos, unit);
+    write_json(&out.join("fit.json"), &fits)?;
+    let plots = write_plots(out, videos, &fits, frames)?;
+    html::write_session_report(
+        &out.join("report.html"),
+        &html::SessionReport {
+            name,
+            out,
+            videos,
+            fits: &fits,
+            plots: &plots,
+        },
+    )?;
+    Ok(())
+}
+
+/// Draws the session's plots; returns their stems relative to OUT (each has a .png and
+/// an .svg).
+fn write_plots(
+    out: &Path,
+    videos: &[VideoRecord],
+    fits: &SessionFits,
+    frames: &[FrameRecord],
+) -> Result<Vec<String>, PipelineError> {
+    let ok: Vec<&VideoRecord> = videos.iter().filter(|v| v.status.is_measured()).collect();
+    let pmax = ok.iter().map(|v| v.pressure_kpa).fold(0.0, f64::max);
+    let pmin = ok
+        .iter()
+        .map(|v| v.pressure_kpa)
+        .filter(|p| *p > 0.0)
+        .fold(f64::INFINITY, f64::min);
+    let curve = |f: &Option<PowerLawFit>| -> Vec<(f64, f64)> {
+        match f {
+            Some(f) if pmin.is_finite() => (0..=100)
+                .map(|i| {
+                    let p = pmin + (pmax - pmin) * i as f64 / 100.0;
+                    (p, f.eval(p))
+                })
+                .collect(),
+            _ => vec![],
+        }
+    };
+    let points = |g: fn(&VideoRecord) -> f64| -> Vec<(f64, f64)> {
+        ok.iter().map(|v| (v.pressure_kpa, g(v))).collect()
+    };
+    let mut per_file: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
+    for f in frames {
+        match per_file.last_mut() {
+            Some((name, pts)) if *name == f.file => pts.push((f.time_s, f.radius_mm)),
+            _ => per_file.push((f.file.clone(), vec![(f.time_s, f.radius_mm)])),
+        }
+    }
+    let plots = [
+        (
+            "radius_vs_pressure",
+            "Radius of curvature vs pressure",
+            "radius (mm)",
+            vec![
+                Series {
+                    label: "measured (mean per video)",
+                    points: points(|v| v.stats.radius_mm),
+                    line: false,
+                },
+                Series {
+                    label: "power-law fit",
+                    points: curve(&fits.radius_mm_vs_kpa),
+                    line: true,
+                },
+            ],
+        ),
+        (
+            "curvature_vs_pressure",
+            "Curvature vs pressure",
+            "curvature (1/m)",
+            vec![
+                Series {
+                    label: "measured",
+                    points: points(|v| v.stats.curvature_per_m),
+                    line: false,
+                },
+                Series {
+                    label: "power-law fit",
+                    points: curve(&fits.curvature_per_m_vs_kpa),
+                    line: true,
+                },
+            ],
+        ),
+        (
+            "angle_vs_pressure",
+            "Bending angle vs pressure",
+            "bending angle (deg)",
+            vec![Series {
+                label: "measured",
+                points: points(|v| v.stats.bending_angle_deg),
+                line: false,
+            }],
+        ),
+    ];
+    let mut written = Vec::new();
+    for (stem, title, y_label, series) in plots {
+        if plot_xy(
+            &out.join("plots").join(stem),
+            title,
+            "pressure (kPa)",
+            y_label,
+            &series,
+        )? {
+            written.push(format!("plots/{stem}"));
+        }
+    }
+    let series: Vec<Series> = per_file
+        .iter()
+        .map(|(name, pts)| Series {
+            label: name,
+            points: pts.clone(),
+            line: true,
+        })
+        .collect();
+    if plot_xy(
+        &out.join("plots").join("radius_per_frame"),
+        "Radius per frame (stability)",
+        "time (s)",
+        "radius (mm)",
+        &series,
+    )? {
+        written.push("plots/radius_per_frame".to_string());
+    }
+    Ok(written)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::records::VideoStatus;
+    use super::super::stats::FrameStats;
+    use super::*;
+
+    fn row(file: &str, p: f64, r: f64) -> VideoRecord {
+        VideoRecord {
+            file: file.into(),
+            pressure_kpa: p,
+            pressure: p / 100.0,
+            stats: FrameStats {
+                radius_mm: r,
+                radius_mm_median: r,
+                radius_mm_std: 0.1,
+                curvature_per_m: 1000.0 / r,
+                bending_angle_deg: 10.0,
+                fit_rms: 0.05,
+                frames_used: 10,
+                frames_rejected: 0,
+            },
+            status: VideoStatus::Ok,
+        }
+    }
+
+    #[test]
+    fn per_video_csv_opens_as_a_table() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("per_video.csv");
+        let mut rows = vec![row("a.mp4", 20.0, 120.0), row("b, c.mp4", 40.0, 80.0)];
+        rows[1].stats.radius_mm_median = f64::NAN;
+        rows.push(VideoRecord::skipped("x.mp4", "listed twice".into()));
+        write_per_video_csv(&p, &rows, PressureUnit::Bar, RmsUnit::Px).unwrap();
+        let text = std::fs::read_to_string(&p).unwrap();
+        let mut lines = text.lines();
+        assert_eq!(
+            lines.next().unwrap(),
+            "file,pressure_kpa,pressure_bar,radius_mm,radius_mm_median,radius_mm_std,curvature_per_m,bending_angle_deg,fit_rms_px,frames_used,frames_rejected,status"
+        );
+        assert_eq!(
+            lines.next().unwrap(),
+            "a.mp4,20.0000,0.2000,120.0000,120.0000,0.1000,8.3333,10.0000,0.0500,10,0,ok"
+        );
+        assert!(lines
+            .next()
+            .unwrap()
+            .starts_with("\"b, c.mp4\",40.0000,0.4000,80.0000,,"));
+        assert_eq!(lines.next().unwrap(), "x.mp4,,,,,,,,,0,0,listed twice");
+    }
+
+    #[test]
+    fn fits_recover_a_power_law_and_skip_unmeasured_rows() {
+        let mut rows: Vec<VideoRecord> = (1..=6)
+            .map(|i| {
+                let p = 15.0 * i as f64;
+                row("v", p, 800.0 * p.powf(-0.8) + 10.0)
+            })
+            .collect();
+        rows.push(VideoRecord::skipped("bad.mp4", "not a number".into()));
+        let f = fit_records(&rows, PressureUnit::Bar);
+        let r = f.radius_mm_vs_kpa.unwrap();
+        assert!(
+            (r.b + 0.8).abs() < 1e-4 && (r.c - 10.0).abs() < 1e-2,
+            "{r:?}"
+        );
+        assert_eq!(r.n, 6);
+    }
+}

@@ -1,0 +1,263 @@
+//! What a measurement produces: one [`FrameRecord`] per frame, one [`VideoRecord`] per
+//! video (or per pressure bin of a ramp), each with a typed status whose `Display` is
+//! the text written to the CSVs.
+
+use std::fmt;
+
+use serde::{Deserialize, Serialize};
+
+/// Why a frame was not measured (or that it was).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum FrameStatus {
+    /// Measured.
+    Ok,
+    /// Not the expected number of markers.
+    MarkerCount {
+        /// Red blobs kept after the size filter.
+        found: usize,
+        /// Markers expected (`expected_markers`).
+        expected: usize,
+        /// Blobs dropped as specks.
+        specks: usize,
+        /// Blobs dropped as too large.
+        too_large: usize,
+    },
+    /// More red blobs than markers, and no subset looks like the actuator's marker line.
+    NoMarkerChain {
+        /// Why (from the selection).
+        why: String,
+    },
+    /// A marker lies outside the field where the calibration is valid.
+    OutsideCalibratedField,
+    /// The frame's time is outside the pressure log.
+    OutsidePressureLog,
+    /// No valid depth around a marker (RGB-D).
+    NoDepth {
+        /// 1-based marker number from the clamped end.
+        marker: usize,
+    },
+    /// The frame (or its depth frame) could not be used as read.
+    BadFrame {
+        /// What is wrong and what to do.
+        why: String,
+    },
+    /// Undistortion or the circle fit failed.
+    FitFailed {
+        /// The cause.
+        why: String,
+    },
+}
+
+impl FrameStatus {
+    /// True when the frame was measured.
+    pub fn is_ok(&self) -> bool {
+        matches!(self, FrameStatus::Ok)
+    }
+}
+
+impl fmt::Display for FrameStatus {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            FrameStatus::Ok => write!(f, "ok"),
+            FrameStatus::MarkerCount {
+                found,
+                expected,
+                specks,
+                too_large,
+            } => {
+                write!(f, "{found} markers found, {expected} expected")?;
+                if specks + too_large > 0 {
+                    write!(f, " ({specks} specks, {too_large} too large dropped)")?;
+                }
+                Ok(())
+            }
+            FrameStatus::OutsideCalibratedField => write!(f, "outside calibrated field"),
+            FrameStatus::OutsidePressureLog => write!(
+                f,
+                "outside the pressure log's time span (check ramp_time_offset_s in {})",
+                crate::session::CONFIG
+            ),
+            FrameStatus::NoDepth { marker } => write!(f, "no depth at marker {marker}"),
+            FrameStatus::BadFrame { why }
+            | FrameStatus::FitFailed { why }
+            | FrameStatus::NoMarkerChain { why } => write!(f, "{why}"),
+        }
+    }
+}
+
+/// One row of `per_frame.csv`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FrameRecord {
+    /// Video (or RGB-D colour frame) the frame belongs to.
+    pub file: String,
+    /// Frame index (continuous over a GoPro recording's chapters; the number in an
+    /// RGB-D frame's name).
+    pub frame: u64,
+    /// Time, s (stream timestamps; chapters continue the previous chapter's clock).
+    pub time_s: f64,
+    /// Pressure, kPa.
+    pub pressure_kpa: f64,
+    /// Markers used (or red blobs found, when too few).
+    pub n_markers: usize,
+    /// Red blobs found besides the markers (not used).
+    pub n_ignored: usize,
+    /// Radius, undistorted px (NaN for RGB-D, where the circle is fitted in mm).
+    pub radius_px: f64,
+    /// Radius, mm.
+    pub radius_mm: f64,
+    /// Curvature, 1/m.
+    pub curvature_per_m: f64,
+    /// Bending angle, degrees (half-angle convention).
+    pub bending_angle_deg: f64,
+    /// RMS residual of the circle fit (px, or mm for RGB-D).
+    pub fit_rms: f64,
+    /// Outcome.
+    pub status: FrameStatus,
+}
+
+impl FrameRecord {
+    /// A frame that was not measured.
+    pub fn rejected(
+        file: &str,
+        frame: u64,
+        time_s: f64,
+        pressure_kpa: f64,
+        status: FrameStatus,
+    ) -> Self {
+        Self {
+            file: file.to_string(),
+            frame,
+            time_s,
+            pressure_kpa,
+            n_markers: 0,
+            n_ignored: 0,
+            radius_px: f64::NAN,
+            radius_mm: f64::NAN,
+            curvature_per_m: f64::NAN,
+            bending_angle_deg: f64::NAN,
+            fit_rms: f64::NAN,
+            status,
+        }
+    }
+}
+
+/// Outcome of a video (or of a manifest row that could not be used).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum VideoStatus {
+    /// Every decoded frame was read without trouble (some may be rejected).
+    Ok,
+    /// Measured, with problems worth knowing (corrupt packets, truncation, an overlay
+    /// that could not be written).
+    Partial {
+        /// The problems, each naming its file.
+        problems: Vec<String>,
+    },
+    /// Nothing measured.
+    Failed {
+        /// Why, and what to do.
+        why: String,
+    },
+    /// A manifest row or file that was not processed.
+    Skipped {
+        /// Why, and what to do.
+        why: String,
+    },
+}
+
+impl VideoStatus {
+    /// True when the video has measured frames (ok or partial).
+    pub fn is_measured(&self) -> bool {
+        matches!(self, VideoStatus::Ok | VideoStatus::Partial { .. })
+    }
+}
+
+impl fmt::Display for VideoStatus {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            VideoStatus::Ok => write!(f, "ok"),
+            VideoStatus::Partial { problems } => write!(f, "partial: {}", problems.join("; ")),
+            VideoStatus::Failed { why } => write!(f, "no frame measured: {why}"),
+            VideoStatus::Skipped { why } => write!(f, "{why}"),
+        }
+    }
+}
+
+/// One row of `per_video.csv`: a video of the step protocol, or a pressure bin of a ramp.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct VideoRecord {
+    /// Video file (the first chapter's name for a GoPro recording).
+    pub file: String,
+    /// Pressure, kPa (the bin's mean for a ramp).
+    pub pressure_kpa: f64,
+    /// Pressure in the manifest's (or log's) unit.
+    pub pressure: f64,
+    /// Statistics of the measured frames.
+    pub stats: super::stats::FrameStats,
+    /// Outcome.
+    pub status: VideoStatus,
+}
+
+impl VideoRecord {
+    /// A manifest row or file that was not processed.
+    pub fn skipped(file: &str, why: String) -> Self {
+        Self {
+            file: file.to_string(),
+            pressure_kpa: f64::NAN,
+            pressure: f64::NAN,
+            stats: super::stats::FrameStats::empty(0),
+            status: VideoStatus::Skipped { why },
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn status_text_is_what_the_csv_shows() {
+        let s = FrameStatus::MarkerCount {
+            found: 9,
+            expected: 8,
+            specks: 0,
+            too_large: 0,
+        };
+        assert_eq!(s.to_string(), "9 markers found, 8 expected");
+        let s = FrameStatus::MarkerCount {
+            found: 7,
+            expected: 8,
+            specks: 2,
+            too_large: 1,
+        };
+        assert_eq!(
+            s.to_string(),
+            "7 markers found, 8 expected (2 specks, 1 too large dropped)"
+        );
+        assert_eq!(FrameStatus::Ok.to_string(), "ok");
+        assert_eq!(
+            VideoStatus::Partial {
+                problems: vec!["a".into(), "b".into()]
+            }
+            .to_string(),
+            "partial: a; b"
+        );
+        assert_eq!(
+            VideoStatus::Failed { why: "x".into() }.to_string(),
+            "no frame measured: x"
+        );
+    }
+
+    #[test]
+    fn statuses_survive_the_cache() {
+        for s in [
+            FrameStatus::Ok,
+            FrameStatus::NoDepth { marker: 3 },
+            FrameStatus::BadFrame { why: "w".into() },
+        ] {
+            let j = serde_json::to_string(&s).unwrap();
+            assert_eq!(serde_json::from_str::<FrameStatus>(&j).unwrap(), s);
+        }
+    }
+}

@@ -1,0 +1,333 @@
+//! Frame sources behind one trait: a video file (decoded on its own thread, streamed
+//! through a bounded channel, buffers recycled) and an RGB-D folder (colour + aligned
+//! depth frames, timed by their names or `frames.csv`).
+
+use std::path::{Path, PathBuf};
+use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
+use std::thread::JoinHandle;
+
+use crate::rgbd::RgbdFrame;
+use crate::video::{DecodeStats, Pixels, VideoInfo, VideoReader};
+
+use super::frame::DepthImage;
+
+/// A frame as a source delivers it.
+#[derive(Debug)]
+pub struct SourceFrame {
+    /// Index (continuous within the source).
+    pub index: u64,
+    /// Time, s, on the source's clock.
+    pub time_s: f64,
+    /// Colour pixels as decoded.
+    pub pixels: Pixels,
+    /// Aligned depth (RGB-D sources only).
+    pub depth: Option<DepthImage>,
+}
+
+/// What [`FrameSource::next`] returns.
+#[derive(Debug)]
+pub enum Next {
+    /// A frame.
+    Frame(SourceFrame),
+    /// A frame that exists but cannot be used (unreadable file, wrong depth format).
+    Bad {
+        /// Index.
+        index: u64,
+        /// Time, s.
+        time_s: f64,
+        /// What is wrong and what to do.
+        why: String,
+    },
+    /// No more frames.
+    End,
+}
+
+/// A stream of frames of one measured item.
+pub trait FrameSource {
+    /// Frame size, px, known before the first frame.
+    fn size(&self) -> (u32, u32);
+    /// The next frame.
+    fn next(&mut self) -> Next;
+    /// Gives back pixels the caller is done with, to be decoded into again.
+    fn recycle(&mut self, _pixels: Pixels) {}
+    /// Ends the source: the problems seen on the way (corrupt packets, a truncated
+    /// file), each naming its file.
+    fn finish(self: Box<Self>) -> Vec<String>;
+}
+
+/// Share of the frames a container states that must decode before a video counts as
+/// complete (a few frames may be lost at the end of an edit list).
+pub const TRUNCATION_SHARE: f64 = 0.98;
+
+/// What the decoder thread sends.
+enum Decoded {
+    Frame(u64, f64, Pixels),
+    Failed(String),
+}
+
+/// A video file decoded on its own thread (FFmpeg contexts are not `Send`, so the reader
+/// lives there), frames streamed through a bounded channel.
+pub struct VideoSource {
+    name: String,
+    size: (u32, u32),
+    rx: Receiver<Decoded>,
+    back: SyncSender<Pixels>,
+    problems: Vec<String>,
+    thread: Option<JoinHandle<(VideoInfo, DecodeStats)>>,
+}
+
+impl VideoSource {
+    /// Opens `path`; every `stride`-th frame is delivered, as RGB when `want_rgb` (for
+    /// whole-frame undistortion), else as decoded (YUV planes for 8-bit 4:2:0).
+    pub fn open(path: &Path, stride: u64, want_rgb: bool) -> Result<Self, String> {
+        let name = file_name(path);
+        let (info_tx, info_rx) = sync_channel::<Result<(u32, u32), String>>(1);
+        let (tx, rx) = sync_channel::<Decoded>(2);
+        let (back, back_rx) = sync_channel::<Pixels>(3);
+        let path = path.to_path_buf();
+        let thread =
+            std::thread::spawn(move || decode(&path, stride, want_rgb, info_tx, tx, back_rx));
+        match info_rx.recv() {
+            Ok(Ok(size)) => Ok(Self {
+                name,
+                size,
+                rx,
+                back,
+                problems: vec![],
+                thread: Some(thread),
+            }),
+            Ok(Err(e)) => {
+                let _ = thread.join();
+                Err(e)
+            }
+            Err(_) => {
+                let _ = thread.join();
+                Err(format!("{name}: the decoder stopped"))
+            }
+        }
+    }
+}
+
+/// The decoder thread: opens the file, sends the size, then frames until the end or
+/// until the receiver hangs up; returns the stream's info and decode health.
+fn decode(
+    path: &Path,
+    stride: u64,
+    want_rgb: bool,
+    info_tx: SyncSender<Result<(u32, u32), String>>,
+    tx: SyncSender<Decoded>,
+    back_rx: Receiver<Pixels>,
+) -> (VideoInfo, DecodeStats) {
+    let mut reader = match VideoReader::open(path) {
+        Ok(r) => r,
+        Err(e) => {
+            let _ = info_tx.send(Err(e.to_string()));
+            return (empty_info(), DecodeStats::default());
+        }
+    };
+    let _ = info_tx.send(Ok((reader.info().width, reader.info().height)));
+    loop {
+        let recycled = back_rx.try_recv().ok();
+        let next = if want_rgb {
+            let buf = match recycled {
+                Some(Pixels::Rgb(i)) => Some(i),
+                _ => None,
+            };
+            reader
+                .next_frame_recycling(stride, buf)
+                .map(|f| f.map(|f| (f.index, f.time_s, Pixels::Rgb(f.image))))
+        } else {
+            reader.next_pixels(stride, recycled)
+        };
+        let msg = match next {
+            Ok(Some((index, time_s, pixels))) => Decoded::Frame(index, time_s, pixels),
+            Ok(None) => break,
+            Err(e) => Decoded::Failed(e.to_string()),
+        };
+        let failed = matches!(msg, Decoded::Failed(_));
+        if tx.send(msg).is_err() || failed {
+            break;
+        }
+    }
+    (reader.info().clone(), reader.stats().clone())
+}
+
+fn empty_info() -> VideoInfo {
+    VideoInfo {
+        width: 0,
+        height: 0,
+        fps: 0.0,
+        duration_s: 0.0,
+        frame_count_estimate: 0,
+        container_frames: 0,
+        codec: String::new(),
+    }
+}
+
+fn file_name(path: &Path) -> String {
+    path.file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| path.display().to_string())
+}
+
+impl FrameSource for VideoSource {
+    fn size(&self) -> (u32, u32) {
+        self.size
+    }
+
+    fn next(&mut self) -> Next {
+        match self.rx.recv() {
+            Ok(Decoded::Frame(index, time_s, pixels)) => Next::Frame(SourceFrame {
+                index,
+                time_s,
+                pixels,
+                depth: None,
+            }),
+            Ok(Decoded::Failed(e)) => {
+                self.problems.push(e);
+                Next::End
+            }
+            Err(_) => Next::End,
+        }
+    }
+
+    fn recycle(&mut self, pixels: Pixels) {
+        let _ = self.back.try_send(pixels);
+    }
+
+    fn finish(mut self: Box<Self>) -> Vec<String> {
+        let mut problems = std::mem::take(&mut self.problems);
+        let name = self.name.clone();
+        // Hang up first so a decoder still running stops at its next frame.
+        let Self {
+            rx, back, thread, ..
+        } = *self;
+        drop(rx);
+        drop(back);
+        match thread.map(|t| t.join()) {
+            Some(Ok((info, stats))) => {
+                if stats.has_errors() {
+                    problems.push(format!(
+                        "{name}: {} corrupt packet(s){}; measured what decoded",
+                        stats.packets_failed,
+                        stats
+                            .read_error
+                            .map(|e| format!(", read error: {e}"))
+                            .unwrap_or_default()
+                    ));
+                }
+                let stated = info.container_frames;
+                if stated > 0 && (stats.frames_decoded as f64) < TRUNCATION_SHARE * stated as f64 {
+                    problems.push(format!(
+                        "{name}: {} of the {stated} frames the container lists decoded: the file is truncated or corrupt (copy it again from the camera)",
+                        stats.frames_decoded
+                    ));
+                }
+            }
+            Some(Err(_)) => problems.push(format!("{name}: the decoder thread failed")),
+            None => {}
+        }
+        problems
+    }
+}
+
+/// The frames of an RGB-D folder, read one at a time.
+pub struct RgbdSource {
+    frames: std::vec::IntoIter<RgbdFrame>,
+    size: (u32, u32),
+}
+
+impl RgbdSource {
+    /// The listed frames, expected at `size` (the intrinsics' frame size).
+    pub fn new(frames: Vec<RgbdFrame>, size: (u32, u32)) -> Self {
+        Self {
+            frames: frames.into_iter(),
+            size,
+        }
+    }
+}
+
+/// Reads one colour + depth pair, checking what a measurement needs.
+fn read_pair(
+    color: &Path,
+    depth: Option<&PathBuf>,
+    size: (u32, u32),
+) -> Result<(Pixels, DepthImage), String> {
+    let name = |p: &Path| {
+        let parent = p
+            .parent()
+            .and_then(|d| d.file_name())
+            .map(|d| d.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        format!("{parent}/{}", file_name(p))
+    };
+    let depth_path = depth.ok_or_else(|| {
+        format!(
+            "no depth frame for {}: depth/ needs a 16-bit PNG of the same name",
+            name(color)
+        )
+    })?;
+    let rgb = image::open(color)
+        .map_err(|e| format!("{}: unreadable colour frame ({e})", name(color)))?
+        .into_rgb8();
+    let depth = match image::open(depth_path)
+        .map_err(|e| format!("{}: unreadable depth frame ({e})", name(depth_path)))?
+    {
+        image::DynamicImage::ImageLuma16(d) => d,
+        other => {
+            return Err(format!(
+                "{}: depth frame is {:?}, not 16-bit grey: export depth as 16-bit PNG (z16)",
+                name(depth_path),
+                other.color()
+            ))
+        }
+    };
+    if rgb.dimensions() != size || depth.dimensions() != size {
+        return Err(format!(
+            "{}: colour {}x{} and depth {}x{} differ from the intrinsics' {}x{}: align depth to colour at the intrinsics' size",
+            name(color),
+            rgb.width(),
+            rgb.height(),
+            depth.width(),
+            depth.height(),
+            size.0,
+            size.1
+        ));
+    }
+    if depth.as_raw().iter().all(|&d| d == 0) {
+        return Err(format!(
+            "{}: depth frame has no valid pixel (all zero): check the depth stream",
+            name(depth_path)
+        ));
+    }
+    Ok((Pixels::Rgb(rgb), depth))
+}
+
+impl FrameSource for RgbdSource {
+    fn size(&self) -> (u32, u32) {
+        self.size
+    }
+
+    fn next(&mut self) -> Next {
+        let Some(f) = self.frames.next() else {
+            return Next::End;
+        };
+        match read_pair(&f.color, f.depth.as_ref(), self.size) {
+            Ok((pixels, depth)) => Next::Frame(SourceFrame {
+                index: f.index,
+                time_s: f.time_s,
+                pixels,
+                depth: Some(depth),
+            }),
+            Err(why) => Next::Bad {
+                index: f.index,
+                time_s: f.time_s,
+                why,
+            },
+        }
+    }
+
+    fn finish(self: Box<Self>) -> Vec<String> {
+        vec![]
+    }
+}

@@ -1,0 +1,178 @@
+//! `report.html`: one self-contained page per session (no external files, no scripts):
+//! the per-video table, the power-law fits, the plots (their SVG inlined) and the QA
+//! overlays (PNG as data URIs), so it can be mailed or archived alone and opened in any
+//! browser.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use base64::Engine as _;
+
+use crate::io::write_atomic;
+use crate::pipeline::output::SessionFits;
+use crate::pipeline::records::VideoRecord;
+
+use super::ReportError;
+
+/// What the report shows.
+pub struct SessionReport<'a> {
+    /// Session name (the title).
+    pub name: &'a str,
+    /// The output folder (plots and overlays are read from it).
+    pub out: &'a Path,
+    /// Rows of per_video.csv.
+    pub videos: &'a [VideoRecord],
+    /// The fits of fit.json.
+    pub fits: &'a SessionFits,
+    /// Plot stems relative to `out` (`plots/radius_vs_pressure`), each with an .svg.
+    pub plots: &'a [String],
+}
+
+/// Escapes text for HTML.
+pub fn escape(s: &str) -> String {
+    let mut o = String::with_capacity(s.len());
+    for c in s.chars() {
+        match c {
+            '&' => o.push_str("&amp;"),
+            '<' => o.push_str("&lt;"),
+            '>' => o.push_str("&gt;"),
+            '"' => o.push_str("&quot;"),
+            '\'' => o.push_str("&#39;"),
+            _ => o.push(c),
+        }
+    }
+    o
+}
+
+fn num(v: f64, digits: usize) -> String {
+    if v.is_finite() {
+        format!("{v:.digits$}")
+    } else if v.is_nan() {
+        String::new()
+    } else {
+        "inf".into()
+    }
+}
+
+/// The overlay of `file` in `out`, as an `<img>` with a data URI, if it exists.
+fn overlay_img(out: &Path, file: &str) -> Option<String> {
+    let rel = crate::pipeline::overlay::overlay_rel_path(file);
+    let bytes = std::fs::read(out.join(&rel)).ok()?;
+    Some(format!(
+        "<figure id=\"overlay-{id}\"><img alt=\"overlay of {name}\" data-file=\"{rel_e}\" src=\"data:image/png;base64,{b64}\"><figcaption>{name}</figcaption></figure>",
+        id = escape(file),
+        name = escape(file),
+        rel_e = escape(&rel),
+        b64 = base64::engine::general_purpose::STANDARD.encode(bytes)
+    ))
+}
+
+/// Renders the report's HTML.
+pub fn session_report_html(r: &SessionReport) -> String {
+    let mut h = String::new();
+    let title = format!("bendscope: {}", escape(r.name));
+    let _ = write!(
+        h,
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{title}</title>\n<style>\
+body{{font-family:sans-serif;margin:2em;color:#222}}table{{border-collapse:collapse;font-size:0.9em}}\
+td,th{{border:1px solid #ccc;padding:3px 8px;text-align:right}}td.l,th.l{{text-align:left}}\
+tr.bad td{{background:#fde8e8}}tr.partial td{{background:#fff6dd}}figure{{display:inline-block;margin:1em}}\
+figure img,figure svg{{max-width:900px;height:auto}}</style></head><body>\n<h1>{title}</h1>\n"
+    );
+    let measured = r.videos.iter().filter(|v| v.status.is_measured()).count();
+    let _ = writeln!(
+        h,
+        "<p>{measured} of {} rows measured. Files: per_video.csv, per_frame.csv, fit.json, plots/, overlays/.</p>",
+        r.videos.len()
+    );
+    h.push_str("<h2>Per video</h2>\n<table><tr><th class=\"l\">file</th><th>pressure (kPa)</th><th>radius (mm)</th><th>median (mm)</th><th>std (mm)</th><th>curvature (1/m)</th><th>angle (deg)</th><th>frames used</th><th>rejected</th><th class=\"l\">status</th></tr>\n");
+    for v in r.videos {
+        let class = match &v.status {
+            crate::pipeline::records::VideoStatus::Ok => "ok",
+            crate::pipeline::records::VideoStatus::Partial { .. } => "partial",
+            _ => "bad",
+        };
+        let _ = writeln!(
+            h,
+            "<tr class=\"{class}\"><td class=\"l\"><a href=\"#overlay-{id}\">{name}</a></td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td></tr>",
+            num(v.pressure_kpa, 2),
+            num(v.stats.radius_mm, 3),
+            num(v.stats.radius_mm_median, 3),
+            num(v.stats.radius_mm_std, 3),
+            num(v.stats.curvature_per_m, 3),
+            num(v.stats.bending_angle_deg, 2),
+            v.stats.frames_used,
+            v.stats.frames_rejected,
+            escape(&v.status.to_string()),
+            id = escape(&v.file),
+            name = escape(&v.file),
+        );
+    }
+    h.push_str("</table>\n<h2>Fits (y = a x<sup>b</sup> + c, x in kPa)</h2>\n<ul>\n");
+    for (what, f) in [
+        ("radius (mm)", &r.fits.radius_mm_vs_kpa),
+        ("curvature (1/m)", &r.fits.curvature_per_m_vs_kpa),
+        ("bending angle (deg)", &r.fits.bending_angle_deg_vs_kpa),
+    ] {
+        let _ = match f {
+            Some(f) => writeln!(
+                h,
+                "<li>{what}: a = {:.6}, b = {:.4}, c = {:.4}, R² = {:.5}</li>",
+                f.a, f.b, f.c, f.r_squared
+            ),
+            None => writeln!(h, "<li>{what}: no fit</li>"),
+        };
+    }
+    for n in &r.fits.notes {
+        let _ = writeln!(h, "<li>{}</li>", escape(n));
+    }
+    h.push_str("</ul>\n<h2>Plots</h2>\n");
+    for stem in r.plots {
+        let svg = std::fs::read_to_string(r.out.join(format!("{stem}.svg"))).unwrap_or_default();
+        // The SVG's own XML declaration is not allowed inside HTML.
+        let body = svg
+            .find("<svg")
+            .map(|i| &svg[i..])
+            .unwrap_or("<p>(plot missing)</p>");
+        let _ = writeln!(
+            h,
+            "<figure data-plot=\"{s}.svg\">{body}<figcaption><a href=\"{s}.png\">{s}</a></figcaption></figure>",
+            s = escape(stem)
+        );
+    }
+    h.push_str("<h2>Overlays</h2>\n<p>One measured frame per video, undistorted: mask outline (green), markers from the clamp (yellow) to the tip (blue), fitted circle (magenta).</p>\n");
+    let mut shown: Vec<&str> = Vec::new();
+    for v in r.videos {
+        if shown.contains(&v.file.as_str()) {
+            continue;
+        }
+        shown.push(&v.file);
+        if let Some(img) = overlay_img(r.out, &v.file) {
+            h.push_str(&img);
+            h.push('\n');
+        }
+    }
+    h.push_str("</body></html>\n");
+    h
+}
+
+/// Writes `report.html` atomically.
+pub fn write_session_report(path: &Path, r: &SessionReport) -> Result<(), ReportError> {
+    write_atomic(path, session_report_html(r).as_bytes()).map_err(|source| ReportError::Io {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn escapes_markup() {
+        assert_eq!(
+            escape("<a href='x'>&\"</a>"),
+            "&lt;a href=&#39;x&#39;&gt;&amp;&quot;&lt;/a&gt;"
+        );
+    }
+}

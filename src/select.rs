@@ -1,0 +1,355 @@
+//! Picking the actuator's markers among the red blobs of a frame.
+//!
+//! Real footage has red things besides the markers (the air tube running into the clamp,
+//! a label, a regulator's LED). When a frame has more candidates than markers, the
+//! markers are the subset that looks like an actuator: a chain of `n` blobs of alike
+//! size and round shape, with near-uniform spacing along a smooth arc (constant turning
+//! between successive chords, as on a circle), starting at the clamped end and close to
+//! the previous frame's markers. [`select_markers`] searches such chains with a beam
+//! search (each candidate a possible first marker, each step extending the best partial
+//! chains by a neighbour whose spacing and turn agree with the chain so far) and keeps
+//! the cheapest complete one. Written here because no library offers it: it is a
+//! domain rule (what a PneuNets marker line looks like), not a generic algorithm.
+
+use nalgebra::Point2;
+
+use crate::detect::{ChainStart, ClampSide};
+
+/// A red blob that may be a marker.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Candidate {
+    /// Centroid, px (undistorted when the camera is known).
+    pub point: Point2<f64>,
+    /// Area, px.
+    pub area_px: f64,
+    /// Bounding-box elongation: longer side / shorter side (1 for a disc).
+    pub elongation: f64,
+}
+
+/// Longest bounding-box side over the shortest a marker may have (a disc is 1; motion
+/// blur stretches it a little, a tube is much longer).
+pub const MAX_ELONGATION: f64 = 2.5;
+/// A chain's spacings must lie within these shares of the chain's mean spacing.
+pub const SPACING_RANGE: (f64, f64) = (0.6, 1.5);
+/// Largest turn between successive chords, degrees (8 markers over 180 degrees turn
+/// ~26 degrees per chord).
+pub const MAX_TURN_DEG: f64 = 50.0;
+/// Largest difference between a turn and the chain's mean turn so far, degrees.
+pub const MAX_TURN_CHANGE_DEG: f64 = 20.0;
+/// Marker areas within this factor of the chain's median area.
+pub const AREA_FACTOR: f64 = 3.0;
+/// Partial chains kept at each step of the search.
+pub const BEAM_WIDTH: usize = 48;
+/// Neighbours tried as the second marker of a chain.
+pub const FIRST_STEP_NEIGHBOURS: usize = 6;
+
+/// Why no marker chain was found.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SelectError {
+    /// Fewer round, alike blobs than markers.
+    #[error("{found} marker-like blobs, {expected} expected")]
+    TooFew {
+        /// Candidates that passed the shape test.
+        found: usize,
+        /// Markers expected.
+        expected: usize,
+    },
+    /// No subset forms a smooth, evenly spaced chain.
+    #[error("no chain of {expected} evenly spaced markers among {found} red blobs")]
+    NoChain {
+        /// Candidates.
+        found: usize,
+        /// Markers expected.
+        expected: usize,
+    },
+}
+
+#[derive(Debug, Clone)]
+struct Partial {
+    chain: Vec<usize>,
+    cost: f64,
+}
+
+fn wrap(a: f64) -> f64 {
+    let mut d = a;
+    while d > std::f64::consts::PI {
+        d -= std::f64::consts::TAU;
+    }
+    while d < -std::f64::consts::PI {
+        d += std::f64::consts::TAU;
+    }
+    d
+}
+
+fn mean(v: &[f64]) -> f64 {
+    v.iter().sum::<f64>() / v.len().max(1) as f64
+}
+
+fn std_dev(v: &[f64]) -> f64 {
+    if v.len() < 2 {
+        return 0.0;
+    }
+    let m = mean(v);
+    (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / v.len() as f64).sqrt()
+}
+
+/// Spacings and turns (radians) along a chain.
+fn geometry(c: &[Candidate], chain: &[usize]) -> (Vec<f64>, Vec<f64>) {
+    let pts: Vec<Point2<f64>> = chain.iter().map(|&i| c[i].point).collect();
+    let d: Vec<f64> = pts.windows(2).map(|w| (w[1] - w[0]).norm()).collect();
+    let dirs: Vec<f64> = pts
+        .windows(2)
+        .map(|w| (w[1].y - w[0].y).atan2(w[1].x - w[0].x))
+        .collect();
+    let t: Vec<f64> = dirs.windows(2).map(|w| wrap(w[1] - w[0])).collect();
+    (d, t)
+}
+
+/// Shape cost of a (partial) chain: spacing variation, turn variation, area variation;
+/// `None` when it breaks a gate.
+fn shape_cost(c: &[Candidate], chain: &[usize]) -> Option<f64> {
+    let (d, t) = geometry(c, chain);
+    let md = mean(&d);
+    if d.iter()
+        .any(|x| *x < SPACING_RANGE.0 * md || *x > SPACING_RANGE.1 * md)
+    {
+        return None;
+    }
+    let mt = mean(&t);
+    if t.iter().any(|x| {
+        x.abs() > MAX_TURN_DEG.to_radians() || (x - mt).abs() > MAX_TURN_CHANGE_DEG.to_radians()
+    }) {
+        return None;
+    }
+    let mut areas: Vec<f64> = chain.iter().map(|&i| c[i].area_px).collect();
+    areas.sort_by(f64::total_cmp);
+    let med = areas[areas.len() / 2];
+    if areas
+        .iter()
+        .any(|a| *a > AREA_FACTOR * med || *a * AREA_FACTOR < med)
+    {
+        return None;
+    }
+    let log_areas: Vec<f64> = areas.iter().map(|a| a.max(1.0).ln()).collect();
+    Some(3.0 * std_dev(&d) / md.max(1e-9) + 3.0 * std_dev(&t) + std_dev(&log_areas))
+}
+
+/// Where the chain's first marker is expected: cost of `first` as the clamped end,
+/// in units of the chain's spacing.
+fn start_cost(c: &[Candidate], chain: &[usize], start: ChainStart, spacing: f64) -> f64 {
+    let p = c[chain[0]].point;
+    match start {
+        ChainStart::Near(q) => (p - q).norm() / spacing,
+        ChainStart::Side(side) => {
+            // How far the first marker is from the chain's end nearest that side.
+            let key = |q: Point2<f64>| match side {
+                ClampSide::Left => q.x,
+                ClampSide::Right => -q.x,
+                ClampSide::Top => q.y,
+                ClampSide::Bottom => -q.y,
+            };
+            let best = chain
+                .iter()
+                .map(|&i| key(c[i].point))
+                .fold(f64::INFINITY, f64::min);
+            (key(p) - best) / spacing
+        }
+    }
+}
+
+/// Picks `n` markers among `candidates`: indices in chain order from the clamped end.
+/// `previous` (the last frame's ordered markers, same count) favours the chain that
+/// moved least.
+pub fn select_markers(
+    candidates: &[Candidate],
+    n: usize,
+    start: ChainStart,
+    previous: Option<&[Point2<f64>]>,
+) -> Result<Vec<usize>, SelectError> {
+    let round: Vec<usize> = (0..candidates.len())
+        .filter(|&i| candidates[i].elongation <= MAX_ELONGATION)
+        .collect();
+    if round.len() < n || n < 3 {
+        return Err(SelectError::TooFew {
+            found: round.len(),
+            expected: n,
+        });
+    }
+    let mut beam: Vec<Partial> = round
+        .iter()
+        .map(|&i| Partial {
+            chain: vec![i],
+            cost: 0.0,
+        })
+        .collect();
+    for _ in 1..n {
+        let mut next: Vec<Partial> = Vec::new();
+        for p in &beam {
+            let last = candidates[p.chain[p.chain.len() - 1]].point;
+            let mut options: Vec<usize> = round
+                .iter()
+                .copied()
+                .filter(|j| !p.chain.contains(j))
+                .collect();
+            options.sort_by(|a, b| {
+                (candidates[*a].point - last)
+                    .norm()
+                    .total_cmp(&(candidates[*b].point - last).norm())
+            });
+            if p.chain.len() == 1 {
+                options.truncate(FIRST_STEP_NEIGHBOURS);
+            }
+            for j in options {
+                let mut chain = p.chain.clone();
+                chain.push(j);
+                if let Some(cost) = shape_cost(candidates, &chain) {
+                    next.push(Partial { chain, cost });
+                }
+            }
+        }
+        next.sort_by(|a, b| a.cost.total_cmp(&b.cost));
+        next.truncate(BEAM_WIDTH * 4);
+        beam = next;
+        if beam.is_empty() {
+            return Err(SelectError::NoChain {
+                found: candidates.len(),
+                expected: n,
+            });
+        }
+    }
+    let total = |p: &Partial| -> f64 {
+        let (d, _) = geometry(candidates, &p.chain);
+        let spacing = mean(&d).max(1e-9);
+        let mut cost = p.cost + 0.5 * start_cost(candidates, &p.chain, start, spacing);
+        if let Some(prev) = previous.filter(|v| v.len() == p.chain.len()) {
+            let moved: Vec<f64> = p
+                .chain
+                .iter()
+                .zip(prev)
+                .map(|(&i, q)| (candidates[i].point - q).norm())
+                .collect();
+            cost += 0.5 * mean(&moved) / spacing;
+        }
+        cost
+    };
+    beam.iter()
+        .map(|p| (total(p), p))
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(_, p)| p.chain.clone())
+        .ok_or(SelectError::NoChain {
+            found: candidates.len(),
+            expected: n,
+        })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `n` markers on an arc of radius `r` from the clamp at the left, spacing `s`.
+    fn arc(n: usize, r: f64, s: f64) -> Vec<Point2<f64>> {
+        (0..n)
+            .map(|k| {
+                let t = s * (k as f64 + 0.5) / r;
+                Point2::new(100.0 + r * t.sin(), 300.0 - r * (1.0 - t.cos()))
+            })
+            .collect()
+    }
+
+    fn disc(p: Point2<f64>) -> Candidate {
+        Candidate {
+            point: p,
+            area_px: 50.0,
+            elongation: 1.1,
+        }
+    }
+
+    fn pick(cands: &[Candidate], start: ChainStart) -> Vec<Point2<f64>> {
+        select_markers(cands, 8, start, None)
+            .unwrap()
+            .into_iter()
+            .map(|i| cands[i].point)
+            .collect()
+    }
+
+    #[test]
+    fn the_markers_are_found_among_distractors_of_every_kind() {
+        let m = arc(8, 200.0, 50.0);
+        let left = ChainStart::Side(ClampSide::Left);
+        let s = 50.0;
+        let tip = m[7];
+        let dir = (m[7] - m[6]).normalize();
+        let normal = nalgebra::Vector2::new(-dir.y, dir.x);
+        let cases: Vec<(&str, Vec<Candidate>)> = vec![
+            (
+                "a tube entering the clamp",
+                vec![Candidate {
+                    point: Point2::new(60.0, 320.0),
+                    area_px: 900.0,
+                    elongation: 8.0,
+                }],
+            ),
+            ("a blob near the tip", vec![disc(tip + normal * 0.4 * s)]),
+            (
+                "a blob on the arc's extension",
+                vec![disc(arc(9, 200.0, 50.0)[8])],
+            ),
+            (
+                "a marker-sized dot 2 spacings away",
+                vec![disc(tip + dir * 2.0 * s)],
+            ),
+            (
+                "an LED and a label",
+                vec![
+                    disc(Point2::new(500.0, 50.0)),
+                    Candidate {
+                        point: Point2::new(300.0, 500.0),
+                        area_px: 400.0,
+                        elongation: 1.5,
+                    },
+                ],
+            ),
+        ];
+        for (what, extra) in cases {
+            let mut cands: Vec<Candidate> = m.iter().copied().map(disc).collect();
+            cands.extend(extra);
+            // Shuffle the order deterministically.
+            cands.reverse();
+            cands.rotate_left(3);
+            assert_eq!(pick(&cands, left), m, "{what}");
+        }
+    }
+
+    #[test]
+    fn the_clamped_end_decides_between_two_equal_chains() {
+        let m = arc(9, 200.0, 50.0);
+        let cands: Vec<Candidate> = m.iter().copied().map(disc).collect();
+        assert_eq!(pick(&cands, ChainStart::Side(ClampSide::Left)), m[..8]);
+        assert_eq!(
+            pick(&cands, ChainStart::Near(m[1])),
+            m[1..].to_vec(),
+            "near the previous clamped end"
+        );
+    }
+
+    #[test]
+    fn no_chain_is_an_error_not_a_guess() {
+        let cands: Vec<Candidate> = (0..10)
+            .map(|k| {
+                disc(Point2::new(
+                    (k * 37 % 11) as f64 * 40.0,
+                    (k * 53 % 7) as f64 * 60.0,
+                ))
+            })
+            .collect();
+        assert!(select_markers(&cands, 8, ChainStart::Side(ClampSide::Left), None).is_err());
+        let few: Vec<Candidate> = arc(5, 200.0, 50.0).into_iter().map(disc).collect();
+        assert_eq!(
+            select_markers(&few, 8, ChainStart::Side(ClampSide::Left), None),
+            Err(SelectError::TooFew {
+                found: 5,
+                expected: 8
+            })
+        );
+    }
+}
