@@ -10,7 +10,7 @@ use crate::detect::{
     detect_markers_with, order_marker_indices, ChainStart, DetectSettings, PixelSource,
 };
 use crate::fit::{bending_angle_from_circle_deg, fit_circle_3d, fit_circle_pratt};
-use crate::rgbd::{markers_3d_mm, RgbdIntrinsics};
+use crate::rgbd::{markers_on_depth_plane, RgbdIntrinsics};
 use crate::select::{select_markers, Candidate};
 use crate::session::SessionConfig;
 use crate::video::Pixels;
@@ -19,9 +19,6 @@ use super::records::FrameStatus;
 
 /// A 16-bit depth frame aligned to the colour frame.
 pub type DepthImage = ImageBuffer<Luma<u16>, Vec<u16>>;
-
-/// Share of the median marker radius used as the depth window around a centroid.
-pub const DEPTH_WINDOW_SHARE: f64 = 0.7;
 
 /// How image points become lengths.
 #[derive(Debug, Clone, Copy)]
@@ -205,13 +202,7 @@ pub fn measure_frame<S: PixelSource>(
         Geometry::Depth {
             undistorter,
             intrinsics,
-        } => {
-            let mut areas: Vec<u32> = order.iter().map(|&i| d.blobs[i].area_px).collect();
-            areas.sort_unstable();
-            let window =
-                DEPTH_WINDOW_SHARE * (areas[areas.len() / 2] as f64 / std::f64::consts::PI).sqrt();
-            measure_depth(chosen, window, depth, undistorter, intrinsics)
-        }
+        } => measure_depth(chosen, depth, undistorter, intrinsics),
     };
     if m.status.is_ok() {
         if let Some(first) = m.markers_px.first() {
@@ -254,7 +245,6 @@ fn measure_plane(ordered: Vec<Point2<f64>>, mm_per_px: f64) -> FrameMeasurement 
 
 fn measure_depth(
     ordered: Vec<Point2<f64>>,
-    window_px: f64,
     depth: Option<&DepthImage>,
     undistorter: &Undistorter,
     intrinsics: &RgbdIntrinsics,
@@ -268,7 +258,7 @@ fn measure_depth(
             },
         );
     };
-    let pts = match markers_3d_mm(&ordered, window_px, depth, intrinsics, undistorter) {
+    let pts = match markers_on_depth_plane(&ordered, depth, intrinsics, undistorter) {
         Ok(p) => p,
         Err(e) => return FrameMeasurement::rejected(n, e),
     };

@@ -32,10 +32,10 @@ pub enum FrameStatus {
     OutsideCalibratedField,
     /// The frame's time is outside the pressure log.
     OutsidePressureLog,
-    /// No valid depth around a marker (RGB-D).
+    /// Too few valid depth pixels on the actuator around the markers (RGB-D).
     NoDepth {
-        /// 1-based marker number from the clamped end.
-        marker: usize,
+        /// Valid depth pixels found in the band along the marker chain.
+        valid_px: usize,
     },
     /// The frame (or its depth frame) could not be used as read.
     BadFrame {
@@ -78,7 +78,10 @@ impl fmt::Display for FrameStatus {
                 "outside the pressure log's time span (check ramp_time_offset_s in {})",
                 crate::session::CONFIG
             ),
-            FrameStatus::NoDepth { marker } => write!(f, "no depth at marker {marker}"),
+            FrameStatus::NoDepth { valid_px } => write!(
+                f,
+                "too few depth pixels on the actuator ({valid_px}): check the depth stream and its alignment to colour"
+            ),
             FrameStatus::BadFrame { why }
             | FrameStatus::FitFailed { why }
             | FrameStatus::NoMarkerChain { why } => write!(f, "{why}"),
@@ -253,7 +256,7 @@ mod tests {
     fn statuses_survive_the_cache() {
         for s in [
             FrameStatus::Ok,
-            FrameStatus::NoDepth { marker: 3 },
+            FrameStatus::NoDepth { valid_px: 3 },
             FrameStatus::BadFrame { why: "w".into() },
         ] {
             let j = serde_json::to_string(&s).unwrap();

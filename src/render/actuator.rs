@@ -142,6 +142,12 @@ impl ArcScene {
         }
     }
 
+    /// True when plane point `p` (mm) lies on the actuator's side face.
+    pub fn on_body(&self, p: Point2<f64>) -> bool {
+        let (s, n) = self.arc_coordinates(p);
+        s >= 0.0 && s <= self.length_mm && n >= -self.below_mm && n <= self.above_mm
+    }
+
     /// Colour of a plane point before lighting.
     fn shade(&self, p: Point2<f64>) -> [f64; 3] {
         let r_marker = 0.5 * self.marker_diameter_mm;
@@ -158,8 +164,8 @@ impl ArcScene {
         {
             return CLAMP_RGB;
         }
-        let (s, n) = self.arc_coordinates(p);
-        if s >= 0.0 && s <= self.length_mm && n >= -self.below_mm && n <= self.above_mm {
+        if self.on_body(p) {
+            let (s, _) = self.arc_coordinates(p);
             for &m in &self.marker_s_mm {
                 if (s - m).abs() <= 2.0 * r_marker && (p - self.point_at(m, 0.0)).norm() <= r_marker
                 {

@@ -147,7 +147,8 @@ impl FemScene {
         &self.markers
     }
 
-    fn on_body(&self, p: Point2<f64>) -> bool {
+    /// True when plane point `p` (mm) lies on the actuator's side face.
+    pub fn on_body(&self, p: Point2<f64>) -> bool {
         let (nx, ny) = self.grid_size;
         let (fx, fy) = (
             (p.x - self.grid_origin.x) / CELL_MM,

@@ -364,9 +364,22 @@ pub struct RgbdSpec {
     pub marker_diameter_mm: f64,
     /// Look of the colour frames.
     pub look: FrameLook,
+    /// Depth sensor noise, standard deviation, mm (Gaussian, independent per pixel and
+    /// frame).
+    pub depth_noise_mm: f64,
+    /// Depth unit, m per level of the 16-bit frames (RealSense: 0.001; 0.0001 in
+    /// high-accuracy presets).
+    pub depth_scale_m: f64,
+    /// Distance of the white sheet behind the actuator's side face, mm (0: in its
+    /// plane).
+    pub sheet_offset_mm: f64,
     /// Seed.
     pub seed: u64,
 }
+
+/// Depth unit of the RGB-D renders unless a spec says otherwise, m (a fine unit, so
+/// the depth quantization does not hide other errors).
+pub const DEPTH_SCALE_M: f64 = 0.0001;
 
 /// The RGB-D camera of [`write_fem_rgbd`]: a 640x480 pinhole colour camera, depth
 /// aligned to it.
@@ -384,9 +397,6 @@ pub fn rgbd_camera() -> Calibration {
         views_rejected: vec![],
     }
 }
-
-/// Depth unit of the 16-bit depth frames, m.
-const DEPTH_SCALE_M: f64 = 0.0001;
 
 /// Writes an RGB-D session of the simulated actuator into `dir`: `color/` and 16-bit
 /// `depth/` PNG frames (each pressure step held for `frames_per_step` frames),
@@ -421,20 +431,34 @@ pub fn write_fem_rgbd(
         .flat_map(|y| (0..w).map(move |x| Point2::new(x as f64, y as f64)))
         .collect();
     let rays = und.rays_from_pixels(&pixels)?;
-    let depth = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_fn(w, h, |x, y| {
-        let ray = rays[(y * w + x) as usize];
-        let z_mm = offset / normal.dot(&ray) * ray.z;
-        image::Luma([(z_mm / (DEPTH_SCALE_M * 1000.0))
-            .round()
-            .clamp(0.0, 65535.0) as u16])
-    });
-    let mut depth_png = Vec::new();
-    depth
-        .write_to(
-            &mut std::io::Cursor::new(&mut depth_png),
-            image::ImageFormat::Png,
-        )
-        .map_err(|e| err(std::io::Error::other(e.to_string())))?;
+    // Each pixel centre's point on the actuator plane (plane coordinates, mm) and its
+    // depth there and on the sheet behind.
+    let inverse = plane.rotation.inverse();
+    let hits: Vec<(Point2<f64>, f64, f64)> = rays
+        .iter()
+        .map(|ray| {
+            let x = ray * (offset / normal.dot(ray));
+            let q = inverse * (x - plane.translation_mm);
+            let behind = ray * ((offset + spec.sheet_offset_mm) / normal.dot(ray));
+            (Point2::new(q.x, q.y), x.z, behind.z)
+        })
+        .collect();
+    let unit_mm = spec.depth_scale_m * 1000.0;
+    let depth_png =
+        |scene: &super::fem_scene::FemScene, frame_seed: u64| -> Result<Vec<u8>, RenderError> {
+            let mut rng = SplitMix64::new(frame_seed ^ 0xD3E7);
+            let depth = image::ImageBuffer::<image::Luma<u16>, Vec<u16>>::from_fn(w, h, |x, y| {
+                let (p, on_plane, behind) = hits[(y * w + x) as usize];
+                let z = if scene.on_body(p) { on_plane } else { behind };
+                let noisy = z + spec.depth_noise_mm * rng.normal();
+                image::Luma([(noisy / unit_mm).round().clamp(0.0, 65535.0) as u16])
+            });
+            let mut png = Vec::new();
+            depth
+                .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+                .map_err(|e| err(std::io::Error::other(e.to_string())))?;
+            Ok(png)
+        };
     let mut log = String::from("time_s,pressure_kpa\n");
     let mut frame = 0usize;
     let mut truths = Vec::new();
@@ -451,7 +475,8 @@ pub fn write_fem_rgbd(
             img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
                 .map_err(|e| err(std::io::Error::other(e.to_string())))?;
             write_atomic(&dir.join(format!("color/{frame:06}.png")), &png).map_err(err)?;
-            write_atomic(&dir.join(format!("depth/{frame:06}.png")), &depth_png).map_err(err)?;
+            let depth = depth_png(&scene, spec.seed.wrapping_add(frame as u64))?;
+            write_atomic(&dir.join(format!("depth/{frame:06}.png")), &depth).map_err(err)?;
             frame += 1;
         }
         let t1 = (frame - 1) as f64 / spec.fps;
@@ -467,11 +492,12 @@ pub fn write_fem_rgbd(
     write_atomic(&dir.join("pressure_log.csv"), log.as_bytes()).map_err(err)?;
     let k = camera.camera_matrix;
     let intrinsics = format!(
-        "{{\"width\": {w}, \"height\": {h}, \"fx\": {}, \"fy\": {}, \"cx\": {}, \"cy\": {}, \"depth_scale_m\": {DEPTH_SCALE_M}, \"fps\": {}}}\n",
+        "{{\"width\": {w}, \"height\": {h}, \"fx\": {}, \"fy\": {}, \"cx\": {}, \"cy\": {}, \"depth_scale_m\": {}, \"fps\": {}}}\n",
         k[(0, 0)],
         k[(1, 1)],
         k[(0, 2)],
         k[(1, 2)],
+        spec.depth_scale_m,
         spec.fps
     );
     write_atomic(&dir.join(crate::rgbd::INTRINSICS), intrinsics.as_bytes()).map_err(err)?;
@@ -605,6 +631,9 @@ pub fn render_fem_session(
                 supersample: s.supersample.max(4),
                 marker_diameter_mm: s.marker_diameter_mm,
                 look,
+                depth_noise_mm: 0.0,
+                depth_scale_m: DEPTH_SCALE_M,
+                sheet_offset_mm: 0.0,
                 seed: s.seed,
             },
         )?;
