@@ -38,6 +38,14 @@ pub const CONFIG: &str = "bendscope.toml";
 pub const VIDEO_EXTENSIONS: &[&str] = &["mp4", "mov", "m4v", "mkv", "avi", "webm"];
 /// Image extensions accepted for the scale photo.
 pub const IMAGE_EXTENSIONS: &[&str] = &["jpg", "jpeg", "png", "bmp", "tif", "tiff"];
+/// Photo extensions a manifest row may name (case-insensitive): the photo protocol.
+pub const PHOTO_EXTENSIONS: &[&str] = &["jpg", "jpeg", "png", "tif", "tiff"];
+
+/// True when `path` has a photo extension.
+pub fn is_photo(path: &Path) -> bool {
+    has_extension(path, PHOTO_EXTENSIONS)
+}
+
 /// kPa per bar.
 pub const KPA_PER_BAR: f64 = 100.0;
 /// kPa per psi.

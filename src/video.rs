@@ -115,41 +115,72 @@ fn pretest_applies(t: &crate::detect::HsvThresholds) -> bool {
     t.s_min >= 100 && t.v_min >= 60 && t.hue_max_low <= 10 && t.hue_min_high >= 170
 }
 
-/// A decoded 4:2:0 frame kept in YUV (planes copied out of the decoder): detection
-/// reads the quarter-size Cr plane first and converts to RGB only the pixels that may
-/// be red, instead of converting whole frames. BT.601, limited or full range.
+/// A sample of a YUV plane: 8-bit, or 10-bit in 16 bits (HEVC Main 10, as recent
+/// GoPros record). Conversions work at the sample's own depth.
+pub trait Sample: Copy + Default + Send + Sync + std::fmt::Debug + 'static {
+    /// Bits beyond 8 (0 for 8-bit samples, 2 for 10-bit ones).
+    const EXTRA_BITS: u32;
+    /// The sample's value.
+    fn value(self) -> i32;
+}
+
+impl Sample for u8 {
+    const EXTRA_BITS: u32 = 0;
+    #[inline]
+    fn value(self) -> i32 {
+        self as i32
+    }
+}
+
+impl Sample for u16 {
+    const EXTRA_BITS: u32 = 2;
+    #[inline]
+    fn value(self) -> i32 {
+        self as i32
+    }
+}
+
+/// A decoded 4:2:0 frame kept in YUV at its native depth (planes copied out of the
+/// decoder): detection reads the quarter-size Cr plane first and converts to RGB only
+/// the pixels that may be red, instead of converting whole frames. BT.601, limited or
+/// full range. `T` is `u8` for 8-bit streams, `u16` for 10-bit ones.
 #[derive(Debug, Clone, Default)]
-pub struct YuvFrame {
+pub struct YuvFrame<T: Sample = u8> {
     /// Width, px.
     pub width: u32,
     /// Height, px.
     pub height: u32,
     /// Luma plane, `width` x `height`.
-    pub y: Vec<u8>,
+    pub y: Vec<T>,
     /// Cb plane, ceil(width/2) x ceil(height/2).
-    pub u: Vec<u8>,
+    pub u: Vec<T>,
     /// Cr plane, same size as `u`.
-    pub v: Vec<u8>,
+    pub v: Vec<T>,
     /// Full-range (JPEG) levels instead of limited (16..235).
     pub full_range: bool,
 }
 
-impl YuvFrame {
-    /// RGB at (x, y): BT.601, chroma of the 2x2 block the pixel belongs to.
+impl<T: Sample> YuvFrame<T> {
+    /// RGB at (x, y): BT.601, chroma of the 2x2 block the pixel belongs to; integer
+    /// arithmetic at the samples' depth, rounded once to 8 bits.
     #[inline]
     pub fn rgb_at(&self, x: u32, y: u32) -> [u8; 3] {
+        let k = T::EXTRA_BITS;
         let cw = self.width.div_ceil(2) as usize;
-        let yy = self.y[(y * self.width + x) as usize] as i32;
+        let yy = self.y[(y * self.width + x) as usize].value();
         let ci = (y as usize / 2) * cw + x as usize / 2;
-        let (d, e) = (self.u[ci] as i32 - 128, self.v[ci] as i32 - 128);
+        let (d, e) = (
+            self.u[ci].value() - (128 << k),
+            self.v[ci].value() - (128 << k),
+        );
         let (r, g, b) = if self.full_range {
             let c = yy << 8;
             (c + 359 * e, c - 88 * d - 183 * e, c + 454 * d)
         } else {
-            let c = 298 * (yy - 16);
+            let c = 298 * (yy - (16 << k));
             (c + 409 * e, c - 100 * d - 208 * e, c + 516 * d)
         };
-        let q = |v: i32| ((v + 128) >> 8).clamp(0, 255) as u8;
+        let q = |v: i32| ((v + (128 << k)) >> (8 + k)).clamp(0, 255) as u8;
         [q(r), q(g), q(b)]
     }
 
@@ -161,7 +192,7 @@ impl YuvFrame {
     }
 }
 
-impl crate::detect::PixelSource for YuvFrame {
+impl<T: Sample> crate::detect::PixelSource for YuvFrame<T> {
     fn dimensions(&self) -> (u32, u32) {
         (self.width, self.height)
     }
@@ -172,7 +203,7 @@ impl crate::detect::PixelSource for YuvFrame {
     #[inline]
     fn is_red_at(&self, x: u32, y: u32, t: &crate::detect::HsvThresholds) -> bool {
         let ci = (y as usize / 2) * self.width.div_ceil(2) as usize + x as usize / 2;
-        if pretest_applies(t) && (self.v[ci] as i32) < 128 + CR_PRETEST {
+        if pretest_applies(t) && self.v[ci].value() < (128 + CR_PRETEST) << T::EXTRA_BITS {
             return false;
         }
         let p = self.rgb_at(x, y);
@@ -180,11 +211,14 @@ impl crate::detect::PixelSource for YuvFrame {
     }
 }
 
-/// A decoded frame's pixels: kept in YUV when the stream is 8-bit 4:2:0, else RGB.
+/// A decoded frame's pixels: kept in YUV when the stream is 8- or 10-bit 4:2:0, else
+/// RGB.
 #[derive(Debug, Clone)]
 pub enum Pixels {
-    /// 4:2:0 planes.
-    Yuv(YuvFrame),
+    /// 8-bit 4:2:0 planes.
+    Yuv(YuvFrame<u8>),
+    /// 10-bit 4:2:0 planes.
+    Yuv10(YuvFrame<u16>),
     /// RGB (other pixel formats, converted by swscale).
     Rgb(RgbImage),
 }
@@ -194,6 +228,7 @@ impl Pixels {
     pub fn to_rgb(&self) -> RgbImage {
         match self {
             Pixels::Yuv(f) => f.to_rgb(),
+            Pixels::Yuv10(f) => f.to_rgb(),
             Pixels::Rgb(i) => i.clone(),
         }
     }
@@ -469,33 +504,70 @@ impl VideoReader {
     }
 
     /// The frame last returned by [`Self::advance`] as [`Pixels`]: its YUV planes copied
-    /// (into `recycled`'s buffers when given) for 8-bit 4:2:0 streams, else RGB.
+    /// at their native depth (into `recycled`'s buffers when given) for 8- and 10-bit
+    /// 4:2:0 streams, else RGB.
     pub fn current_pixels(&mut self, recycled: Option<Pixels>) -> Result<Pixels, VideoError> {
-        let full_range = match self.decoded.format() {
-            Pixel::YUV420P => false,
-            Pixel::YUVJ420P => true,
+        match self.decoded.format() {
+            Pixel::YUV420P | Pixel::YUVJ420P => {
+                let full_range = self.decoded.format() == Pixel::YUVJ420P;
+                let out = match recycled {
+                    Some(Pixels::Yuv(f)) => f,
+                    _ => YuvFrame::default(),
+                };
+                Ok(Pixels::Yuv(self.copy_planes(
+                    out,
+                    full_range,
+                    1,
+                    |dst, line| dst.extend_from_slice(line),
+                )))
+            }
+            Pixel::YUV420P10LE => {
+                let full_range = self.decoded.color_range() == ffmpeg::util::color::Range::JPEG;
+                let out = match recycled {
+                    Some(Pixels::Yuv10(f)) => f,
+                    _ => YuvFrame::default(),
+                };
+                Ok(Pixels::Yuv10(self.copy_planes(
+                    out,
+                    full_range,
+                    2,
+                    |dst, line| {
+                        dst.extend(
+                            line.chunks_exact(2)
+                                .map(|b| u16::from_le_bytes([b[0], b[1]])),
+                        )
+                    },
+                )))
+            }
             _ => {
                 let buf = match recycled {
                     Some(Pixels::Rgb(i)) => i.into_raw(),
                     _ => Vec::new(),
                 };
-                return Ok(Pixels::Rgb(self.current_rgb_into(buf)?));
+                Ok(Pixels::Rgb(self.current_rgb_into(buf)?))
             }
-        };
+        }
+    }
+
+    /// Copies the decoded frame's three 4:2:0 planes into `out` (buffers reused), each
+    /// row of `bytes_per_sample`-byte samples appended by `push_row`.
+    fn copy_planes<T: Sample>(
+        &self,
+        mut out: YuvFrame<T>,
+        full_range: bool,
+        bytes_per_sample: usize,
+        push_row: impl Fn(&mut Vec<T>, &[u8]),
+    ) -> YuvFrame<T> {
         let (w, h) = (self.decoded.width(), self.decoded.height());
         let (cw, ch) = (w.div_ceil(2) as usize, h.div_ceil(2) as usize);
-        let mut out = match recycled {
-            Some(Pixels::Yuv(f)) => f,
-            _ => YuvFrame::default(),
-        };
         out.width = w;
         out.height = h;
         out.full_range = full_range;
-        let copy = |dst: &mut Vec<u8>, data: &[u8], stride: usize, row: usize, rows: usize| {
+        let copy = |dst: &mut Vec<T>, data: &[u8], stride: usize, row: usize, rows: usize| {
             dst.clear();
             dst.reserve(row * rows);
             for r in 0..rows {
-                dst.extend_from_slice(&data[r * stride..r * stride + row]);
+                push_row(dst, &data[r * stride..r * stride + row * bytes_per_sample]);
             }
         };
         copy(
@@ -519,7 +591,7 @@ impl VideoReader {
             cw,
             ch,
         );
-        Ok(Pixels::Yuv(out))
+        out
     }
 
     /// The next frame whose index is a multiple of `stride`, as [`Pixels`].
@@ -942,6 +1014,70 @@ mod tests {
             }
         }
         assert!(worst <= 3, "largest channel difference {worst}");
+    }
+
+    #[test]
+    fn ten_bit_hevc_stays_yuv_at_native_depth_and_converts_exactly() {
+        let dir = tempfile::tempdir().unwrap();
+        let src = dir.path().join("y.mp4");
+        write_test_video(&src, 3);
+        let p = dir.path().join("y10.mp4");
+        let ok = std::process::Command::new("ffmpeg")
+            .args(["-v", "error", "-y", "-i"])
+            .arg(&src)
+            .args(["-c:v", "libx265", "-pix_fmt", "yuv420p10le", "-crf", "4"])
+            .args(["-x265-params", "log-level=error"])
+            .arg(&p)
+            .status()
+            .map(|s| s.success())
+            .unwrap_or(false);
+        assert!(ok, "ffmpeg with libx265 makes a 10-bit test video");
+        let mut a = VideoReader::open(&p).unwrap();
+        let mut b = VideoReader::open(&p).unwrap();
+        let rgb = a.next_frame(1).unwrap().unwrap().image;
+        let (_, _, px) = b.next_pixels(1, None).unwrap().unwrap();
+        let Pixels::Yuv10(yuv) = px else {
+            panic!("HEVC yuv420p10le should stay 10-bit YUV")
+        };
+        assert!(yuv.y.iter().any(|v| *v > 255), "10-bit levels kept");
+        // Against BT.601 limited range in floating point on the 10-bit samples: off by
+        // at most the final rounding (swscale's own 10 -> 8-bit path dithers, so it is
+        // only a loose second check).
+        let (mut exact, mut loose) = (0.0f64, 0);
+        let cw = yuv.width.div_ceil(2) as usize;
+        for y in 0..64u32 {
+            for x in 0..96u32 {
+                let yy = yuv.y[(y * yuv.width + x) as usize] as f64 / 4.0 - 16.0;
+                let ci = (y as usize / 2) * cw + x as usize / 2;
+                let (d, e) = (
+                    yuv.u[ci] as f64 / 4.0 - 128.0,
+                    yuv.v[ci] as f64 / 4.0 - 128.0,
+                );
+                let f = [
+                    1.164 * yy + 1.596 * e,
+                    1.164 * yy - 0.391 * d - 0.813 * e,
+                    1.164 * yy + 2.018 * d,
+                ];
+                let q = yuv.rgb_at(x, y);
+                for k in 0..3 {
+                    exact = exact.max((f[k].clamp(0.0, 255.0) - q[k] as f64).abs());
+                }
+                if !((8..44).contains(&x) && (12..36).contains(&y)) {
+                    let p = rgb.get_pixel(x, y);
+                    for k in 0..3 {
+                        loose = loose.max((p[k] as i32 - q[k] as i32).abs());
+                    }
+                }
+            }
+        }
+        assert!(
+            exact <= 1.0,
+            "largest difference from the exact conversion {exact}"
+        );
+        assert!(
+            loose <= 4,
+            "largest channel difference from swscale {loose}"
+        );
     }
 
     proptest::proptest! {

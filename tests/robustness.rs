@@ -133,3 +133,88 @@ fn rgbd_near_straight_mean_within_one_percent() {
         assert!(mean.abs() < 0.01, "tilt {tilt}: mean {:+.3}%", 100.0 * mean);
     }
 }
+
+/// Copies a folder (files and sub-folders).
+fn copy_dir(from: &Path, to: &Path) {
+    fs::create_dir_all(to).unwrap();
+    for e in fs::read_dir(from).unwrap() {
+        let e = e.unwrap();
+        let p = e.path();
+        if p.file_name().unwrap() == "bendscope-out" {
+            continue;
+        }
+        if p.is_dir() {
+            copy_dir(&p, &to.join(e.file_name()));
+        } else {
+            fs::copy(&p, to.join(e.file_name())).unwrap();
+        }
+    }
+}
+
+/// The example session's ground truth.
+fn example_truth() -> bendscope::render::session::SessionTruth {
+    let text = fs::read_to_string(common::fixture("sessions/example/truth.json")).unwrap();
+    serde_json::from_str(&text).unwrap()
+}
+
+/// Runs `process` on `session` with the example's true camera; returns per_video.csv.
+fn process_with_true_camera(dir: &Path, session: &str) -> (Vec<String>, Vec<Vec<String>>) {
+    let cal = dir.join("camera.yaml");
+    bendscope::calib::file::write_calibration(&cal, &example_truth().camera.to_calibration())
+        .unwrap();
+    let run = Run::new(
+        dir,
+        &["process", session, "--calibration", cal.to_str().unwrap()],
+    );
+    assert_eq!(run.code, 0, "{run}");
+    read_csv(&dir.join(session).join("bendscope-out/per_video.csv"))
+}
+
+/// Every video's radius within `tolerance` of the example's truth.
+fn assert_example_radii(h: &[String], rows: &[Vec<String>], tolerance: f64, case: &str) {
+    let t = example_truth();
+    assert_eq!(rows.len(), t.videos.len(), "{case}");
+    for v in &t.videos {
+        let r = rows.iter().find(|r| r[0] == v.file).unwrap();
+        assert_eq!(r[col(h, "status")], "ok", "{case}: {r:?}");
+        let radius: f64 = r[col(h, "radius_mm")].parse().unwrap();
+        let e = radius / v.radius_mm - 1.0;
+        assert!(
+            e.abs() < tolerance,
+            "{case}: {}: {radius} vs {} ({:+.3}%)",
+            v.file,
+            v.radius_mm,
+            100.0 * e
+        );
+    }
+}
+
+/// A GoPro's 10-bit HEVC with an audio track and a timecode data track: decoded at its
+/// native depth (no full-frame conversion), measured like the 8-bit original.
+#[test]
+fn hevc_10bit_with_audio_and_timecode() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = dir.path().join("hevc10");
+    copy_dir(&common::fixture("sessions/example"), &s);
+    for v in example_truth().videos {
+        let src = s.join(&v.file);
+        let tmp = s.join("tmp.mp4");
+        let ok = std::process::Command::new("ffmpeg")
+            .args(["-v", "error", "-y", "-i"])
+            .arg(&src)
+            .args([
+                "-f", "lavfi", "-i", "sine=d=1", "-map", "0:v", "-map", "1:a",
+            ])
+            .args(["-c:v", "libx265", "-pix_fmt", "yuv420p10le", "-crf", "12"])
+            .args(["-x265-params", "log-level=error", "-c:a", "aac"])
+            .args(["-timecode", "01:00:00:00", "-shortest"])
+            .arg(&tmp)
+            .status()
+            .unwrap()
+            .success();
+        assert!(ok, "ffmpeg re-encodes {}", v.file);
+        fs::rename(&tmp, &src).unwrap();
+    }
+    let (h, rows) = process_with_true_camera(dir.path(), "hevc10");
+    assert_example_radii(&h, &rows, 0.005, "10-bit HEVC");
+}

@@ -307,6 +307,14 @@ pub fn measure_pixels(
             config.expected_markers,
             tracker,
         ),
+        Pixels::Yuv10(yuv) => measure_frame(
+            yuv,
+            depth,
+            geometry,
+            &config.detect,
+            config.expected_markers,
+            tracker,
+        ),
         Pixels::Rgb(rgb) => measure_frame(
             rgb,
             depth,

@@ -44,7 +44,7 @@ use crate::session::{
 use cache::{Cache, CacheEntry, ItemKey};
 use frame::{measure_frame, Geometry, Tracker};
 use records::{FrameRecord, FrameStatus, VideoRecord, VideoStatus};
-use source::{FrameSource, Next, RgbdSource, VideoSource};
+use source::{FrameSource, Next, RgbdSource};
 
 /// Errors that stop a whole session (the other sessions of a run go on).
 #[derive(Debug, thiserror::Error)]
@@ -707,12 +707,12 @@ impl VideoRun<'_> {
         let (mut time_offset, mut index_offset) = (0.0, 0u64);
         let mut outside_log = 0usize;
         for file in std::iter::once(&entry.file).chain(&entry.chapters) {
-            let mut source: Box<dyn FrameSource> = match VideoSource::open(
+            let mut source = match source::open_source(
                 &session.join(file),
                 config.frame_stride,
                 config.full_frame_undistort,
             ) {
-                Ok(s) => Box::new(s),
+                Ok(s) => s,
                 Err(e) => {
                     result.problems.push(e);
                     continue;
@@ -745,7 +745,17 @@ impl VideoRun<'_> {
             loop {
                 let f = match source.next() {
                     Next::Frame(f) => f,
-                    Next::Bad { .. } => continue,
+                    Next::Bad { index, time_s, why } => {
+                        result.problems.push(why.clone());
+                        result.frames.push(FrameRecord::rejected(
+                            &entry.file,
+                            index + index_offset,
+                            time_s + time_offset,
+                            entry.pressure_kpa,
+                            FrameStatus::BadFrame { why },
+                        ));
+                        continue;
+                    }
                     Next::End => break,
                 };
                 if last_time.is_finite() && f.time_s > last_time {

@@ -331,3 +331,123 @@ impl FrameSource for RgbdSource {
         vec![]
     }
 }
+
+/// Reads a photo with its EXIF orientation applied (a phone stores portrait photos
+/// landscape with a rotation tag).
+pub fn read_photo(path: &Path) -> Result<image::RgbImage, String> {
+    use image::ImageDecoder as _;
+    let name = file_name(path);
+    let fail = |e: image::ImageError| {
+        format!("{name}: not a photo bendscope can read ({e}): use JPEG, PNG or TIFF")
+    };
+    let reader = image::ImageReader::open(path)
+        .map_err(|e| format!("{name}: cannot open ({e})"))?
+        .with_guessed_format()
+        .map_err(|e| format!("{name}: cannot read ({e})"))?;
+    let mut decoder = reader.into_decoder().map_err(fail)?;
+    let orientation = decoder.orientation().map_err(fail)?;
+    let mut img = image::DynamicImage::from_decoder(decoder).map_err(fail)?;
+    img.apply_orientation(orientation);
+    Ok(img.into_rgb8())
+}
+
+/// Photos as frames: one photo, or every photo of a folder (a burst at one pressure),
+/// in name order; frame i is at time i s. All must have the size of the first.
+pub struct PhotoSource {
+    photos: std::vec::IntoIter<PathBuf>,
+    first: Option<image::RgbImage>,
+    size: (u32, u32),
+    index: u64,
+}
+
+impl PhotoSource {
+    /// `path`: a photo, or a folder of photos.
+    pub fn open(path: &Path) -> Result<Self, String> {
+        let mut photos: Vec<PathBuf> = if path.is_dir() {
+            std::fs::read_dir(path)
+                .map_err(|e| format!("{}: {e}", path.display()))?
+                .flatten()
+                .map(|e| e.path())
+                .filter(|p| p.is_file() && crate::session::is_photo(p))
+                .collect()
+        } else {
+            vec![path.to_path_buf()]
+        };
+        photos.sort();
+        let mut photos = photos.into_iter();
+        let first_path = photos.next().ok_or_else(|| {
+            format!(
+                "{}: no photos (JPEG, PNG or TIFF) in this folder",
+                path.display()
+            )
+        })?;
+        let first = read_photo(&first_path)?;
+        Ok(Self {
+            size: first.dimensions(),
+            first: Some(first),
+            photos,
+            index: 0,
+        })
+    }
+}
+
+impl FrameSource for PhotoSource {
+    fn size(&self) -> (u32, u32) {
+        self.size
+    }
+
+    fn next(&mut self) -> Next {
+        let index = self.index;
+        let image = match self.first.take() {
+            Some(img) => Ok(img),
+            None => match self.photos.next() {
+                Some(p) => read_photo(&p).and_then(|img| {
+                    if img.dimensions() == self.size {
+                        Ok(img)
+                    } else {
+                        Err(format!(
+                            "{}: {}x{} differs from the first photo's {}x{}: keep one camera mode per burst",
+                            file_name(&p),
+                            img.width(),
+                            img.height(),
+                            self.size.0,
+                            self.size.1
+                        ))
+                    }
+                }),
+                None => return Next::End,
+            },
+        };
+        self.index += 1;
+        match image {
+            Ok(img) => Next::Frame(SourceFrame {
+                index,
+                time_s: index as f64,
+                pixels: Pixels::Rgb(img),
+                depth: None,
+            }),
+            Err(why) => Next::Bad {
+                index,
+                time_s: index as f64,
+                why,
+            },
+        }
+    }
+
+    fn finish(self: Box<Self>) -> Vec<String> {
+        vec![]
+    }
+}
+
+/// Opens a manifest item's file: a video, a photo, or a folder of photos.
+pub fn open_source(
+    path: &Path,
+    stride: u64,
+    want_rgb: bool,
+) -> Result<Box<dyn FrameSource>, String> {
+    if path.is_dir() || crate::session::is_photo(path) {
+        Ok(Box::new(PhotoSource::open(path)?))
+    } else {
+        Ok(Box::new(VideoSource::open(path, stride, want_rgb)?))
+    }
+}
