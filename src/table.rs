@@ -1,0 +1,794 @@
+//! Tables: the one CSV layer. Every CSV bendscope reads (manifests, pressure logs, its own
+//! results) and every numeric or text table it writes goes through here, on polars.
+//!
+//! Reading ([`Table::read`], [`Table::parse`]) is forgiving about how the file was saved
+//! and precise about what is wrong in it:
+//!
+//! - a UTF-8 byte order mark (spreadsheets write one) is dropped;
+//! - line ends may be LF, CRLF or CR; blank lines are skipped;
+//! - fields may be quoted (`"a, b"`, `"say ""hi"""`), also across lines, with spaces
+//!   around the quotes; quoting is otherwise checked as RFC 4180 has it: a `"` in an
+//!   unquoted field, text after a closing quote or a quote never closed is an error at
+//!   its line (not rows silently merged);
+//! - every cell is read as text (no type inference): the caller asks for a number with
+//!   [`Table::f64_at`], whose error names the file, the line and the column;
+//! - header names are trimmed and looked up case-insensitively;
+//! - rows shorter than the header read as empty cells, cells beyond the header are
+//!   ignored.
+//!
+//! polars splits records on line ends outside quotes, counting every `"` (a quote inside
+//! an unquoted field flips the state too). [`Table::parse`] does the same small scan
+//! first, to drop blank lines, check the quoting and remember the line each row starts
+//! on, which polars does not report; polars then reads the cleaned records.
+//!
+//! Writing ([`write_csv`]): named columns of text, numbers with a fixed number of decimals
+//! (NaN: empty cell; infinities: `inf`, `-inf`) or counts, built as a polars `DataFrame`,
+//! written with its `CsvWriter` (fields quoted when needed) and then atomically
+//! ([`crate::io::write_atomic`]).
+
+use std::io::Cursor;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::path::{Path, PathBuf};
+
+use polars::prelude::{
+    CsvReadOptions, CsvWriter, DataFrame, NamedFrom, SerReader, SerWriter, Series,
+};
+
+use crate::io::write_atomic;
+
+/// The UTF-8 byte order mark.
+const UTF8_BOM: &[u8] = b"\xEF\xBB\xBF";
+
+/// A problem with a table file: where it is (file, and line and column when known) and
+/// what to do.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{path}{}{}: {why}", line_part(.line), column_part(.line, .column))]
+pub struct TableError {
+    /// The file.
+    pub path: PathBuf,
+    /// 1-based line in the file, when the problem is on one line.
+    pub line: Option<usize>,
+    /// Column name, when the problem is in one column.
+    pub column: Option<String>,
+    /// What is wrong and what to do.
+    pub why: String,
+}
+
+fn line_part(line: &Option<usize>) -> String {
+    line.map(|l| format!(": line {l}")).unwrap_or_default()
+}
+
+fn column_part(line: &Option<usize>, column: &Option<String>) -> String {
+    match (line, column) {
+        (Some(_), Some(c)) => format!(", column {c}"),
+        (None, Some(c)) => format!(": column {c}"),
+        (_, None) => String::new(),
+    }
+}
+
+impl TableError {
+    /// An error about the whole file.
+    pub fn file(path: &Path, why: impl Into<String>) -> Self {
+        Self {
+            path: path.to_path_buf(),
+            line: None,
+            column: None,
+            why: why.into(),
+        }
+    }
+}
+
+/// A CSV file read as text cells: a header and rows, each row with its line in the file.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Table {
+    path: PathBuf,
+    header_line: usize,
+    columns: Vec<String>,
+    /// Cells by column, then row.
+    cells: Vec<Vec<String>>,
+    /// 1-based line each row starts on.
+    lines: Vec<usize>,
+}
+
+/// One record of the file as found by [`records`]: its text (line end removed) and the
+/// 1-based line it starts on.
+struct Record<'a> {
+    text: &'a str,
+    line: usize,
+}
+
+/// Splits `text` into records the way polars does (a line end ends a record unless an odd
+/// number of `"` came before it in the record), with CRLF, LF or CR as line ends; blank
+/// records are dropped.
+fn records(text: &str) -> Vec<Record<'_>> {
+    fn keep<'a>(out: &mut Vec<Record<'a>>, text: &'a str, line: usize) {
+        if !text.trim().is_empty() {
+            out.push(Record { text, line });
+        }
+    }
+    let bytes = text.as_bytes();
+    let mut out = Vec::new();
+    let (mut line, mut start, mut start_line) = (1, 0, 1);
+    let mut quoted = false;
+    let mut i = 0;
+    while i < bytes.len() {
+        let b = bytes[i];
+        if b == b'"' {
+            quoted = !quoted;
+        }
+        let eol_len = match b {
+            b'\r' if bytes.get(i + 1) == Some(&b'\n') => 2,
+            b'\r' | b'\n' => 1,
+            _ => 0,
+        };
+        if eol_len == 0 {
+            i += 1;
+            continue;
+        }
+        line += 1;
+        if !quoted {
+            keep(&mut out, &text[start..i], start_line);
+            start = i + eol_len;
+            start_line = line;
+        }
+        i += eol_len;
+    }
+    keep(&mut out, &text[start..], start_line);
+    out
+}
+
+/// 1-based line of byte `offset` in `bytes` (CRLF, LF or CR line ends).
+fn line_of_offset(bytes: &[u8], offset: usize) -> usize {
+    let head = &bytes[..offset.min(bytes.len())];
+    let crlf = head.windows(2).filter(|w| w == b"\r\n").count();
+    let breaks = head.iter().filter(|b| **b == b'\n' || **b == b'\r').count();
+    1 + breaks - crlf
+}
+
+/// Checks the quoting of one record (RFC 4180) and returns it as polars should read it:
+/// a field is either unquoted and free of `"`, or quoted (inner quotes doubled), with
+/// optional spaces or tabs around the quotes, which are dropped. An error is the byte
+/// offset of the first problem and what it is.
+///
+/// polars accepts a `"` inside an unquoted field as text, but its record splitting (like
+/// [`records`]) still counts it, so one stray quote silently merges the lines after it;
+/// and it rejects text after a closing quote with a message about data types. Both are
+/// reported here instead, at their line.
+fn normalize_quotes(rec: &str) -> Result<String, (usize, &'static str)> {
+    let b = rec.as_bytes();
+    let blank = |c: &u8| *c == b' ' || *c == b'\t';
+    let mut out = String::with_capacity(rec.len());
+    let mut i = 0;
+    loop {
+        let start = i;
+        while b.get(i).is_some_and(blank) {
+            i += 1;
+        }
+        if b.get(i) == Some(&b'"') {
+            let open = i;
+            i += 1;
+            loop {
+                match b.get(i) {
+                    None => {
+                        return Err((
+                            open,
+                            "a quoted field is not closed: add the closing `\"` (a `\"` inside a field is written `\"\"`)",
+                        ))
+                    }
+                    Some(b'"') if b.get(i + 1) == Some(&b'"') => i += 2,
+                    Some(b'"') => {
+                        i += 1;
+                        break;
+                    }
+                    Some(_) => i += 1,
+                }
+            }
+            out.push_str(&rec[open..i]);
+            while b.get(i).is_some_and(blank) {
+                i += 1;
+            }
+            match b.get(i) {
+                None => return Ok(out),
+                Some(b',') => {
+                    out.push(',');
+                    i += 1;
+                }
+                Some(_) => {
+                    return Err((
+                        i,
+                        "text after the closing `\"` of a quoted field: quote the whole field and write a `\"` inside it as `\"\"`",
+                    ))
+                }
+            }
+        } else {
+            while let Some(&c) = b.get(i) {
+                match c {
+                    b',' => break,
+                    b'"' => {
+                        return Err((
+                            i,
+                            "a `\"` inside a field that does not start with one: quote the whole field and write the `\"` as `\"\"`",
+                        ))
+                    }
+                    _ => i += 1,
+                }
+            }
+            out.push_str(&rec[start..i]);
+            if i >= b.len() {
+                return Ok(out);
+            }
+            out.push(',');
+            i += 1;
+        }
+    }
+}
+
+/// Reads `text` (records already cleaned: one per line, LF) with polars as text cells,
+/// row-major, without a header. polars is called under `catch_unwind`: it is a large
+/// parser fed with user files, and a panic in it must become an error, not a crash.
+fn polars_rows(text: String) -> Result<Vec<Vec<String>>, String> {
+    let read = || -> Result<DataFrame, String> {
+        CsvReadOptions::default()
+            .with_has_header(false)
+            .with_infer_schema_length(Some(0))
+            .with_raise_if_empty(false)
+            .with_n_threads(Some(1))
+            .map_parse_options(|o| o.with_truncate_ragged_lines(true))
+            .into_reader_with_file_handle(Cursor::new(text.into_bytes()))
+            .finish()
+            .map_err(|e| e.to_string())
+    };
+    let df = match catch_unwind(AssertUnwindSafe(read)) {
+        Ok(r) => r?,
+        Err(_) => return Err("the CSV reader failed on this file".into()),
+    };
+    let mut rows = vec![Vec::with_capacity(df.width()); df.height()];
+    for c in df.columns() {
+        let s = c
+            .cast(&polars::prelude::DataType::String)
+            .map_err(|e| e.to_string())?;
+        let s = s.str().map_err(|e| e.to_string())?;
+        for (row, v) in rows.iter_mut().zip(s.iter()) {
+            row.push(v.unwrap_or_default().to_string());
+        }
+    }
+    Ok(rows)
+}
+
+impl Table {
+    /// Reads and parses the CSV file at `path` ([`Table::parse`]).
+    pub fn read(path: &Path) -> Result<Table, TableError> {
+        let bytes = std::fs::read(path).map_err(|e| TableError::file(path, e.to_string()))?;
+        Table::parse(&bytes, path)
+    }
+
+    /// Parses CSV `bytes`; `path` is the file they came from (named in errors). An empty
+    /// file (or one of blank lines) gives a table with no columns and no rows.
+    pub fn parse(bytes: &[u8], path: &Path) -> Result<Table, TableError> {
+        let bom = if bytes.starts_with(UTF8_BOM) {
+            UTF8_BOM.len()
+        } else {
+            0
+        };
+        let text = std::str::from_utf8(&bytes[bom..]).map_err(|e| TableError {
+            path: path.to_path_buf(),
+            line: Some(line_of_offset(&bytes[bom..], e.valid_up_to())),
+            column: None,
+            why: "not UTF-8 text: save the file as CSV UTF-8".into(),
+        })?;
+        let recs = records(text);
+        let Some(first) = recs.first() else {
+            return Ok(Table {
+                path: path.to_path_buf(),
+                ..Table::default()
+            });
+        };
+        let mut cleaned = String::with_capacity(text.len() + recs.len());
+        for r in &recs {
+            let rec = normalize_quotes(r.text).map_err(|(offset, why)| TableError {
+                path: path.to_path_buf(),
+                line: Some(r.line + line_of_offset(r.text.as_bytes(), offset) - 1),
+                column: None,
+                why: why.into(),
+            })?;
+            cleaned.push_str(&rec);
+            cleaned.push('\n');
+        }
+        let rows = polars_rows(cleaned).map_err(|e| {
+            // polars' messages run over several lines, with hints for its Python API.
+            let first = e.lines().next().unwrap_or_default();
+            TableError::file(
+                path,
+                format!("not a readable CSV file ({first}): check the quotes and separators"),
+            )
+        })?;
+        if rows.len() != recs.len() {
+            return Err(TableError::file(
+                path,
+                format!(
+                    "{} records found where {} lines were expected: check for an unclosed quote (\")",
+                    rows.len(),
+                    recs.len()
+                ),
+            ));
+        }
+        let mut rows = rows.into_iter();
+        let columns: Vec<String> = rows
+            .next()
+            .unwrap_or_default()
+            .iter()
+            .map(|c| c.trim().to_string())
+            .collect();
+        let mut cells = vec![Vec::with_capacity(recs.len() - 1); columns.len()];
+        for row in rows {
+            let mut row = row.into_iter();
+            for col in cells.iter_mut() {
+                col.push(row.next().unwrap_or_default());
+            }
+        }
+        Ok(Table {
+            path: path.to_path_buf(),
+            header_line: first.line,
+            columns,
+            cells,
+            lines: recs[1..].iter().map(|r| r.line).collect(),
+        })
+    }
+
+    /// The file the table came from.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Header names, trimmed, in file order (empty for an empty file).
+    pub fn columns(&self) -> &[String] {
+        &self.columns
+    }
+
+    /// The header as written back (names joined by commas), for messages.
+    pub fn header_text(&self) -> String {
+        self.columns.join(",")
+    }
+
+    /// 1-based line of the header (0 for an empty file).
+    pub fn header_line(&self) -> usize {
+        self.header_line
+    }
+
+    /// Index of the first column named `name` (case-insensitive).
+    pub fn column(&self, name: &str) -> Option<usize> {
+        let name = name.to_lowercase();
+        self.columns.iter().position(|c| c.to_lowercase() == name)
+    }
+
+    /// Index of column `name`, or an error naming the file, the header it has and
+    /// `hint` (what the header should look like).
+    pub fn require(&self, name: &str, hint: &str) -> Result<usize, TableError> {
+        self.column(name).ok_or_else(|| {
+            if self.columns.is_empty() {
+                self.header_error(format!("empty file, no `{name}` column: {hint}"))
+            } else {
+                self.header_error(format!(
+                    "no `{name}` column in the header `{}`: {hint}",
+                    self.header_text()
+                ))
+            }
+        })
+    }
+
+    /// An error about the header (at its line; about the file when it is empty).
+    pub fn header_error(&self, why: impl Into<String>) -> TableError {
+        TableError {
+            path: self.path.clone(),
+            line: Some(self.header_line).filter(|l| *l > 0),
+            column: None,
+            why: why.into(),
+        }
+    }
+
+    /// Number of data rows (the header is not a row).
+    pub fn len(&self) -> usize {
+        self.lines.len()
+    }
+
+    /// True when there are no data rows.
+    pub fn is_empty(&self) -> bool {
+        self.lines.is_empty()
+    }
+
+    /// The cell at `row`, `col` as written (unquoted); empty when missing.
+    pub fn cell(&self, row: usize, col: usize) -> &str {
+        self.cells
+            .get(col)
+            .and_then(|c| c.get(row))
+            .map(String::as_str)
+            .unwrap_or("")
+    }
+
+    /// 1-based line of the file `row` starts on (0 when there is no such row).
+    pub fn line(&self, row: usize) -> usize {
+        self.lines.get(row).copied().unwrap_or(0)
+    }
+
+    /// An error at `row` (its line) and `col` (its name), either optional.
+    pub fn error_at(
+        &self,
+        row: Option<usize>,
+        col: Option<usize>,
+        why: impl Into<String>,
+    ) -> TableError {
+        TableError {
+            path: self.path.clone(),
+            line: row.map(|r| self.line(r)),
+            column: col.map(|c| {
+                self.columns
+                    .get(c)
+                    .cloned()
+                    .unwrap_or_else(|| format!("#{}", c + 1))
+            }),
+            why: why.into(),
+        }
+    }
+
+    /// The cell at `row`, `col` as a number (surrounding spaces ignored; `inf` and `nan`
+    /// are numbers too: check finiteness where it matters). The error names the file,
+    /// the line and the column.
+    pub fn f64_at(&self, row: usize, col: usize) -> Result<f64, TableError> {
+        let raw = self.cell(row, col).trim();
+        raw.parse::<f64>().map_err(|_| {
+            let why = if raw.is_empty() {
+                "empty cell: give a number".to_string()
+            } else {
+                format!("`{raw}` is not a number")
+            };
+            self.error_at(Some(row), Some(col), why)
+        })
+    }
+}
+
+/// The cells of one written column.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Cells {
+    /// Text; empty strings are empty cells, others are quoted when needed.
+    Text(Vec<String>),
+    /// Numbers with `decimals` digits after the point; NaN is an empty cell, infinities
+    /// are `inf` and `-inf`.
+    Num {
+        /// Values.
+        values: Vec<f64>,
+        /// Digits after the decimal point.
+        decimals: usize,
+    },
+    /// Counts.
+    Int(Vec<u64>),
+}
+
+impl Cells {
+    /// Number of cells.
+    pub fn len(&self) -> usize {
+        match self {
+            Cells::Text(v) => v.len(),
+            Cells::Num { values, .. } => values.len(),
+            Cells::Int(v) => v.len(),
+        }
+    }
+
+    /// True when there are no cells.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// A named column of a table to write.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Column {
+    /// Header.
+    pub name: String,
+    /// Cells.
+    pub cells: Cells,
+}
+
+impl Column {
+    /// A text column.
+    pub fn text(name: impl Into<String>, values: impl IntoIterator<Item = String>) -> Self {
+        Self {
+            name: name.into(),
+            cells: Cells::Text(values.into_iter().collect()),
+        }
+    }
+
+    /// A numeric column written with `decimals` digits after the point.
+    pub fn num(
+        name: impl Into<String>,
+        decimals: usize,
+        values: impl IntoIterator<Item = f64>,
+    ) -> Self {
+        Self {
+            name: name.into(),
+            cells: Cells::Num {
+                values: values.into_iter().collect(),
+                decimals,
+            },
+        }
+    }
+
+    /// A column of counts.
+    pub fn int(name: impl Into<String>, values: impl IntoIterator<Item = u64>) -> Self {
+        Self {
+            name: name.into(),
+            cells: Cells::Int(values.into_iter().collect()),
+        }
+    }
+}
+
+/// A number as a CSV cell: `None` (empty) when NaN, `inf`/`-inf` when infinite, else
+/// `decimals` digits after the point.
+fn num_cell(v: f64, decimals: usize) -> Option<String> {
+    if v.is_nan() {
+        None
+    } else if v.is_infinite() {
+        Some(if v > 0.0 { "inf" } else { "-inf" }.to_string())
+    } else {
+        Some(format!("{v:.decimals$}"))
+    }
+}
+
+/// The CSV text of `columns` (header and rows), through a polars `DataFrame`.
+fn csv_bytes(columns: &[Column]) -> Result<Vec<u8>, String> {
+    let Some(first) = columns.first() else {
+        return Ok(Vec::new());
+    };
+    let height = first.cells.len();
+    if let Some(c) = columns.iter().find(|c| c.cells.len() != height) {
+        return Err(format!(
+            "column `{}` has {} rows and `{}` has {height}: a table needs columns of one length",
+            c.name,
+            c.cells.len(),
+            first.name
+        ));
+    }
+    let series: Vec<polars::prelude::Column> = columns
+        .iter()
+        .map(|c| {
+            let name = c.name.as_str().into();
+            let s = match &c.cells {
+                Cells::Text(v) => Series::new(
+                    name,
+                    v.iter()
+                        .map(|s| Some(s.as_str()).filter(|s| !s.is_empty()))
+                        .collect::<Vec<_>>(),
+                ),
+                Cells::Num { values, decimals } => Series::new(
+                    name,
+                    values
+                        .iter()
+                        .map(|v| num_cell(*v, *decimals))
+                        .collect::<Vec<_>>(),
+                ),
+                Cells::Int(v) => Series::new(name, v.as_slice()),
+            };
+            s.into()
+        })
+        .collect();
+    let mut df = DataFrame::new(height, series).map_err(|e| e.to_string())?;
+    let mut buf = Vec::new();
+    CsvWriter::new(&mut buf)
+        .include_header(true)
+        .finish(&mut df)
+        .map_err(|e| e.to_string())?;
+    Ok(buf)
+}
+
+/// Writes `columns` as a CSV file at `path`, atomically.
+pub fn write_csv(path: &Path, columns: &[Column]) -> Result<(), TableError> {
+    let bytes = csv_bytes(columns).map_err(|why| TableError::file(path, why))?;
+    write_atomic(path, &bytes).map_err(|e| TableError::file(path, format!("cannot write: {e}")))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn parse(text: &str) -> Table {
+        Table::parse(text.as_bytes(), Path::new("pressures.csv")).unwrap()
+    }
+
+    #[test]
+    fn bom_crlf_quotes_and_blank_lines_read_correctly() {
+        let t = parse(
+            "\u{feff} File , Pressure_KPA ,note\r\n\r\nGX010001.MP4,20,\"a, b\"\r\n  \r\nGX010002.MP4,40,\"say \"\"hi\"\"\"\r\n",
+        );
+        assert_eq!(t.columns(), ["File", "Pressure_KPA", "note"]);
+        assert_eq!(t.column("file"), Some(0));
+        assert_eq!(t.column("pressure_kpa"), Some(1));
+        assert_eq!(t.column("missing"), None);
+        assert_eq!(t.len(), 2);
+        assert_eq!(t.cell(0, 0), "GX010001.MP4");
+        assert_eq!(t.cell(0, 2), "a, b");
+        assert_eq!(t.cell(1, 2), "say \"hi\"");
+        assert_eq!((t.line(0), t.line(1)), (3, 5));
+        assert_eq!(t.header_line(), 1);
+        assert_eq!(t.f64_at(1, 1).unwrap(), 40.0);
+    }
+
+    #[test]
+    fn lines_count_quoted_line_breaks_and_old_mac_line_ends() {
+        let t = parse("a,b\n\"two\nlines\",1\n\n3,4\n");
+        assert_eq!(t.len(), 2);
+        assert_eq!(t.cell(0, 0), "two\nlines");
+        assert_eq!((t.line(0), t.line(1)), (2, 5));
+        let t = parse("a,b\r1,2\r\r3,4");
+        assert_eq!(t.len(), 2);
+        assert_eq!((t.line(0), t.line(1)), (2, 4));
+        assert_eq!(t.cell(1, 1), "4");
+    }
+
+    #[test]
+    fn bad_quoting_is_an_error_at_its_line() {
+        let t = parse("a,b\n \"x, y\"\t, \"1\" \n");
+        assert_eq!((t.cell(0, 0), t.cell(0, 1)), ("x, y", "1"));
+        for (text, line, what) in [
+            ("a,b\n\n\"x\" y,1\n", 3, "text after the closing"),
+            ("a,b\nab\"c,1\nd\",2\n", 2, "does not start with one"),
+            ("a,b\n1,2\r\n\"multi\nline,1\n", 3, "not closed"),
+            ("a,\"b\nc\"d\n", 2, "text after the closing"),
+        ] {
+            let e = Table::parse(text.as_bytes(), Path::new("x.csv")).unwrap_err();
+            assert_eq!(e.line, Some(line), "{text:?}: {e}");
+            assert!(e.why.contains(what), "{text:?}: {e}");
+            assert!(!e.to_string().contains('\n'), "{e}");
+        }
+    }
+
+    #[test]
+    fn short_rows_read_empty_and_extra_cells_are_ignored() {
+        let t = parse("a,b,c\n1\n1,2,3,4,5\n");
+        assert_eq!(t.len(), 2);
+        assert_eq!((t.cell(0, 0), t.cell(0, 1), t.cell(0, 2)), ("1", "", ""));
+        assert_eq!(t.cell(1, 2), "3");
+        assert_eq!(t.cell(9, 9), "");
+        assert_eq!(t.line(9), 0);
+    }
+
+    #[test]
+    fn errors_name_the_file_line_and_column() {
+        let t = parse("file,pressure_kpa\na,1\n\nb,2\nc,abc\nd,\n");
+        let e = t.f64_at(2, 1).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "pressures.csv: line 5, column pressure_kpa: `abc` is not a number"
+        );
+        assert_eq!(e.line, Some(5));
+        assert_eq!(e.column.as_deref(), Some("pressure_kpa"));
+        assert!(t
+            .f64_at(3, 1)
+            .unwrap_err()
+            .to_string()
+            .contains("line 6, column pressure_kpa: empty cell"));
+        let e = t
+            .require("time_s", "the header is `time_s,pressure_kpa`")
+            .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "pressures.csv: line 1: no `time_s` column in the header `file,pressure_kpa`: the header is `time_s,pressure_kpa`"
+        );
+        assert_eq!(
+            TableError::file(Path::new("x.csv"), "gone").to_string(),
+            "x.csv: gone"
+        );
+        let e = t.error_at(None, Some(0), "bad");
+        assert_eq!(e.to_string(), "pressures.csv: column file: bad");
+    }
+
+    #[test]
+    fn empty_files_have_no_columns_and_bad_bytes_are_errors() {
+        for text in ["", "\n\n", "\u{feff}", "  \r\n"] {
+            let t = parse(text);
+            assert!(t.columns().is_empty() && t.is_empty(), "{text:?}");
+            assert!(t
+                .require("file", "hint")
+                .unwrap_err()
+                .to_string()
+                .contains("empty file"));
+        }
+        let e = Table::parse(b"a,b\n1,2\n\xff\xfe,3\n", Path::new("x.csv")).unwrap_err();
+        assert_eq!(e.line, Some(3), "{e}");
+        assert!(e.to_string().contains("not UTF-8"), "{e}");
+        let e = Table::read(Path::new("/nonexistent/x.csv")).unwrap_err();
+        assert!(e.to_string().starts_with("/nonexistent/x.csv: "), "{e}");
+    }
+
+    #[test]
+    fn written_tables_read_back() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("t.csv");
+        write_csv(
+            &p,
+            &[
+                Column::text(
+                    "file",
+                    ["a.mp4", "b, \"c\".mp4", "", "x\ny"].map(String::from),
+                ),
+                Column::num("radius_mm", 3, [1.0 / 3.0, f64::NAN, f64::INFINITY, -2.0]),
+                Column::int("frames", [1, 2, 3, u64::MAX]),
+            ],
+        )
+        .unwrap();
+        let text = std::fs::read_to_string(&p).unwrap();
+        assert!(
+            text.starts_with(
+                "file,radius_mm,frames\na.mp4,0.333,1\n\"b, \"\"c\"\".mp4\",,2\n,inf,3\n"
+            ),
+            "{text}"
+        );
+        let t = Table::read(&p).unwrap();
+        assert_eq!(t.len(), 4);
+        assert_eq!(t.cell(1, 0), "b, \"c\".mp4");
+        assert_eq!(t.cell(3, 0), "x\ny");
+        assert_eq!(t.cell(3, 1), "-2.000");
+        assert_eq!(t.cell(3, 2), u64::MAX.to_string());
+        assert_eq!(t.f64_at(2, 1).unwrap(), f64::INFINITY);
+        let e = write_csv(&p, &[Column::int("a", [1, 2]), Column::int("b", [1])]).unwrap_err();
+        assert!(
+            e.to_string().contains("`b` has 1 rows and `a` has 2"),
+            "{e}"
+        );
+    }
+
+    /// Bytes that look like CSV often enough to reach the parser's corners: quotes,
+    /// separators, every line end, a BOM, invalid UTF-8.
+    fn csvish_bytes() -> impl Strategy<Value = Vec<u8>> {
+        prop_oneof![
+            prop::collection::vec(any::<u8>(), 0..200),
+            prop::collection::vec(
+                prop::sample::select(vec![
+                    b'a', b'1', b'.', b',', b',', b'"', b'"', b'\n', b'\r', b' ', b'\t', 0xEF,
+                    0xBB, 0xBF, 0xFF, 0,
+                ]),
+                0..200
+            ),
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(256))]
+
+        #[test]
+        fn arbitrary_bytes_parse_or_fail_without_panicking(bytes in csvish_bytes()) {
+            let lines = 1 + bytes.iter().filter(|b| **b == b'\n' || **b == b'\r').count();
+            if let Ok(t) = Table::parse(&bytes, Path::new("x.csv")) {
+                let mut last = t.header_line();
+                for row in 0..t.len() {
+                    prop_assert!(t.line(row) > last && t.line(row) <= lines);
+                    last = t.line(row);
+                    for col in 0..t.columns().len() {
+                        let _ = t.cell(row, col);
+                        let _ = t.f64_at(row, col);
+                    }
+                }
+            }
+        }
+
+        #[test]
+        fn text_and_numbers_survive_a_round_trip(
+            rows in prop::collection::vec(
+                ("[a-z ,\"\n]{0,8}", -1e6f64..1e6),
+                0..12,
+            )
+        ) {
+            let d = tempfile::tempdir().unwrap();
+            let p = d.path().join("t.csv");
+            write_csv(&p, &[
+                Column::text("text", rows.iter().map(|r| r.0.clone())),
+                Column::num("value", 6, rows.iter().map(|r| r.1)),
+            ]).unwrap();
+            let t = Table::read(&p).unwrap();
+            prop_assert_eq!(t.len(), rows.len());
+            for (i, (text, value)) in rows.iter().enumerate() {
+                prop_assert_eq!(t.cell(i, 0), text.as_str());
+                prop_assert!((t.f64_at(i, 1).unwrap() - value).abs() < 1e-6);
+            }
+        }
+    }
+}
