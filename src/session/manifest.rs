@@ -6,9 +6,9 @@ use std::path::Path;
 use serde::Serialize;
 
 use super::{
-    has_extension, pressure_column, split_csv, PressureUnit, SessionError, MANIFEST,
-    VIDEO_EXTENSIONS,
+    has_extension, require_pressure_column, PressureUnit, SessionError, MANIFEST, VIDEO_EXTENSIONS,
 };
+use crate::table::Table;
 
 /// One usable manifest row.
 #[derive(Debug, Clone, PartialEq)]
@@ -76,36 +76,22 @@ pub fn read_manifest(session: &Path) -> Result<Manifest, SessionError> {
             why: "no such session folder".into(),
         });
     }
-    let text = std::fs::read_to_string(&path).map_err(|e| SessionError::Manifest {
+    let bytes = std::fs::read(&path).map_err(|e| SessionError::Manifest {
         path: path.clone(),
         why: format!("{e}: write a {MANIFEST} with the header `file,pressure_bar` (or pressure_kpa, pressure_psi) and one row per video"),
     })?;
-    let mut lines = text
-        .lines()
-        .enumerate()
-        .filter(|(_, l)| !l.trim().is_empty());
-    let (_, header) = lines.next().ok_or_else(|| SessionError::Manifest {
-        path: path.clone(),
-        why: "empty manifest: add the header `file,pressure_bar` and one row per video".into(),
-    })?;
-    let cols: Vec<String> = split_csv(header)
-        .iter()
-        .map(|c| c.to_ascii_lowercase())
-        .collect();
-    let file_col = cols
-        .iter()
-        .position(|c| c == "file")
-        .ok_or_else(|| SessionError::Manifest {
-            path: path.clone(),
-            why: format!("no `file` column in the header `{header}`"),
-        })?;
-    let (p_col, unit) = pressure_column(&cols)
-        .ok_or_else(|| SessionError::Manifest {
-            path: path.clone(),
-            why: format!(
-                "no pressure column with a unit in the header `{header}`: name it pressure_bar, pressure_kpa or pressure_psi"
-            ),
-        })?;
+    let table = Table::parse(&bytes, &path)?;
+    if table.columns().is_empty() {
+        return Err(SessionError::Manifest {
+            path,
+            why: "empty manifest: add the header `file,pressure_bar` and one row per video".into(),
+        });
+    }
+    let file_col = table.require(
+        "file",
+        "name the column of video names `file` (header `file,pressure_bar`)",
+    )?;
+    let (p_col, unit) = require_pressure_column(&table)?;
     // Videos in the folder, by upper-case name.
     let mut videos: BTreeMap<String, String> = BTreeMap::new();
     if let Ok(rd) = std::fs::read_dir(session) {
@@ -120,11 +106,10 @@ pub fn read_manifest(session: &Path) -> Result<Manifest, SessionError> {
     let mut entries: Vec<ManifestEntry> = Vec::new();
     let mut issues = Vec::new();
     let mut seen: HashSet<String> = HashSet::new();
-    for (i, line) in lines {
-        let lineno = i + 1;
-        let cells = split_csv(line);
-        let file = cells.get(file_col).cloned().unwrap_or_default();
-        let raw = cells.get(p_col).cloned().unwrap_or_default();
+    for row in 0..table.len() {
+        let lineno = table.line(row);
+        let file = table.cell(row, file_col).trim().to_string();
+        let raw = table.cell(row, p_col).trim();
         let issue = |message: String| SessionIssue {
             file: file.clone(),
             line: Some(lineno),
@@ -139,6 +124,13 @@ pub fn read_manifest(session: &Path) -> Result<Manifest, SessionError> {
             Ok(v) => {
                 issues.push(issue(format!(
                     "pressure {v} is negative or not finite: give a pressure >= 0 in {}",
+                    unit.name()
+                )));
+                continue;
+            }
+            Err(_) if raw.is_empty() => {
+                issues.push(issue(format!(
+                    "no pressure in this row: give a plain number in {} (the unit is in the header)",
                     unit.name()
                 )));
                 continue;
@@ -269,7 +261,7 @@ mod tests {
         assert!(has("GX010003.MP4: pressure -0.2 is negative"), "{msgs:?}");
         assert!(has("GX010001.MP4: listed twice"), "{msgs:?}");
         assert!(has("MISSING.MP4: no such video"), "{msgs:?}");
-        assert!(has("GX010004.MP4: pressure `` is not a number"), "{msgs:?}");
+        assert!(has("GX010004.MP4: no pressure in this row"), "{msgs:?}");
         assert!(has("GX010009.MP4: not in pressures.csv"), "{msgs:?}");
     }
 
@@ -293,5 +285,33 @@ mod tests {
             Some(("GX".into(), 2, "0123".into()))
         );
         assert_eq!(gopro_parts("clip.mp4"), None);
+    }
+
+    #[test]
+    fn a_byte_order_mark_and_crlf_are_not_part_of_the_header() {
+        let d = session(
+            "\u{feff}file,pressure_kpa\r\nGX010001.MP4,20\r\n\"GX010002.MP4\" , 40 \r\n",
+            &["GX010001.MP4", "GX010002.MP4"],
+        );
+        let m = read_manifest(d.path()).unwrap();
+        assert!(m.issues.is_empty(), "{:?}", m.issues);
+        assert_eq!(m.entries.len(), 2);
+        assert_eq!((m.entries[1].line, m.entries[1].pressure_kpa), (3, 40.0));
+    }
+
+    #[test]
+    fn header_problems_name_the_file_and_line() {
+        let d = session(
+            "\nfile_name,pressure_kpa\nGX010001.MP4,1\n",
+            &["GX010001.MP4"],
+        );
+        let e = read_manifest(d.path()).unwrap_err().to_string();
+        assert!(
+            e.ends_with("pressures.csv: line 2: no `file` column in the header `file_name,pressure_kpa`: name the column of video names `file` (header `file,pressure_bar`)"),
+            "{e}"
+        );
+        let d = session("\n\n", &[]);
+        let e = read_manifest(d.path()).unwrap_err().to_string();
+        assert!(e.contains("empty manifest"), "{e}");
     }
 }

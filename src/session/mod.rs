@@ -17,6 +17,11 @@
 //! cheaper than undistorting every frame, and gives the same points: see the
 //! `undistort` tests), ordered from the clamped end, and fitted with a Pratt circle.
 //! Frames with another marker count than expected are rejected with the reason.
+//!
+//! The session's files are read in submodules, the CSVs through [`crate::table`] (a
+//! spreadsheet's BOM and CRLF are fine; errors name the file, line and column): the
+//! manifest ([`read_manifest`]), the ramp protocol's pressure log ([`read_pressure_log`])
+//! and `bendscope.toml` ([`SessionConfig`]).
 
 mod config;
 mod manifest;
@@ -34,6 +39,7 @@ use serde::{Deserialize, Serialize};
 use crate::calib::{CalibError, Undistorter};
 use crate::detect::{detect_markers_with, order_markers, ChainStart, DetectSettings};
 use crate::fit::{bending_angle_from_circle_deg, fit_circle_pratt};
+use crate::table::{Table, TableError};
 
 /// Name of the manifest file in a session folder.
 pub const MANIFEST: &str = "pressures.csv";
@@ -77,6 +83,9 @@ pub enum SessionError {
         /// What is wrong.
         why: String,
     },
+    /// A table (manifest, pressure log) is malformed, at a known line and column.
+    #[error(transparent)]
+    Table(#[from] TableError),
     /// Calibration problem.
     #[error(transparent)]
     Calib(#[from] CalibError),
@@ -133,31 +142,25 @@ pub fn session_videos(session: &Path) -> Vec<String> {
     v
 }
 
-/// The pressure column of a header and its unit: `pressure_bar`, `pressure_kpa` or
-/// `pressure_psi` (lower-cased column names).
-fn pressure_column(cols: &[String]) -> Option<(usize, PressureUnit)> {
-    cols.iter().enumerate().find_map(|(i, c)| match c.as_str() {
-        "pressure_bar" => Some((i, PressureUnit::Bar)),
-        "pressure_kpa" => Some((i, PressureUnit::Kpa)),
-        "pressure_psi" => Some((i, PressureUnit::Psi)),
-        _ => None,
-    })
-}
-
-/// Splits one CSV line (commas; double quotes around a field are removed).
-fn split_csv(line: &str) -> Vec<String> {
-    let mut out = Vec::new();
-    let mut cur = String::new();
-    let mut quoted = false;
-    for ch in line.chars() {
-        match ch {
-            '"' => quoted = !quoted,
-            ',' if !quoted => out.push(std::mem::take(&mut cur).trim().to_string()),
-            c => cur.push(c),
-        }
-    }
-    out.push(cur.trim().to_string());
-    out
+/// The pressure column of a table and its unit: the first column named `pressure_bar`,
+/// `pressure_kpa` or `pressure_psi` (any case), else an error naming the header.
+fn require_pressure_column(table: &Table) -> Result<(usize, PressureUnit), TableError> {
+    table
+        .columns()
+        .iter()
+        .enumerate()
+        .find_map(|(i, c)| match c.to_ascii_lowercase().as_str() {
+            "pressure_bar" => Some((i, PressureUnit::Bar)),
+            "pressure_kpa" => Some((i, PressureUnit::Kpa)),
+            "pressure_psi" => Some((i, PressureUnit::Psi)),
+            _ => None,
+        })
+        .ok_or_else(|| {
+            table.header_error(format!(
+                "no pressure column with a unit in the header `{}`: name it pressure_bar, pressure_kpa or pressure_psi",
+                table.header_text()
+            ))
+        })
 }
 
 /// The scale photo of a session: the configured one, or the first `scale.*` image.

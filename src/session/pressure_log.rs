@@ -2,7 +2,8 @@
 
 use std::path::Path;
 
-use super::{pressure_column, split_csv, PressureUnit, SessionError};
+use super::{require_pressure_column, PressureUnit, SessionError};
+use crate::table::{Table, TableError};
 
 /// A regulator's pressure log for the ramp protocol: (time, pressure) rows, one video.
 #[derive(Debug, Clone, PartialEq)]
@@ -37,57 +38,70 @@ impl PressureLog {
 }
 
 /// Reads a pressure log: header `time_s,pressure_<unit>` (bar, kpa or psi), times
-/// strictly increasing, pressures >= 0, at least two rows.
+/// strictly increasing, pressures >= 0, at least two rows. Errors in a row name its line
+/// and column.
 pub fn read_pressure_log(path: &Path) -> Result<PressureLog, SessionError> {
-    let bad = |why: String| SessionError::Manifest {
-        path: path.to_path_buf(),
-        why,
-    };
-    let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
-    let mut lines = text
-        .lines()
-        .enumerate()
-        .filter(|(_, l)| !l.trim().is_empty());
-    let (_, header) = lines.next().ok_or_else(|| {
-        bad("empty pressure log: write `time_s,pressure_kpa` and one row per sample".into())
-    })?;
-    let cols: Vec<String> = split_csv(header)
-        .iter()
-        .map(|c| c.to_ascii_lowercase())
-        .collect();
-    let t_col = cols
-        .iter()
-        .position(|c| c == "time_s")
-        .ok_or_else(|| bad(format!("no `time_s` column in `{header}`")))?;
-    let (p_col, unit) = pressure_column(&cols)
-        .ok_or_else(|| bad(format!("no pressure column with a unit in `{header}`: name it pressure_bar, pressure_kpa or pressure_psi")))?;
+    let table = Table::read(path)?;
+    if table.columns().is_empty() {
+        return Err(SessionError::Manifest {
+            path: path.to_path_buf(),
+            why: "empty pressure log: write `time_s,pressure_kpa` and one row per sample".into(),
+        });
+    }
+    let t_col = table.require(
+        "time_s",
+        "the header is `time_s,pressure_kpa` (or pressure_bar, pressure_psi)",
+    )?;
+    let (p_col, unit) = require_pressure_column(&table)?;
     let mut log = PressureLog {
         unit,
         times_s: vec![],
         pressures_kpa: vec![],
     };
-    for (i, line) in lines {
-        let cells = split_csv(line);
-        let num = |c: usize| {
-            cells
-                .get(c)
-                .and_then(|v| v.parse::<f64>().ok())
-                .filter(|v| v.is_finite())
+    for row in 0..table.len() {
+        let number = |col: usize| -> Result<f64, TableError> {
+            let v = table.f64_at(row, col)?;
+            if v.is_finite() {
+                Ok(v)
+            } else {
+                Err(table.error_at(Some(row), Some(col), format!("{v} is not a finite number")))
+            }
         };
-        let (Some(t), Some(p)) = (num(t_col), num(p_col)) else {
-            return Err(bad(format!("line {}: `{line}` is not two numbers", i + 1)));
-        };
+        let t = number(t_col)?;
+        let p = number(p_col)?;
         if p < 0.0 {
-            return Err(bad(format!("line {}: negative pressure {p}", i + 1)));
+            return Err(table
+                .error_at(
+                    Some(row),
+                    Some(p_col),
+                    format!("negative pressure {p}: pressures are gauge pressures >= 0"),
+                )
+                .into());
         }
-        if log.times_s.last().is_some_and(|&last| t <= last) {
-            return Err(bad(format!("line {}: time {t} s does not increase", i + 1)));
+        if let Some(&last) = log.times_s.last() {
+            if t <= last {
+                return Err(table
+                    .error_at(
+                        Some(row),
+                        Some(t_col),
+                        format!(
+                            "time {t} s does not increase (the row before is at {last} s): sort the log by time"
+                        ),
+                    )
+                    .into());
+            }
         }
         log.times_s.push(t);
         log.pressures_kpa.push(p * unit.to_kpa());
     }
     if log.times_s.len() < 2 {
-        return Err(bad("a pressure log needs at least two rows".into()));
+        return Err(SessionError::Manifest {
+            path: path.to_path_buf(),
+            why: format!(
+                "a pressure log needs at least two rows, this one has {}",
+                log.times_s.len()
+            ),
+        });
     }
     Ok(log)
 }
@@ -116,6 +130,70 @@ mod tests {
         ] {
             std::fs::write(&p, bad).unwrap();
             assert!(read_pressure_log(&p).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn row_errors_name_the_line_and_column() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join(PRESSURE_LOG);
+        for (text, needle) in [
+            (
+                "\u{feff}time_s,pressure_kpa\r\n0,1\r\n\r\n1,x\r\n",
+                "pressure_log.csv: line 4, column pressure_kpa: `x` is not a number",
+            ),
+            (
+                "time_s,pressure_kpa\n0,1\n1,-2\n",
+                "pressure_log.csv: line 3, column pressure_kpa: negative pressure -2",
+            ),
+            (
+                "time_s,pressure_kpa\n0,1\n0,2\n",
+                "pressure_log.csv: line 3, column time_s: time 0 s does not increase",
+            ),
+            (
+                "time_s,pressure_kpa\n0,1\ninf,2\n",
+                "pressure_log.csv: line 3, column time_s: inf is not a finite number",
+            ),
+            (
+                "t,pressure_kpa\n0,1\n1,2\n",
+                "pressure_log.csv: line 1: no `time_s` column in the header `t,pressure_kpa`",
+            ),
+            (
+                "time_s,p\n0,1\n1,2\n",
+                "pressure_log.csv: line 1: no pressure column with a unit in the header `time_s,p`",
+            ),
+            ("\n \n", "empty pressure log"),
+            (
+                "time_s,pressure_kpa\n0,1\n",
+                "at least two rows, this one has 1",
+            ),
+        ] {
+            std::fs::write(&p, text).unwrap();
+            let e = read_pressure_log(&p).unwrap_err().to_string();
+            assert!(e.contains(needle), "{text:?}: {e}");
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(128))]
+
+        #[test]
+        fn arbitrary_logs_parse_or_fail_without_panicking(
+            bytes in proptest::collection::vec(
+                proptest::sample::select(b"time_s,pressure_kpa\n\r\",0123.-e x\xff".to_vec()),
+                0..200,
+            )
+        ) {
+            let d = tempfile::tempdir().unwrap();
+            let p = d.path().join(PRESSURE_LOG);
+            for head in [&b""[..], b"time_s,pressure_kpa\n"] {
+                std::fs::write(&p, [head, &bytes].concat()).unwrap();
+                if let Ok(log) = read_pressure_log(&p) {
+                    proptest::prop_assert!(log.times_s.len() >= 2);
+                    proptest::prop_assert!(log.times_s.windows(2).all(|w| w[1] > w[0]));
+                    proptest::prop_assert!(log.pressures_kpa.iter().all(|p| p.is_finite() && *p >= 0.0));
+                }
+            }
         }
     }
 }
