@@ -6,10 +6,10 @@
 
 use std::path::Path;
 
-use polars::prelude::*;
 use serde::Serialize;
 
 use crate::fit::{fit_power_law, PowerLawFit};
+use crate::table::{Table, TableError};
 
 /// Points of the common pressure grid.
 pub const GRID_POINTS: usize = 41;
@@ -17,14 +17,9 @@ pub const GRID_POINTS: usize = 41;
 /// Errors of the comparison.
 #[derive(Debug, thiserror::Error)]
 pub enum CompareError {
-    /// A results table cannot be read.
-    #[error("cannot read {path}: {why}")]
-    Read {
-        /// The file.
-        path: std::path::PathBuf,
-        /// What went wrong.
-        why: String,
-    },
+    /// A results table cannot be read or lacks a column.
+    #[error(transparent)]
+    Table(#[from] TableError),
     /// The two pressure ranges do not overlap.
     #[error("the measured pressures ({m0:.1}-{m1:.1} kPa) and the simulated ones ({f0:.1}-{f1:.1} kPa) do not overlap: simulate the measured range (bendscope simulate --pressures {m0}:{m1}:5)")]
     NoOverlap {
@@ -47,41 +42,33 @@ pub enum CompareError {
     },
 }
 
-/// Reads the named columns of a CSV as f64 (polars); rows with an empty or non-numeric
-/// cell in any of them are dropped.
+/// Reads the named columns of a CSV as numbers ([`Table`]); rows with an empty,
+/// non-numeric or non-finite cell in any of them are dropped.
 pub fn read_columns(path: &Path, names: &[&str]) -> Result<Vec<Vec<f64>>, CompareError> {
-    let err = |why: String| CompareError::Read {
-        path: path.to_path_buf(),
-        why,
-    };
-    let df = CsvReadOptions::default()
-        .with_has_header(true)
-        .try_into_reader_with_file_path(Some(path.to_path_buf()))
-        .and_then(|r| r.finish())
-        .map_err(|e| err(e.to_string()))?;
-    let mut cols = Vec::new();
-    for name in names {
-        let c = df
-            .column(name)
-            .map_err(|_| err(format!("no column '{name}'")))?
-            .cast(&DataType::Float64)
-            .map_err(|e| err(e.to_string()))?;
-        let v: Vec<f64> = c
-            .f64()
-            .map_err(|e| err(e.to_string()))?
+    let table = Table::read(path)?;
+    let wanted = names
+        .iter()
+        .map(|n| format!("`{n}`"))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let hint = format!("give a table with the columns {wanted}");
+    let cols = names
+        .iter()
+        .map(|n| table.require(n, &hint))
+        .collect::<Result<Vec<usize>, TableError>>()?;
+    let mut out = vec![Vec::with_capacity(table.len()); cols.len()];
+    for row in 0..table.len() {
+        let values: Option<Vec<f64>> = cols
             .iter()
-            .map(|x| x.unwrap_or(f64::NAN))
+            .map(|c| table.f64_at(row, *c).ok().filter(|v| v.is_finite()))
             .collect();
-        cols.push(v);
+        if let Some(values) = values {
+            for (o, v) in out.iter_mut().zip(values) {
+                o.push(v);
+            }
+        }
     }
-    let n = cols.first().map(|c| c.len()).unwrap_or(0);
-    let keep: Vec<usize> = (0..n)
-        .filter(|i| cols.iter().all(|c| c[*i].is_finite()))
-        .collect();
-    Ok(cols
-        .into_iter()
-        .map(|c| keep.iter().map(|i| c[*i]).collect())
-        .collect())
+    Ok(out)
 }
 
 /// Measured or simulated points of one quantity.
@@ -175,6 +162,26 @@ pub fn compare_quantity(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn read_columns_keeps_complete_rows_and_names_a_missing_column() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("per_video.csv");
+        std::fs::write(
+            &p,
+            "\u{feff}file,pressure_kpa,radius_mm,status\r\na,20,100.5,ok\r\n\"b, c\",40,,\"no frame, measured\"\r\nd,60,inf,x\r\ne,80,50,ok\r\n",
+        )
+        .unwrap();
+        let c = read_columns(&p, &["pressure_kpa", "radius_mm"]).unwrap();
+        assert_eq!(c, vec![vec![20.0, 80.0], vec![100.5, 50.0]]);
+        let e = read_columns(&p, &["pressure_kpa", "force_n"])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("per_video.csv: line 1: no `force_n` column in the header `file,pressure_kpa,radius_mm,status`"),
+            "{e}"
+        );
+    }
 
     #[test]
     fn identical_laws_on_different_points_agree_and_offsets_show() {

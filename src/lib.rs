@@ -7,6 +7,9 @@
 //! centroids) -> [`fit`] (circle, bending angle, power law) -> [`session`] (batch, manifests,
 //! aggregation; [`rgbd`] for colour + depth sessions) -> [`report`] (CSV, plots, overlays). Beside them: [`fem`] (the actuator
 //! model and its solver) and [`render`] (synthetic camera images with known ground truth).
+//! Every CSV read or written goes through [`table`] (on polars: BOM, CRLF and quoted fields
+//! read correctly, errors that name the file, line and column); [`io`] writes files
+//! atomically.
 //!
 //! # Conventions
 //!

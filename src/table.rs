@@ -6,7 +6,10 @@
 //!
 //! - a UTF-8 byte order mark (spreadsheets write one) is dropped;
 //! - line ends may be LF, CRLF or CR; blank lines are skipped;
-//! - fields may be quoted (`"a, b"`, `"say ""hi"""`), also across lines;
+//! - fields may be quoted (`"a, b"`, `"say ""hi"""`), also across lines, with spaces
+//!   around the quotes; quoting is otherwise checked as RFC 4180 has it: a `"` in an
+//!   unquoted field, text after a closing quote or a quote never closed is an error at
+//!   its line (not rows silently merged);
 //! - every cell is read as text (no type inference): the caller asks for a number with
 //!   [`Table::f64_at`], whose error names the file, the line and the column;
 //! - header names are trimmed and looked up case-insensitively;
@@ -15,8 +18,8 @@
 //!
 //! polars splits records on line ends outside quotes, counting every `"` (a quote inside
 //! an unquoted field flips the state too). [`Table::parse`] does the same small scan
-//! first, to drop blank lines and to remember the line each row starts on, which polars
-//! does not report.
+//! first, to drop blank lines, check the quoting and remember the line each row starts
+//! on, which polars does not report; polars then reads the cleaned records.
 //!
 //! Writing ([`write_csv`]): named columns of text, numbers with a fixed number of decimals
 //! (NaN: empty cell; infinities: `inf`, `-inf`) or counts, built as a polars `DataFrame`,
@@ -142,6 +145,84 @@ fn line_of_offset(bytes: &[u8], offset: usize) -> usize {
     1 + breaks - crlf
 }
 
+/// Checks the quoting of one record (RFC 4180) and returns it as polars should read it:
+/// a field is either unquoted and free of `"`, or quoted (inner quotes doubled), with
+/// optional spaces or tabs around the quotes, which are dropped. An error is the byte
+/// offset of the first problem and what it is.
+///
+/// polars accepts a `"` inside an unquoted field as text, but its record splitting (like
+/// [`records`]) still counts it, so one stray quote silently merges the lines after it;
+/// and it rejects text after a closing quote with a message about data types. Both are
+/// reported here instead, at their line.
+fn normalize_quotes(rec: &str) -> Result<String, (usize, &'static str)> {
+    let b = rec.as_bytes();
+    let blank = |c: &u8| *c == b' ' || *c == b'\t';
+    let mut out = String::with_capacity(rec.len());
+    let mut i = 0;
+    loop {
+        let start = i;
+        while b.get(i).is_some_and(blank) {
+            i += 1;
+        }
+        if b.get(i) == Some(&b'"') {
+            let open = i;
+            i += 1;
+            loop {
+                match b.get(i) {
+                    None => {
+                        return Err((
+                            open,
+                            "a quoted field is not closed: add the closing `\"` (a `\"` inside a field is written `\"\"`)",
+                        ))
+                    }
+                    Some(b'"') if b.get(i + 1) == Some(&b'"') => i += 2,
+                    Some(b'"') => {
+                        i += 1;
+                        break;
+                    }
+                    Some(_) => i += 1,
+                }
+            }
+            out.push_str(&rec[open..i]);
+            while b.get(i).is_some_and(blank) {
+                i += 1;
+            }
+            match b.get(i) {
+                None => return Ok(out),
+                Some(b',') => {
+                    out.push(',');
+                    i += 1;
+                }
+                Some(_) => {
+                    return Err((
+                        i,
+                        "text after the closing `\"` of a quoted field: quote the whole field and write a `\"` inside it as `\"\"`",
+                    ))
+                }
+            }
+        } else {
+            while let Some(&c) = b.get(i) {
+                match c {
+                    b',' => break,
+                    b'"' => {
+                        return Err((
+                            i,
+                            "a `\"` inside a field that does not start with one: quote the whole field and write the `\"` as `\"\"`",
+                        ))
+                    }
+                    _ => i += 1,
+                }
+            }
+            out.push_str(&rec[start..i]);
+            if i >= b.len() {
+                return Ok(out);
+            }
+            out.push(',');
+            i += 1;
+        }
+    }
+}
+
 /// Reads `text` (records already cleaned: one per line, LF) with polars as text cells,
 /// row-major, without a header. polars is called under `catch_unwind`: it is a large
 /// parser fed with user files, and a panic in it must become an error, not a crash.
@@ -204,14 +285,22 @@ impl Table {
         };
         let mut cleaned = String::with_capacity(text.len() + recs.len());
         for r in &recs {
-            cleaned.push_str(r.text);
+            let rec = normalize_quotes(r.text).map_err(|(offset, why)| TableError {
+                path: path.to_path_buf(),
+                line: Some(r.line + line_of_offset(r.text.as_bytes(), offset) - 1),
+                column: None,
+                why: why.into(),
+            })?;
+            cleaned.push_str(&rec);
             cleaned.push('\n');
         }
-        let rows = polars_rows(cleaned).map_err(|e| TableError {
-            path: path.to_path_buf(),
-            line: None,
-            column: None,
-            why: format!("not a readable CSV file ({e}): check the quotes and separators"),
+        let rows = polars_rows(cleaned).map_err(|e| {
+            // polars' messages run over several lines, with hints for its Python API.
+            let first = e.lines().next().unwrap_or_default();
+            TableError::file(
+                path,
+                format!("not a readable CSV file ({first}): check the quotes and separators"),
+            )
         })?;
         if rows.len() != recs.len() {
             return Err(TableError::file(
@@ -533,6 +622,23 @@ mod tests {
         assert_eq!(t.len(), 2);
         assert_eq!((t.line(0), t.line(1)), (2, 4));
         assert_eq!(t.cell(1, 1), "4");
+    }
+
+    #[test]
+    fn bad_quoting_is_an_error_at_its_line() {
+        let t = parse("a,b\n \"x, y\"\t, \"1\" \n");
+        assert_eq!((t.cell(0, 0), t.cell(0, 1)), ("x, y", "1"));
+        for (text, line, what) in [
+            ("a,b\n\n\"x\" y,1\n", 3, "text after the closing"),
+            ("a,b\nab\"c,1\nd\",2\n", 2, "does not start with one"),
+            ("a,b\n1,2\r\n\"multi\nline,1\n", 3, "not closed"),
+            ("a,\"b\nc\"d\n", 2, "text after the closing"),
+        ] {
+            let e = Table::parse(text.as_bytes(), Path::new("x.csv")).unwrap_err();
+            assert_eq!(e.line, Some(line), "{text:?}: {e}");
+            assert!(e.why.contains(what), "{text:?}: {e}");
+            assert!(!e.to_string().contains('\n'), "{e}");
+        }
     }
 
     #[test]

@@ -6,7 +6,8 @@ use std::path::{Path, PathBuf};
 use anyhow::{anyhow, Result};
 use bendscope::compare::{compare_quantity, read_columns, Curve, QuantityComparison};
 use bendscope::io::write_atomic;
-use bendscope::report::{plot_xy, write_json, write_table_csv, NumColumn, Series};
+use bendscope::report::{plot_xy, write_json, Series};
+use bendscope::table::{write_csv, Column};
 use clap::Args;
 
 use super::{EXIT_OK, EXIT_PARTIAL};
@@ -178,35 +179,34 @@ pub fn run(args: &CompareArgs) -> Result<u8> {
         results.push(c);
     }
     if let Some(first) = results.first() {
-        let mut cols = vec![NumColumn::new(
+        let mut cols = vec![Column::num(
             "pressure_kpa",
+            5,
             first.grid_kpa.iter().copied(),
         )];
         for c in &results {
-            cols.push(NumColumn::new(
+            cols.push(Column::num(
                 format!("{}_measured", c.name),
+                5,
                 c.measured.iter().copied(),
             ));
-            cols.push(NumColumn::new(
+            cols.push(Column::num(
                 format!("{}_fem", c.name),
+                5,
                 c.fem.iter().copied(),
             ));
-            cols.push(NumColumn::new(
+            cols.push(Column::num(
                 format!("{}_deviation", c.name),
+                5,
                 c.fem.iter().zip(&c.measured).map(|(f, m)| f - m),
             ));
         }
         // Quantities share the grid only when their ranges agree; radius, curvature and
         // angle come from the same two tables, so they do; force may not.
-        if results.iter().all(|c| c.grid_kpa == first.grid_kpa) {
-            write_table_csv(&args.output.join("compare.csv"), cols, 5)?;
-        } else {
-            write_table_csv(
-                &args.output.join("compare.csv"),
-                cols.into_iter().take(1 + 3 * 3).collect(),
-                5,
-            )?;
+        if !results.iter().all(|c| c.grid_kpa == first.grid_kpa) {
+            cols.truncate(1 + 3 * 3);
         }
+        write_csv(&args.output.join("compare.csv"), &cols)?;
     }
     write_json(&args.output.join("compare.json"), &results)?;
     write_atomic(&args.output.join("summary.txt"), summary.as_bytes())?;

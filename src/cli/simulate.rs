@@ -9,7 +9,8 @@ use bendscope::fem::material::MaterialPreset;
 use bendscope::fem::simulate::{run_ramp, Ramp, RampSettings, SideFaceFile, StepResult};
 use bendscope::fem::vtu::{write_pvd, write_vtu};
 use bendscope::io::write_atomic;
-use bendscope::report::{plot_xy, write_json, write_table_csv, NumColumn, Series};
+use bendscope::report::{plot_xy, write_json, Series};
+use bendscope::table::{write_csv, Column};
 use clap::Args;
 use serde::Serialize;
 
@@ -285,61 +286,68 @@ fn ramp_with_outputs(
     Ok((ramp, files, face))
 }
 
-fn col(name: &str, steps: &[StepResult], f: fn(&StepResult) -> f64) -> NumColumn {
-    NumColumn::new(name, steps.iter().map(f))
+/// A column of step results with `decimals` digits.
+fn col(name: &str, decimals: usize, steps: &[StepResult], f: fn(&StepResult) -> f64) -> Column {
+    Column::num(name, decimals, steps.iter().map(f))
 }
 
 fn write_steps(out: &Path, steps: &[StepResult]) -> Result<()> {
-    write_table_csv(
+    write_csv(
         &out.join("steps.csv"),
-        vec![
-            col("pressure_kpa", steps, |s| s.pressure_kpa),
-            col("radius_mm", steps, |s| s.radius_mm),
-            col("curvature_per_m", steps, |s| s.curvature_per_m),
-            col("bending_angle_deg", steps, |s| s.bending_angle_deg),
-            col("tip_x_mm", steps, |s| s.tip_x_mm),
-            col("tip_z_mm", steps, |s| s.tip_z_mm),
-            col("max_principal_stress_mpa", steps, |s| {
+        &[
+            col("pressure_kpa", 4, steps, |s| s.pressure_kpa),
+            col("radius_mm", 4, steps, |s| s.radius_mm),
+            col("curvature_per_m", 4, steps, |s| s.curvature_per_m),
+            col("bending_angle_deg", 4, steps, |s| s.bending_angle_deg),
+            col("tip_x_mm", 4, steps, |s| s.tip_x_mm),
+            col("tip_z_mm", 4, steps, |s| s.tip_z_mm),
+            col("max_principal_stress_mpa", 4, steps, |s| {
                 s.max_principal_stress_mpa
             }),
-            col("safety_factor", steps, |s| s.safety_factor),
-            col("bottom_elongation_pct", steps, |s| s.bottom_elongation_pct),
-            col("cavity_volume_mm3", steps, |s| s.cavity_volume_mm3),
-            col("newton_iterations", steps, |s| s.newton_iterations as f64),
+            col("safety_factor", 4, steps, |s| s.safety_factor),
+            col("bottom_elongation_pct", 4, steps, |s| {
+                s.bottom_elongation_pct
+            }),
+            col("cavity_volume_mm3", 4, steps, |s| s.cavity_volume_mm3),
+            Column::int(
+                "newton_iterations",
+                steps.iter().map(|s| s.newton_iterations as u64),
+            ),
         ],
-        4,
     )?;
     let n_markers = steps.first().map(|s| s.markers_mm.len()).unwrap_or(0);
-    let mut cols = vec![col("pressure_kpa", steps, |s| s.pressure_kpa)];
+    let mut cols = vec![col("pressure_kpa", 5, steps, |s| s.pressure_kpa)];
     for k in 0..n_markers {
-        cols.push(NumColumn::new(
+        cols.push(Column::num(
             format!("m{}_x_mm", k + 1),
+            5,
             steps.iter().map(|s| s.markers_mm[k].0),
         ));
-        cols.push(NumColumn::new(
+        cols.push(Column::num(
             format!("m{}_z_mm", k + 1),
+            5,
             steps.iter().map(|s| s.markers_mm[k].1),
         ));
     }
-    write_table_csv(&out.join("markers.csv"), cols, 5)?;
+    write_csv(&out.join("markers.csv"), &cols)?;
     Ok(())
 }
 
 fn write_force(out: &Path, steps: &[StepResult]) -> Result<()> {
     let force = |s: &StepResult| s.blocked_force_n.unwrap_or(f64::NAN);
-    write_table_csv(
+    write_csv(
         &out.join("force.csv"),
-        vec![
-            col("pressure_kpa", steps, |s| s.pressure_kpa),
-            NumColumn::new("force_n", steps.iter().map(force)),
-            NumColumn::new(
+        &[
+            col("pressure_kpa", 5, steps, |s| s.pressure_kpa),
+            Column::num("force_n", 5, steps.iter().map(force)),
+            Column::num(
                 "force_gf",
+                5,
                 steps
                     .iter()
                     .map(|s| force(s) / bendscope::fem::actuator::GRAVITY_M_S2 * 1000.0),
             ),
         ],
-        5,
     )?;
     Ok(())
 }
@@ -459,23 +467,24 @@ fn run_sweep(base: &ActuatorConfig, spec: &str, out: &Path) -> Result<u8> {
             .map(|(_, s, _)| s.as_ref().map(f).unwrap_or(f64::NAN))
             .collect()
     };
-    let cols = vec![
-        NumColumn::new(name, values.iter().copied()),
-        NumColumn::new("pressure_kpa", g(|s| s.pressure_kpa)),
-        NumColumn::new("radius_mm", g(|s| s.radius_mm)),
-        NumColumn::new("curvature_per_m", g(|s| s.curvature_per_m)),
-        NumColumn::new("bending_angle_deg", g(|s| s.bending_angle_deg)),
-        NumColumn::new("tip_x_mm", g(|s| s.tip_x_mm)),
-        NumColumn::new("tip_z_mm", g(|s| s.tip_z_mm)),
-        NumColumn::new(
+    let cols = [
+        Column::num(name, 4, values.iter().copied()),
+        Column::num("pressure_kpa", 4, g(|s| s.pressure_kpa)),
+        Column::num("radius_mm", 4, g(|s| s.radius_mm)),
+        Column::num("curvature_per_m", 4, g(|s| s.curvature_per_m)),
+        Column::num("bending_angle_deg", 4, g(|s| s.bending_angle_deg)),
+        Column::num("tip_x_mm", 4, g(|s| s.tip_x_mm)),
+        Column::num("tip_z_mm", 4, g(|s| s.tip_z_mm)),
+        Column::num(
             "max_principal_stress_mpa",
+            4,
             g(|s| s.max_principal_stress_mpa),
         ),
-        NumColumn::new("safety_factor", g(|s| s.safety_factor)),
-        NumColumn::new("bottom_elongation_pct", g(|s| s.bottom_elongation_pct)),
-        NumColumn::new("cavity_volume_mm3", g(|s| s.cavity_volume_mm3)),
+        Column::num("safety_factor", 4, g(|s| s.safety_factor)),
+        Column::num("bottom_elongation_pct", 4, g(|s| s.bottom_elongation_pct)),
+        Column::num("cavity_volume_mm3", 4, g(|s| s.cavity_volume_mm3)),
     ];
-    write_table_csv(&out.join("sweep.csv"), cols, 4)?;
+    write_csv(&out.join("sweep.csv"), &cols)?;
     let pts = |f: fn(&StepResult) -> f64| -> Vec<(f64, f64)> {
         values.iter().copied().zip(g(f)).collect()
     };

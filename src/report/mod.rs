@@ -9,7 +9,6 @@ use std::path::{Path, PathBuf};
 use image::RgbImage;
 use nalgebra::Point2;
 use plotters::prelude::*;
-use polars::prelude::*;
 use serde::Serialize;
 
 use crate::io::write_atomic;
@@ -40,51 +39,6 @@ fn io(path: &Path) -> impl Fn(std::io::Error) -> ReportError + '_ {
         path: path.to_path_buf(),
         source,
     }
-}
-
-/// A numeric column of a table: its header and its values (`None` or NaN: empty cell).
-pub struct NumColumn {
-    /// Header.
-    pub name: String,
-    /// Values.
-    pub values: Vec<Option<f64>>,
-}
-
-impl NumColumn {
-    /// A column from values; NaN becomes an empty cell.
-    pub fn new(name: impl Into<String>, values: impl IntoIterator<Item = f64>) -> Self {
-        Self {
-            name: name.into(),
-            values: values
-                .into_iter()
-                .map(|v| Some(v).filter(|v| !v.is_nan()))
-                .collect(),
-        }
-    }
-}
-
-/// Writes numeric columns as CSV (polars; `precision` decimals), atomically.
-pub fn write_table_csv(
-    path: &Path,
-    columns: Vec<NumColumn>,
-    precision: usize,
-) -> Result<(), ReportError> {
-    let render = |e: PolarsError| ReportError::Render {
-        path: path.to_path_buf(),
-        message: e.to_string(),
-    };
-    let cols: Vec<Column> = columns
-        .into_iter()
-        .map(|c| Column::new(c.name.into(), c.values))
-        .collect();
-    let mut df = DataFrame::new_infer_height(cols).map_err(render)?;
-    let mut buf: Vec<u8> = Vec::new();
-    CsvWriter::new(&mut buf)
-        .include_header(true)
-        .with_float_precision(Some(precision))
-        .finish(&mut df)
-        .map_err(render)?;
-    write_atomic(path, &buf).map_err(io(path))
 }
 
 /// Writes a JSON value atomically.

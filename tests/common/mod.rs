@@ -71,26 +71,16 @@ impl std::fmt::Display for Run {
     }
 }
 
-/// A CSV as (header, rows of fields); quoted fields (messages with commas) kept whole.
+/// A CSV as (header, rows of cells), read through the library's table layer
+/// ([`bendscope::table::Table`]: quoted fields kept whole, blank lines skipped).
 pub fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
-    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let mut lines = text.lines();
-    let header: Vec<String> = lines.next().unwrap().split(',').map(String::from).collect();
-    let rows = lines
-        .map(|l| {
-            // Quoted fields (messages with commas) are kept whole.
-            let mut out = vec![];
-            let mut cur = String::new();
-            let mut q = false;
-            for c in l.chars() {
-                match c {
-                    '"' => q = !q,
-                    ',' if !q => out.push(std::mem::take(&mut cur)),
-                    c => cur.push(c),
-                }
-            }
-            out.push(cur);
-            out
+    let table = bendscope::table::Table::read(path).unwrap_or_else(|e| panic!("{e}"));
+    let header = table.columns().to_vec();
+    let rows = (0..table.len())
+        .map(|r| {
+            (0..header.len())
+                .map(|c| table.cell(r, c).to_string())
+                .collect()
         })
         .collect();
     (header, rows)
