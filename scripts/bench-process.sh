@@ -5,7 +5,10 @@
 #   `ffmpeg -threads 0 -i VIDEO -f null -` (decode only, the baseline), of bendscope
 #   (detect in the raw frame, undistort the centroids) and of the seed method (undistort
 #   every whole frame, then HSV), and the ratios;
-# - peak memory (max RSS) of bendscope on a 4K video.
+# - a 4K 60 fps 10-bit HEVC video with an audio and a timecode track (as a GoPro
+#   records): frames/s of ffmpeg decode-only and of bendscope, the ratio, and bendscope's
+#   peak memory (max RSS);
+# - peak memory of bendscope on a 4K H.264 video.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release --locked --bin bendscope --example bench_video
@@ -36,3 +39,25 @@ awk -v n="$frames" -v f="$t_ff" -v b="$t_bs" -v s="$t_seed" 'BEGIN {
 grep -E "^GX" target/bench/out1080/per_video.csv | cut -d, -f1-3 | sed 's/^/  result (true radius 90 mm): /'
 /usr/bin/time -v target/release/bendscope process "$dir4k" --force -o target/bench/out4k 2> target/bench/time4k.txt > /dev/null
 echo "4K (3840x2160): peak memory $(awk '/Maximum resident/ { printf "%.0f MB", $6 / 1024 }' target/bench/time4k.txt)"
+dir10=target/bench/proc4k10
+if [ ! -f "$dir10/GX010001.MP4" ]; then
+  mkdir -p "$dir10"
+  cp "$dir4k"/pressures.csv "$dir4k"/scale.* "$dir10"/ 2>/dev/null || true
+  cp -r "$dir4k"/*.toml "$dir4k"/*.yaml "$dir10"/ 2>/dev/null || true
+  [ -d "$dir4k/calib" ] && cp -r "$dir4k/calib" "$dir10"/
+  ffmpeg -v error -y -i "$dir4k/GX010001.MP4" -f lavfi -i sine=d=2 -map 0:v -map 1:a \
+    -r 60 -c:v libx265 -preset ultrafast -pix_fmt yuv420p10le -x265-params log-level=error:bitrate=100000 \
+    -c:a aac -timecode 01:00:00:00 -shortest "$dir10/GX010001.MP4"
+fi
+v10="$dir10/GX010001.MP4"
+n10=$(ffprobe -v error -select_streams v:0 -count_packets -show_entries stream=nb_read_packets -of csv=p=0 "$v10")
+t_ff10=$(best ffmpeg -hide_banner -loglevel error -threads 0 -i "$v10" -f null -)
+t_bs10=$(best target/release/bendscope process "$dir10" --force -o target/bench/out4k10)
+/usr/bin/time -v target/release/bendscope process "$dir10" --force -o target/bench/out4k10 2> target/bench/time4k10.txt > /dev/null
+awk -v n="$n10" -v f="$t_ff10" -v b="$t_bs10" 'BEGIN {
+  printf "4K 10-bit HEVC + audio + timecode, %d frames\n", n
+  printf "  ffmpeg decode only : %6.1f fps (%.2f s)\n", n / f, f
+  printf "  bendscope process  : %6.1f fps (%.2f s)  = %.2f x decode-only\n", n / b, b, f / b
+}'
+echo "  peak memory $(awk '/Maximum resident/ { printf "%.0f MB", $6 / 1024 }' target/bench/time4k10.txt)"
+grep -E "^GX" target/bench/out4k10/per_video.csv | cut -d, -f1-3 | sed 's/^/  result: /'

@@ -99,6 +99,49 @@ pub struct DetectSettings {
     pub fill_holes: bool,
     /// Where the clamped end is, to order markers.
     pub clamp_side: ClampSide,
+    /// Lower `v_min` in proportion when the frame is darker than a normally exposed
+    /// white sheet (see [`exposure_adjusted`]).
+    pub auto_exposure: bool,
+}
+
+/// White level of a normally exposed frame (the sheet behind the actuator), 8-bit.
+pub const NOMINAL_WHITE: f64 = 230.0;
+/// Lowest `v_min` the exposure adjustment goes to (below it sensor noise passes for
+/// colour).
+pub const MIN_ADJUSTED_V: u8 = 20;
+/// Samples per side of the grid the white level is read on.
+pub const EXPOSURE_GRID: u32 = 48;
+
+/// The thresholds for this frame: `v_min` scaled by the frame's white level (the 90th
+/// percentile of max(R, G, B) on a coarse grid) over [`NOMINAL_WHITE`] when the frame is
+/// darker than that, never below [`MIN_ADJUSTED_V`]. A red marker in a dim frame keeps
+/// its hue and saturation but loses value; the white sheet tells how much light there is.
+pub fn exposure_adjusted<S: PixelSource>(img: &S, t: &HsvThresholds) -> HsvThresholds {
+    let (w, h) = img.dimensions();
+    if w == 0 || h == 0 {
+        return *t;
+    }
+    let mut levels: Vec<u8> = Vec::with_capacity((EXPOSURE_GRID * EXPOSURE_GRID) as usize);
+    for j in 0..EXPOSURE_GRID {
+        for i in 0..EXPOSURE_GRID {
+            let (x, y) = (
+                ((2 * i + 1) * w / (2 * EXPOSURE_GRID)).min(w - 1),
+                ((2 * j + 1) * h / (2 * EXPOSURE_GRID)).min(h - 1),
+            );
+            let p = img.rgb(x, y);
+            levels.push(p[0].max(p[1]).max(p[2]));
+        }
+    }
+    levels.sort_unstable();
+    let white = levels[levels.len() * 9 / 10] as f64;
+    if white >= NOMINAL_WHITE {
+        return *t;
+    }
+    let v = (t.v_min as f64 * white / NOMINAL_WHITE).round() as u8;
+    HsvThresholds {
+        v_min: v.max(MIN_ADJUSTED_V).min(t.v_min),
+        ..*t
+    }
 }
 
 impl Default for DetectSettings {
@@ -109,6 +152,7 @@ impl Default for DetectSettings {
             max_area_px: DEFAULT_MAX_AREA_PX,
             fill_holes: true,
             clamp_side: ClampSide::Left,
+            auto_exposure: true,
         }
     }
 }
@@ -418,15 +462,17 @@ fn luma(p: &image::Rgb<u8>) -> f64 {
 pub const RING_PX: u32 = 2;
 
 /// Levels of a cue (`value` of a pixel) for coverage weighting: the background around a
-/// blob (median of the surrounding ring) and the fully covered marker (median of the
-/// blob's inner half, the pixels farthest from the background level); `None` when they
-/// differ by less than [`MIN_COVERAGE_CONTRAST`].
+/// blob (median of the surrounding ring), the fully covered marker (median of the
+/// blob's inner half, the pixels farthest from the background level) and the coverage
+/// below which a pixel is taken as background noise (2 robust sigmas of the ring, 1.4826
+/// x its median absolute deviation, over the contrast); `None` when the levels differ by
+/// less than [`MIN_COVERAGE_CONTRAST`].
 fn cue_levels<S: PixelSource>(
     img: &S,
     inside: &[bool],
     bbox: (u32, u32, u32, u32),
     value: fn(&image::Rgb<u8>) -> f64,
-) -> Option<(f64, f64)> {
+) -> Option<(f64, f64, f64)> {
     let (x0, y0, x1, y1) = bbox;
     let (w, h) = img.dimensions();
     let bw = (x1 - x0) as usize;
@@ -453,7 +499,10 @@ fn cue_levels<S: PixelSource>(
     inner.sort_by(|a, b| (b - bg).abs().total_cmp(&(a - bg).abs()));
     let core = &inner[..inner.len().div_ceil(2)];
     let full = core[core.len() / 2];
-    ((full - bg).abs() > MIN_COVERAGE_CONTRAST).then_some((bg, full))
+    let mut dev: Vec<f64> = ring.iter().map(|v| (v - bg).abs()).collect();
+    dev.sort_by(f64::total_cmp);
+    let floor = 2.0 * 1.4826 * dev[dev.len() / 2] / (full - bg).abs().max(1e-9);
+    ((full - bg).abs() > MIN_COVERAGE_CONTRAST).then_some((bg, full, floor.min(0.5)))
 }
 
 /// Blobs of a red mask, with coverage-weighted centroids from `img` (the frame the mask
@@ -496,7 +545,7 @@ pub fn blobs_from_mask<S: PixelSource>(
                 })
         });
         match cue {
-            Some((img, (bg, full), value)) => {
+            Some((img, (bg, full, floor), value)) => {
                 // Coverage over the blob's box grown by the ring; filled holes count fully.
                 let (ex0, ey0) = (x0.saturating_sub(RING_PX), y0.saturating_sub(RING_PX));
                 let (ex1, ey1) = ((x1 + RING_PX).min(w), (y1 + RING_PX).min(h));
@@ -507,7 +556,13 @@ pub fn blobs_from_mask<S: PixelSource>(
                         let c = if filled && mask.get_pixel(x, y)[0] == 0 {
                             1.0
                         } else {
-                            ((value(&img.rgb(x, y)) - bg) / (full - bg)).clamp(0.0, 1.0)
+                            let c = ((value(&img.rgb(x, y)) - bg) / (full - bg)).clamp(0.0, 1.0);
+                            // Background pixels whose noise reads as coverage count 0.
+                            if c < floor && !filled {
+                                0.0
+                            } else {
+                                c
+                            }
                         };
                         add(x, y, c);
                     }
@@ -542,7 +597,12 @@ pub fn detect_markers_with<S: PixelSource>(
     settings: &DetectSettings,
     mask: &mut GrayImage,
 ) -> Detection {
-    mask_from_rgb_sparse_into(img, &settings.hsv, mask);
+    let hsv = if settings.auto_exposure {
+        exposure_adjusted(img, &settings.hsv)
+    } else {
+        settings.hsv
+    };
+    mask_from_rgb_sparse_into(img, &hsv, mask);
     blobs_from_mask(mask, Some(img), settings)
 }
 

@@ -7,7 +7,7 @@ use opencv::core::Mat;
 use opencv::prelude::*;
 
 use crate::calib::{CalibError, Calibration, UndistortSettings, Undistorter};
-use crate::detect::mask_from_rgb;
+use crate::detect::{exposure_adjusted, mask_from_rgb};
 use crate::io::bounded_file_name;
 use crate::report::write_overlay;
 use crate::session::SessionConfig;
@@ -85,7 +85,12 @@ pub fn write_video_overlay(
         .map_err(|e| e.to_string())?;
     let maps = und.maps().map_err(|e| e.to_string())?;
     let img = undistort_rgb(&und, &maps, frame).map_err(|e| e.to_string())?;
-    let mask = mask_from_rgb(&img, &config.detect.hsv);
+    let hsv = if config.detect.auto_exposure {
+        exposure_adjusted(&img, &config.detect.hsv)
+    } else {
+        config.detect.hsv
+    };
+    let mask = mask_from_rgb(&img, &hsv);
     let markers: Vec<nalgebra::Point2<f64>> = m
         .markers_px
         .iter()

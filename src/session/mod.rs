@@ -182,4 +182,3 @@ pub fn find_scale_image(session: &Path, config: &SessionConfig) -> Option<PathBu
     found.sort();
     found.into_iter().next()
 }
-
