@@ -6,10 +6,21 @@
 
 use std::path::Path;
 
+use std::fmt::Write as _;
+
 use serde::Serialize;
 
 use crate::fit::{fit_power_law, PowerLawFit};
-use crate::table::{Table, TableError};
+use crate::io::write_atomic;
+use crate::report::{plot_xy, write_json, Series};
+use crate::table::{write_csv, Column, Table, TableError};
+
+/// grams-force to newtons.
+pub const N_PER_GF: f64 = 9.806_65e-3;
+
+fn output(e: impl std::fmt::Display) -> CompareError {
+    CompareError::Output { why: e.to_string() }
+}
 
 /// Points of the common pressure grid.
 pub const GRID_POINTS: usize = 41;
@@ -31,6 +42,20 @@ pub enum CompareError {
         f0: f64,
         /// Simulated range.
         f1: f64,
+    },
+    /// An input table is missing.
+    #[error("{path} is missing: {why}")]
+    Missing {
+        /// The file.
+        path: std::path::PathBuf,
+        /// What to do.
+        why: String,
+    },
+    /// A result file could not be written.
+    #[error("cannot write the comparison: {why}")]
+    Output {
+        /// What failed.
+        why: String,
     },
     /// A curve could not be fitted.
     #[error("{what}: {why}")]
@@ -156,6 +181,203 @@ pub fn compare_quantity(
         max_abs_deviation: max,
         max_deviation_at_kpa: grid[k],
         rmse_pct: 100.0 * rmse / scale.max(1e-300),
+    })
+}
+
+fn curve(path: &Path, value: &str, scale: f64) -> Result<Curve, CompareError> {
+    let cols = read_columns(path, &["pressure_kpa", value])?;
+    Ok(Curve {
+        pressure_kpa: cols[0].clone(),
+        value: cols[1].iter().map(|v| v * scale).collect(),
+    })
+}
+
+const QUANTITIES: [(&str, &str, &str); 3] = [
+    ("radius_mm", "Radius of curvature", "radius (mm)"),
+    ("curvature_per_m", "Curvature", "curvature (1/m)"),
+    ("bending_angle_deg", "Bending angle", "bending angle (deg)"),
+];
+
+/// What [`compare_to`] found.
+#[derive(Debug, Clone)]
+pub struct CompareReport {
+    /// The text of summary.txt.
+    pub summary: String,
+    /// One comparison per quantity that could be fitted.
+    pub results: Vec<QuantityComparison>,
+    /// Quantities that could not be compared, with why.
+    pub warnings: Vec<String>,
+}
+
+/// Compares `measured` (a `process` output folder) with `fem` (a `simulate` output
+/// folder), with the measured blocked force (`pressure_kpa,force_g`) when given, and
+/// writes compare.csv, compare.json, summary.txt and plots/ into `out`.
+pub fn compare_to(
+    measured: &Path,
+    fem: &Path,
+    force: Option<&Path>,
+    out: &Path,
+) -> Result<CompareReport, CompareError> {
+    let per_video = measured.join("per_video.csv");
+    let steps = fem.join("steps.csv");
+    for (p, what) in [
+        (&per_video, "bendscope process"),
+        (&steps, "bendscope simulate"),
+    ] {
+        if !p.is_file() {
+            return Err(CompareError::Missing {
+                path: p.to_path_buf(),
+                why: format!("give the output folder of `{what}`"),
+            });
+        }
+    }
+    let mut pairs: Vec<(String, String, String, Curve, Curve)> = Vec::new();
+    for (name, title, axis) in QUANTITIES {
+        pairs.push((
+            name.into(),
+            title.into(),
+            axis.into(),
+            curve(&per_video, name, 1.0)?,
+            curve(&steps, name, 1.0)?,
+        ));
+    }
+    if let Some(force) = &force {
+        let measured = curve(force, "force_g", N_PER_GF)?;
+        let fem_force = fem.join("force.csv");
+        if !fem_force.is_file() {
+            return Err(CompareError::Missing {
+                path: fem_force,
+                why: "run bendscope simulate with --blocked to compare forces".into(),
+            });
+        }
+        pairs.push((
+            "force_n".into(),
+            "Blocked tip force".into(),
+            "force (N)".into(),
+            measured,
+            curve(&fem_force, "force_n", 1.0)?,
+        ));
+    }
+    std::fs::create_dir_all(out).map_err(output)?;
+    let mut results: Vec<QuantityComparison> = Vec::new();
+    let mut summary = format!(
+        "bendscope compare: measured {} vs simulated {}\nfits y = a p^b + c, compared on a common pressure grid\n\n",
+        measured.display(),
+        fem.display()
+    );
+    let mut warnings = Vec::new();
+    for (name, title, axis, m, f) in &pairs {
+        let c = match compare_quantity(name, m, f) {
+            Ok(c) => c,
+            Err(e @ CompareError::NoOverlap { .. }) => return Err(e),
+            Err(e) => {
+                warnings.push(e.to_string());
+                continue;
+            }
+        };
+        let _ = writeln!(
+            summary,
+            "{name:>18}: RMSE {:.4} ({:.2}% of the measured RMS), max |deviation| {:.4} at {:.1} kPa over {:.1}-{:.1} kPa",
+            c.rmse,
+            c.rmse_pct,
+            c.max_abs_deviation,
+            c.max_deviation_at_kpa,
+            c.grid_kpa[0],
+            c.grid_kpa[c.grid_kpa.len() - 1]
+        );
+        let stem = out.join("plots").join(
+            name.trim_end_matches("_mm")
+                .trim_end_matches("_per_m")
+                .trim_end_matches("_deg")
+                .trim_end_matches("_n"),
+        );
+        plot_xy(
+            &stem,
+            &format!("{title}: measured vs FEM"),
+            "pressure (kPa)",
+            axis,
+            &[
+                Series {
+                    label: "measured",
+                    points: m
+                        .pressure_kpa
+                        .iter()
+                        .copied()
+                        .zip(m.value.iter().copied())
+                        .collect(),
+                    line: false,
+                },
+                Series {
+                    label: "measured fit",
+                    points: c
+                        .grid_kpa
+                        .iter()
+                        .copied()
+                        .zip(c.measured.iter().copied())
+                        .collect(),
+                    line: true,
+                },
+                Series {
+                    label: "FEM",
+                    points: f
+                        .pressure_kpa
+                        .iter()
+                        .copied()
+                        .zip(f.value.iter().copied())
+                        .collect(),
+                    line: false,
+                },
+                Series {
+                    label: "FEM fit",
+                    points: c
+                        .grid_kpa
+                        .iter()
+                        .copied()
+                        .zip(c.fem.iter().copied())
+                        .collect(),
+                    line: true,
+                },
+            ],
+        )
+        .map_err(output)?;
+        results.push(c);
+    }
+    if let Some(first) = results.first() {
+        let mut cols = vec![Column::num(
+            "pressure_kpa",
+            5,
+            first.grid_kpa.iter().copied(),
+        )];
+        for c in &results {
+            cols.push(Column::num(
+                format!("{}_measured", c.name),
+                5,
+                c.measured.iter().copied(),
+            ));
+            cols.push(Column::num(
+                format!("{}_fem", c.name),
+                5,
+                c.fem.iter().copied(),
+            ));
+            cols.push(Column::num(
+                format!("{}_deviation", c.name),
+                5,
+                c.fem.iter().zip(&c.measured).map(|(f, m)| f - m),
+            ));
+        }
+        // Quantities share the grid only when their ranges agree; radius, curvature and
+        // angle come from the same two tables, so they do; force may not.
+        if !results.iter().all(|c| c.grid_kpa == first.grid_kpa) {
+            cols.truncate(1 + 3 * 3);
+        }
+        write_csv(&out.join("compare.csv"), &cols)?;
+    }
+    write_json(&out.join("compare.json"), &results).map_err(output)?;
+    write_atomic(&out.join("summary.txt"), summary.as_bytes()).map_err(output)?;
+    Ok(CompareReport {
+        summary,
+        results,
+        warnings,
     })
 }
 

@@ -8,8 +8,8 @@
 //! tangent) -> [`hex`] (Q1/P0 mean-dilatation hexahedron) and [`pressure`] (cavity
 //! faces, follower pressure as −p V) -> [`solve`] (Newton on the three-field form,
 //! adaptive load steps) -> [`actuator`] (the parametric PneuNets geometry and its half
-//! mesh) -> [`simulate`] (the pressure ramp and the quantities read off each step) and
-//! [`vtu`] (ParaView files).
+//! mesh) -> [`simulate`] (the pressure ramp and the quantities read off each step),
+//! [`vtu`] (ParaView files) and [`output`] (every result file of a run or a sweep).
 //!
 //! Verified (tests): Yeoh uniaxial and equibiaxial stress against method.md §5; stress,
 //! tangent, pressure force and load stiffness against finite differences; the uniaxial
@@ -19,6 +19,7 @@
 pub mod actuator;
 pub mod hex;
 pub mod material;
+pub mod output;
 pub mod pressure;
 pub mod simulate;
 pub mod solve;
@@ -39,6 +40,12 @@ pub enum FemError {
     #[error("FEM model: {why}")]
     Model {
         /// What is wrong.
+        why: String,
+    },
+    /// A result file could not be written.
+    #[error("cannot write the results: {why}: check the output folder's space and permissions")]
+    Output {
+        /// What failed.
         why: String,
     },
     /// Newton did not converge.

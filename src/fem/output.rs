@@ -1,0 +1,448 @@
+//! A simulation's outputs: runs a ramp (and the blocked-tip ramp, and sweeps) and writes
+//! `steps.csv`, `markers.csv`, `side_face.json`, `vtu/` + `actuator.pvd`, `force.csv`,
+//! `plots/`, `config.toml`, `summary.json` and `sweep.csv`. The `simulate` command only
+//! parses flags and prints what [`simulate_to`] and [`sweep_to`] return.
+
+use std::path::Path;
+use std::time::Instant;
+
+use serde::Serialize;
+
+use super::actuator::{build_mesh, ActuatorConfig, ActuatorMesh};
+use super::simulate::{
+    mesh_notes, ramp_warnings, run_ramp, Ramp, RampSettings, SideFaceFile, StepResult,
+};
+use super::vtu::{write_pvd, write_vtu};
+use super::FemError;
+use crate::io::write_atomic;
+use crate::report::{plot_xy, write_json, Series};
+use crate::table::{write_csv, Column};
+
+/// Largest bottom elongation (magnitude) of an acceptable design, % (the published
+/// selection of the bottom thickness f). The bottom face is on the inside of the bend, so
+/// its "elongation" is usually a shortening (negative in steps.csv).
+pub const BOTTOM_ELONGATION_LIMIT_PCT: f64 = 10.0;
+
+fn output(e: impl std::fmt::Display) -> FemError {
+    FemError::Output { why: e.to_string() }
+}
+
+/// Runs a ramp, writing a VTU per step into `vtu_dir/vtu/`; `progress` sees each step.
+pub fn ramp_with_outputs(
+    mesh: &ActuatorMesh,
+    pressures: &[f64],
+    cfg: &ActuatorConfig,
+    blocked: bool,
+    vtu_dir: Option<&Path>,
+    progress: &mut dyn FnMut(&StepResult),
+) -> Result<(Ramp, Vec<(f64, String)>, SideFaceFile), FemError> {
+    let mut files = Vec::new();
+    let mut io_error = None;
+    let (mut face, face_nodes) = SideFaceFile::new(mesh);
+    let settings = RampSettings {
+        blocked,
+        newton: cfg.solver.newton(),
+    };
+    let ramp = run_ramp(mesh, pressures, &settings, |step, fields| {
+        face.push(mesh, &face_nodes, step, fields.displacement);
+        if let Some(dir) = vtu_dir {
+            let name = format!("vtu/step_{:03}.vtu", files.len() + 1);
+            match write_vtu(
+                &dir.join(&name),
+                &mesh.model.nodes,
+                &mesh.model.elements,
+                fields.displacement,
+                fields.stresses,
+            ) {
+                Ok(()) => files.push((step.pressure_kpa, name)),
+                Err(e) => {
+                    io_error.get_or_insert(e);
+                }
+            }
+        }
+        progress(step);
+    })?;
+    if let Some(e) = io_error {
+        return Err(output(format!("VTK files: {e}")));
+    }
+    Ok((ramp, files, face))
+}
+
+/// A column of step results with `decimals` digits.
+fn col(name: &str, decimals: usize, steps: &[StepResult], f: fn(&StepResult) -> f64) -> Column {
+    Column::num(name, decimals, steps.iter().map(f))
+}
+
+/// Writes `steps.csv` and `markers.csv`.
+pub fn write_steps(out: &Path, steps: &[StepResult]) -> Result<(), FemError> {
+    write_csv(
+        &out.join("steps.csv"),
+        &[
+            col("pressure_kpa", 4, steps, |s| s.pressure_kpa),
+            col("radius_mm", 4, steps, |s| s.radius_mm),
+            col("curvature_per_m", 4, steps, |s| s.curvature_per_m),
+            col("bending_angle_deg", 4, steps, |s| s.bending_angle_deg),
+            col("tip_x_mm", 4, steps, |s| s.tip_x_mm),
+            col("tip_z_mm", 4, steps, |s| s.tip_z_mm),
+            col("max_principal_stress_mpa", 4, steps, |s| {
+                s.max_principal_stress_mpa
+            }),
+            col("safety_factor", 4, steps, |s| s.safety_factor),
+            col("bottom_elongation_pct", 4, steps, |s| {
+                s.bottom_elongation_pct
+            }),
+            col("cavity_volume_mm3", 4, steps, |s| s.cavity_volume_mm3),
+            Column::int(
+                "newton_iterations",
+                steps.iter().map(|s| s.newton_iterations as u64),
+            ),
+        ],
+    )
+    .map_err(output)?;
+    let n_markers = steps.first().map(|s| s.markers_mm.len()).unwrap_or(0);
+    let mut cols = vec![col("pressure_kpa", 5, steps, |s| s.pressure_kpa)];
+    for k in 0..n_markers {
+        cols.push(Column::num(
+            format!("m{}_x_mm", k + 1),
+            5,
+            steps.iter().map(|s| s.markers_mm[k].0),
+        ));
+        cols.push(Column::num(
+            format!("m{}_z_mm", k + 1),
+            5,
+            steps.iter().map(|s| s.markers_mm[k].1),
+        ));
+    }
+    write_csv(&out.join("markers.csv"), &cols).map_err(output)?;
+    Ok(())
+}
+
+/// Writes `force.csv` (blocked tip).
+pub fn write_force(out: &Path, steps: &[StepResult]) -> Result<(), FemError> {
+    let force = |s: &StepResult| s.blocked_force_n.unwrap_or(f64::NAN);
+    write_csv(
+        &out.join("force.csv"),
+        &[
+            col("pressure_kpa", 5, steps, |s| s.pressure_kpa),
+            Column::num("force_n", 5, steps.iter().map(force)),
+            Column::num(
+                "force_gf",
+                5,
+                steps
+                    .iter()
+                    .map(|s| force(s) / super::actuator::GRAVITY_M_S2 * 1000.0),
+            ),
+        ],
+    )
+    .map_err(output)?;
+    Ok(())
+}
+
+/// Draws the ramp's plots (and the blocked force's).
+pub fn plot_steps(out: &Path, steps: &[StepResult], force: &[StepResult]) -> Result<(), FemError> {
+    let plots = out.join("plots");
+    let xy = |f: fn(&StepResult) -> f64, s: &[StepResult]| -> Vec<(f64, f64)> {
+        s.iter().map(|s| (s.pressure_kpa, f(s))).collect()
+    };
+    let one = |name: &str, title: &str, y: &str, pts: Vec<(f64, f64)>| {
+        plot_xy(
+            &plots.join(name),
+            title,
+            "pressure (kPa)",
+            y,
+            &[Series {
+                label: "FEM",
+                points: pts,
+                line: true,
+            }],
+        )
+        .map_err(output)
+    };
+    one(
+        "radius",
+        "Radius of curvature vs pressure",
+        "radius (mm)",
+        xy(|s| s.radius_mm, steps),
+    )?;
+    one(
+        "curvature",
+        "Curvature vs pressure",
+        "curvature (1/m)",
+        xy(|s| s.curvature_per_m, steps),
+    )?;
+    one(
+        "bending_angle",
+        "Bending angle vs pressure",
+        "bending angle (deg)",
+        xy(|s| s.bending_angle_deg, steps),
+    )?;
+    one(
+        "safety_factor",
+        "Safety factor vs pressure",
+        "tensile strength / max principal stress",
+        xy(|s| s.safety_factor, steps),
+    )?;
+    if !force.is_empty() {
+        one(
+            "force",
+            "Blocked tip force vs pressure",
+            "force (N)",
+            xy(|s| s.blocked_force_n.unwrap_or(f64::NAN), force),
+        )?;
+    }
+    Ok(())
+}
+
+/// What to run besides the ramp.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct SimulateOptions {
+    /// Also the blocked-tip ramp (force.csv).
+    pub blocked: bool,
+    /// Write VTU files.
+    pub vtu: bool,
+}
+
+/// `summary.json` and what `simulate` prints.
+#[derive(Debug, Clone, Serialize)]
+pub struct SimulationSummary {
+    /// Nodes of the half model.
+    pub nodes_half_model: usize,
+    /// Hexahedra of the half model.
+    pub elements_half_model: usize,
+    /// Free degrees of freedom.
+    pub free_dofs: usize,
+    /// Cavity faces under pressure.
+    pub pressure_faces: usize,
+    /// Steps that converged.
+    pub steps_converged: usize,
+    /// Steps asked for.
+    pub steps_requested: usize,
+    /// Newton iterations over the ramp.
+    pub newton_iterations: usize,
+    /// Seconds of the ramp.
+    pub seconds: f64,
+    /// Why the ramp stopped early, if it did.
+    pub failure: Option<String>,
+    /// Notes on the model (mesh coarser than a wall).
+    pub notes: Vec<String>,
+    /// Warnings on the results (safety factor below 1, markers past a full turn).
+    pub warnings: Vec<String>,
+}
+
+/// A simulation's results.
+#[derive(Debug, Clone)]
+pub struct Simulation {
+    /// The summary (also in summary.json).
+    pub summary: SimulationSummary,
+    /// The converged steps.
+    pub steps: Vec<StepResult>,
+    /// The blocked-tip steps (empty unless asked for).
+    pub force_steps: Vec<StepResult>,
+}
+
+/// Simulates `cfg` into `out` (every output file); `progress(stage, step)` sees each
+/// converged step. A ramp that stops early is not an error: its converged steps are
+/// written and `summary.failure` says why.
+pub fn simulate_to(
+    out: &Path,
+    cfg: &ActuatorConfig,
+    options: SimulateOptions,
+    progress: &mut dyn FnMut(&str, &StepResult),
+) -> Result<Simulation, FemError> {
+    std::fs::create_dir_all(out).map_err(output)?;
+    let text = toml::to_string_pretty(cfg).map_err(output)?;
+    write_atomic(&out.join("config.toml"), text.as_bytes()).map_err(output)?;
+    let pressures = cfg.pressures_kpa()?;
+    let notes = mesh_notes(cfg);
+    let mesh = build_mesh(cfg)?;
+    let started = Instant::now();
+    let (ramp, vtu_files, face) = ramp_with_outputs(
+        &mesh,
+        &pressures,
+        cfg,
+        false,
+        options.vtu.then_some(out),
+        &mut |s| progress("pressure steps", s),
+    )?;
+    write_json(&out.join("side_face.json"), &face).map_err(output)?;
+    let seconds = started.elapsed().as_secs_f64();
+    write_steps(out, &ramp.steps)?;
+    if !vtu_files.is_empty() {
+        write_pvd(&out.join("actuator.pvd"), &vtu_files).map_err(output)?;
+    }
+    let mut failure = ramp.failure.as_ref().map(|e| e.to_string());
+    let mut force_steps = Vec::new();
+    if options.blocked {
+        let blocked = ramp_with_outputs(&mesh, &pressures, cfg, true, None, &mut |s| {
+            progress("blocked tip", s)
+        })?
+        .0;
+        write_force(out, &blocked.steps)?;
+        force_steps = blocked.steps;
+        if let Some(e) = blocked.failure {
+            failure.get_or_insert(format!("blocked tip: {e}"));
+        }
+    }
+    plot_steps(out, &ramp.steps, &force_steps)?;
+    let summary = SimulationSummary {
+        nodes_half_model: mesh.model.nodes.len(),
+        elements_half_model: mesh.model.elements.len(),
+        free_dofs: ramp.free_dofs,
+        pressure_faces: mesh.model.pressure_faces.len(),
+        steps_converged: ramp.steps.len(),
+        steps_requested: pressures.len(),
+        newton_iterations: ramp.steps.iter().map(|s| s.newton_iterations).sum(),
+        seconds,
+        failure,
+        notes,
+        warnings: ramp_warnings(&ramp.steps),
+    };
+    write_json(&out.join("summary.json"), &summary).map_err(output)?;
+    Ok(Simulation {
+        summary,
+        steps: ramp.steps,
+        force_steps,
+    })
+}
+
+/// One design of a sweep.
+#[derive(Debug, Clone)]
+pub struct SweepRow {
+    /// The swept parameter's value.
+    pub value: f64,
+    /// Results at the last converged pressure.
+    pub last: Option<StepResult>,
+    /// `ok`, or why the design stopped early or failed.
+    pub status: String,
+}
+
+/// A sweep's results.
+#[derive(Debug, Clone)]
+pub struct Sweep {
+    /// One row per value.
+    pub rows: Vec<SweepRow>,
+    /// The top pressure of the ramp, kPa.
+    pub top_kpa: f64,
+    /// The smallest value whose |bottom elongation| stays within
+    /// [`BOTTOM_ELONGATION_LIMIT_PCT`] at the top pressure.
+    pub selected: Option<f64>,
+}
+
+/// Runs one design per value of parameter `name` (each checked first) and writes
+/// `sweep.csv` and its plots into `out`; `progress(value)` sees each design as it starts.
+pub fn sweep_to(
+    out: &Path,
+    base: &ActuatorConfig,
+    name: &str,
+    values: &[f64],
+    progress: &mut dyn FnMut(f64),
+) -> Result<Sweep, FemError> {
+    let mut designs = Vec::new();
+    for v in values {
+        let c = base.with_parameter(name, *v)?;
+        c.validate()?;
+        designs.push(c);
+    }
+    std::fs::create_dir_all(out).map_err(output)?;
+    let pressures = base.pressures_kpa()?;
+    let mut rows = Vec::new();
+    for (v, cfg) in values.iter().zip(&designs) {
+        progress(*v);
+        let result = build_mesh(cfg).and_then(|mesh| {
+            let settings = RampSettings {
+                blocked: false,
+                newton: cfg.solver.newton(),
+            };
+            run_ramp(&mesh, &pressures, &settings, |_, _| {})
+        });
+        rows.push(match result {
+            Ok(ramp) => SweepRow {
+                value: *v,
+                last: ramp.steps.last().cloned(),
+                status: match &ramp.failure {
+                    None => "ok".to_string(),
+                    Some(e) => format!("stopped early: {e}"),
+                },
+            },
+            Err(e) => SweepRow {
+                value: *v,
+                last: None,
+                status: format!("failed: {e}"),
+            },
+        });
+    }
+    let g = |f: fn(&StepResult) -> f64| -> Vec<f64> {
+        rows.iter()
+            .map(|r| r.last.as_ref().map(f).unwrap_or(f64::NAN))
+            .collect()
+    };
+    let num = |n: &str, v: Vec<f64>| Column::num(n, 4, v);
+    let cols = vec![
+        num(name, values.to_vec()),
+        num("pressure_kpa", g(|s| s.pressure_kpa)),
+        num("radius_mm", g(|s| s.radius_mm)),
+        num("curvature_per_m", g(|s| s.curvature_per_m)),
+        num("bending_angle_deg", g(|s| s.bending_angle_deg)),
+        num("tip_x_mm", g(|s| s.tip_x_mm)),
+        num("tip_z_mm", g(|s| s.tip_z_mm)),
+        num(
+            "max_principal_stress_mpa",
+            g(|s| s.max_principal_stress_mpa),
+        ),
+        num("safety_factor", g(|s| s.safety_factor)),
+        num("bottom_elongation_pct", g(|s| s.bottom_elongation_pct)),
+        num("cavity_volume_mm3", g(|s| s.cavity_volume_mm3)),
+        Column::text("status", rows.iter().map(|r| r.status.clone())),
+    ];
+    write_csv(&out.join("sweep.csv"), &cols).map_err(output)?;
+    let pts = |f: fn(&StepResult) -> f64| -> Vec<(f64, f64)> {
+        values.iter().copied().zip(g(f)).collect()
+    };
+    for (file, title, y, f) in [
+        (
+            "sweep_radius",
+            "Radius at the top pressure",
+            "radius (mm)",
+            (|s: &StepResult| s.radius_mm) as fn(&StepResult) -> f64,
+        ),
+        (
+            "sweep_bottom_elongation",
+            "Bottom elongation at the top pressure",
+            "bottom elongation (%)",
+            |s: &StepResult| s.bottom_elongation_pct,
+        ),
+        (
+            "sweep_bending_angle",
+            "Bending angle at the top pressure",
+            "bending angle (deg)",
+            |s: &StepResult| s.bending_angle_deg,
+        ),
+    ] {
+        plot_xy(
+            &out.join("plots").join(file),
+            title,
+            name,
+            y,
+            &[Series {
+                label: "FEM",
+                points: pts(f),
+                line: true,
+            }],
+        )
+        .map_err(output)?;
+    }
+    let selected = rows
+        .iter()
+        .filter(|r| r.status == "ok")
+        .find(|r| {
+            r.last
+                .as_ref()
+                .is_some_and(|s| s.bottom_elongation_pct.abs() <= BOTTOM_ELONGATION_LIMIT_PCT)
+        })
+        .map(|r| r.value);
+    Ok(Sweep {
+        rows,
+        top_kpa: pressures.last().copied().unwrap_or(0.0),
+        selected,
+    })
+}
