@@ -805,7 +805,14 @@ impl VideoRun<'_> {
                         &m,
                     ) {
                         Ok(rel) => result.outputs.push(rel),
-                        Err(e) => result.problems.push(format!("overlay not written: {e}")),
+                        Err(e) => {
+                            result.problems.push(format!(
+                                "overlay not written: {e}: check that overlays/ in the output folder is a writable folder (a rerun makes it)"
+                            ));
+                            // Named all the same: the cache entry stays stale until the
+                            // overlay exists, so a rerun makes it.
+                            result.outputs.push(overlay::overlay_rel_path(&entry.file));
+                        }
                     }
                 }
                 result.frames.push(FrameRecord {
