@@ -269,6 +269,8 @@ pub fn measure_session(
     };
     let layout = read_layout(session)?;
     std::fs::create_dir_all(out).map_err(write_err(out))?;
+    // Temporaries of a run killed while writing.
+    crate::io::remove_stale_temporaries(&["", "cache", "overlays", "plots"].map(|d| out.join(d)));
     let mut notes = Notes {
         lines: vec![],
         progress,
