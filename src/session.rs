@@ -182,7 +182,7 @@ pub fn read_manifest(session: &Path) -> Result<Manifest, SessionError> {
         path: path.clone(),
         why: format!("{e}: write a {MANIFEST} with the header `file,pressure_bar` (or pressure_kpa, pressure_psi) and one row per video"),
     })?;
-    let mut lines = text
+    let mut lines = without_bom(&text)
         .lines()
         .enumerate()
         .filter(|(_, l)| !l.trim().is_empty());
@@ -356,7 +356,7 @@ pub fn read_pressure_log(path: &Path) -> Result<PressureLog, SessionError> {
         why,
     };
     let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
-    let mut lines = text
+    let mut lines = without_bom(&text)
         .lines()
         .enumerate()
         .filter(|(_, l)| !l.trim().is_empty());
@@ -427,6 +427,11 @@ fn pressure_column(cols: &[String]) -> Option<(usize, PressureUnit)> {
         "pressure_psi" => Some((i, PressureUnit::Psi)),
         _ => None,
     })
+}
+
+/// `text` without the UTF-8 byte order mark spreadsheet programs put first.
+fn without_bom(text: &str) -> &str {
+    text.strip_prefix('\u{feff}').unwrap_or(text)
 }
 
 /// Splits one CSV line (commas; double quotes around a field are removed).
@@ -831,6 +836,21 @@ mod tests {
             e.contains("pressure_bar, pressure_kpa or pressure_psi"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn a_spreadsheet_export_with_bom_crlf_and_quotes_is_read() {
+        let d = session(
+            "\u{feff}\"file\",\"pressure_kpa\"\r\n\"GX010001.MP4\",20\r\nGX010002.MP4,\"35\"\r\n",
+            &["GX010001.MP4", "GX010002.MP4"],
+        );
+        let m = read_manifest(d.path()).unwrap();
+        assert!(m.issues.is_empty(), "{:?}", m.issues);
+        assert_eq!(m.entries.len(), 2);
+        assert_eq!(m.entries[1].pressure_kpa, 35.0);
+        let p = d.path().join(PRESSURE_LOG);
+        std::fs::write(&p, "\u{feff}time_s,pressure_kpa\r\n0,1\r\n1,2\r\n").unwrap();
+        assert_eq!(read_pressure_log(&p).unwrap().pressure_at(0.5), Some(1.5));
     }
 
     #[test]
