@@ -208,17 +208,26 @@ pub fn read_manifest(session: &Path) -> Result<Manifest, SessionError> {
                 "no pressure column with a unit in the header `{header}`: name it pressure_bar, pressure_kpa or pressure_psi"
             ),
         })?;
-    // Videos in the folder, by upper-case name.
-    let mut videos: BTreeMap<String, String> = BTreeMap::new();
+    // Videos in the folder, by upper-case name (names that differ only in letter case,
+    // possible on case-sensitive file systems, share a key).
+    let mut videos: BTreeMap<String, Vec<String>> = BTreeMap::new();
     if let Ok(rd) = std::fs::read_dir(session) {
         for e in rd.flatten() {
             let p = e.path();
             if p.is_file() && has_extension(&p, VIDEO_EXTENSIONS) {
                 let name = e.file_name().to_string_lossy().into_owned();
-                videos.insert(name.to_ascii_uppercase(), name);
+                videos
+                    .entry(name.to_ascii_uppercase())
+                    .or_default()
+                    .push(name);
             }
         }
     }
+    for names in videos.values_mut() {
+        names.sort();
+    }
+    // Upper-case names given by a row, usable or not (its problem is reported there).
+    let mut named: HashSet<String> = HashSet::new();
     let mut entries: Vec<ManifestEntry> = Vec::new();
     let mut issues = Vec::new();
     let mut seen: HashSet<String> = HashSet::new();
@@ -236,6 +245,7 @@ pub fn read_manifest(session: &Path) -> Result<Manifest, SessionError> {
             issues.push(issue("no file name in this row".into()));
             continue;
         }
+        named.insert(file.to_ascii_uppercase());
         let pressure: f64 = match raw.parse::<f64>() {
             Ok(v) if v.is_finite() && v >= 0.0 => v,
             Ok(v) => {
@@ -257,11 +267,24 @@ pub fn read_manifest(session: &Path) -> Result<Manifest, SessionError> {
             issues.push(issue("listed twice: the first row is used".into()));
             continue;
         }
-        let Some(actual) = videos.get(&file.to_ascii_uppercase()).cloned() else {
-            issues.push(issue(
-                "no such video in the session folder: check the name".into(),
-            ));
-            continue;
+        let actual = match videos.get(&file.to_ascii_uppercase()).map(Vec::as_slice) {
+            None | Some([]) => {
+                issues.push(issue(
+                    "no such video in the session folder: check the name".into(),
+                ));
+                continue;
+            }
+            Some([one]) => one.clone(),
+            Some(several) => match several.iter().find(|n| **n == file) {
+                Some(exact) => exact.clone(),
+                None => {
+                    issues.push(issue(format!(
+                        "matches {}, which differ only in letter case: write the name exactly as on disk, or rename one of them",
+                        several.join(" and ")
+                    )));
+                    continue;
+                }
+            },
         };
         entries.push(ManifestEntry {
             line: lineno,
@@ -276,11 +299,11 @@ pub fn read_manifest(session: &Path) -> Result<Manifest, SessionError> {
         .iter()
         .map(|e| e.file.to_ascii_uppercase())
         .collect();
-    let mut claimed: HashSet<String> = HashSet::new();
     for e in entries.iter_mut() {
         if let Some((prefix, 1, rec)) = gopro_parts(&e.file) {
             let mut chapters: Vec<(u32, String)> = videos
                 .values()
+                .flatten()
                 .filter_map(|v| match gopro_parts(v) {
                     Some((p, ch, r))
                         if p == prefix
@@ -294,18 +317,30 @@ pub fn read_manifest(session: &Path) -> Result<Manifest, SessionError> {
                 })
                 .collect();
             chapters.sort();
-            for (_, c) in &chapters {
-                claimed.insert(c.to_ascii_uppercase());
-            }
+            // One file per chapter (a name in another letter case is reported below).
+            chapters.dedup_by_key(|(ch, _)| *ch);
             e.chapters = chapters.into_iter().map(|(_, c)| c).collect();
         }
     }
-    for (upper, name) in &videos {
-        if !listed.contains(upper) && !claimed.contains(upper) {
+    let used: HashSet<&str> = entries
+        .iter()
+        .flat_map(|e| std::iter::once(&e.file).chain(&e.chapters))
+        .map(String::as_str)
+        .collect();
+    for (upper, names) in &videos {
+        for name in names.iter().filter(|n| !used.contains(n.as_str())) {
+            let message = match names.iter().find(|n| used.contains(n.as_str())) {
+                Some(twin) => format!(
+                    "differs only in letter case from {twin}, which is measured: not processed (rename or remove one of them)"
+                ),
+                // Its row is reported.
+                None if named.contains(upper) => continue,
+                None => format!("not in {MANIFEST}: not processed (add a row with its pressure)"),
+            };
             issues.push(SessionIssue {
                 file: name.clone(),
                 line: None,
-                message: format!("not in {MANIFEST}: not processed (add a row with its pressure)"),
+                message,
             });
         }
     }
@@ -876,6 +911,51 @@ mod tests {
         assert!(has("MISSING.MP4: no such video"), "{msgs:?}");
         assert!(has("GX010004.MP4: pressure `` is not a number"), "{msgs:?}");
         assert!(has("GX010009.MP4: not in pressures.csv"), "{msgs:?}");
+    }
+
+    #[test]
+    fn a_bad_row_is_its_videos_only_report() {
+        let d = session(
+            "file,pressure_kpa\nGX010001.MP4,abc\nGX010002.MP4,-1\nGX010003.MP4,7\nGX010003.MP4,8\n",
+            &["GX010001.MP4", "GX010002.MP4", "GX010003.MP4"],
+        );
+        let m = read_manifest(d.path()).unwrap();
+        assert_eq!(m.entries.len(), 1);
+        let files: Vec<&str> = m.issues.iter().map(|i| i.file.as_str()).collect();
+        assert_eq!(
+            files,
+            ["GX010001.MP4", "GX010002.MP4", "GX010003.MP4"],
+            "{:?}",
+            m.issues
+        );
+        assert!(m.issues.iter().all(|i| i.line.is_some()), "{:?}", m.issues);
+    }
+
+    #[test]
+    fn names_that_differ_only_in_case_are_not_confused() {
+        let d = session(
+            "file,pressure_kpa\nGX010003.MP4,50\n",
+            &["GX010003.MP4", "gx010003.mp4"],
+        );
+        let m = read_manifest(d.path()).unwrap();
+        assert_eq!(m.entries.len(), 1);
+        assert_eq!(m.entries[0].file, "GX010003.MP4", "the exact name");
+        assert_eq!(m.issues.len(), 1, "{:?}", m.issues);
+        assert_eq!(m.issues[0].file, "gx010003.mp4");
+        assert!(m.issues[0]
+            .message
+            .contains("differs only in letter case from GX010003.MP4"));
+        // A row matching both only case-insensitively is refused, both files kept out.
+        let d = session(
+            "file,pressure_kpa\nGx010003.Mp4,50\n",
+            &["GX010003.MP4", "gx010003.mp4"],
+        );
+        let m = read_manifest(d.path()).unwrap();
+        assert!(m.entries.is_empty());
+        assert_eq!(m.issues.len(), 1, "{:?}", m.issues);
+        assert!(m.issues[0]
+            .message
+            .contains("GX010003.MP4 and gx010003.mp4"));
     }
 
     #[test]
