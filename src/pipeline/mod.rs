@@ -232,7 +232,8 @@ fn read_layout(session: &Path) -> Result<Layout, PipelineError> {
         }
         _ => {
             let m = read_manifest(session)?;
-            if m.entries.is_empty() && m.issues.is_empty() {
+            // No row at all (issues without a line are videos the manifest lacks).
+            if m.entries.is_empty() && m.issues.iter().all(|i| i.line.is_none()) {
                 return Err(PipelineError::Layout {
                     path: session.join(MANIFEST),
                     why: "lists no videos: add one row per video".into(),
