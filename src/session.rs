@@ -199,7 +199,7 @@ pub fn read_manifest(session: &Path) -> Result<Manifest, SessionError> {
         .position(|c| c == "file")
         .ok_or_else(|| SessionError::Manifest {
             path: path.clone(),
-            why: format!("no `file` column in the header `{header}`"),
+            why: format!("no `file` column in the header `{header}`: name the video column `file` (header `file,pressure_bar`)"),
         })?;
     let (p_col, unit) = pressure_column(&cols)
         .ok_or_else(|| SessionError::Manifest {
@@ -390,7 +390,11 @@ pub fn read_pressure_log(path: &Path) -> Result<PressureLog, SessionError> {
         path: path.to_path_buf(),
         why,
     };
-    let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
+    let text = std::fs::read_to_string(path).map_err(|e| {
+        bad(format!(
+            "{e}: a pressure log is a CSV text file, `time_s,pressure_kpa` (or _bar, _psi) and one row per sample"
+        ))
+    })?;
     let mut lines = without_bom(&text)
         .lines()
         .enumerate()
@@ -428,7 +432,10 @@ pub fn read_pressure_log(path: &Path) -> Result<PressureLog, SessionError> {
             return Err(bad(format!("line {}: negative pressure {p}", i + 1)));
         }
         if log.times_s.last().is_some_and(|&last| t <= last) {
-            return Err(bad(format!("line {}: time {t} s does not increase", i + 1)));
+            return Err(bad(format!(
+                "line {}: time {t} s does not increase: sort the rows by time and drop repeated samples",
+                i + 1
+            )));
         }
         log.times_s.push(t);
         log.pressures_kpa.push(p * unit.to_kpa());
@@ -561,14 +568,21 @@ impl Default for SessionConfig {
 impl SessionConfig {
     /// Reads `path` (TOML); missing fields take their defaults.
     pub fn read(path: &Path) -> Result<Self, SessionError> {
-        let text = std::fs::read_to_string(path).map_err(|e| SessionError::Config {
+        let bad = |why: String| SessionError::Config {
             path: path.to_path_buf(),
-            why: e.to_string(),
+            why,
+        };
+        let text = std::fs::read_to_string(path).map_err(|e| {
+            bad(match e.kind() {
+                std::io::ErrorKind::NotFound => "no such file: check the path".to_string(),
+                std::io::ErrorKind::InvalidData => format!(
+                    "not a text file: {CONFIG} holds TOML settings (`key = value` lines, see the README)"
+                ),
+                _ => e.to_string(),
+            })
         })?;
-        let c: SessionConfig = toml::from_str(&text).map_err(|e| SessionError::Config {
-            path: path.to_path_buf(),
-            why: e.message().to_string(),
-        })?;
+        let c: SessionConfig =
+            toml::from_str(&text).map_err(|e| bad(toml_error_line(&text, &e)))?;
         c.check(path)?;
         Ok(c)
     }
@@ -626,6 +640,33 @@ impl SessionConfig {
         }
         Ok(())
     }
+}
+
+/// A TOML error as one line naming where it is: `line N (`the line`): message`.
+fn toml_error_line(text: &str, e: &toml::de::Error) -> String {
+    let mut message = e.message().trim().replace('\n', " ");
+    let Some(span) = e.span() else {
+        return message;
+    };
+    let mut n = text[..span.start.min(text.len())].matches('\n').count();
+    // An unknown key's error spans its whole table: point at the key itself.
+    let unknown = message
+        .strip_prefix("unknown field `")
+        .and_then(|rest| rest.split('`').next())
+        .map(str::to_string);
+    if let Some(key) = unknown {
+        let is_key = |l: &str| {
+            l.trim_start()
+                .strip_prefix(key.as_str())
+                .is_some_and(|rest| rest.trim_start().starts_with('='))
+        };
+        if let Some(k) = text.lines().skip(n).position(is_key) {
+            n += k;
+        }
+        message.push_str(": check its spelling (the keys are listed in the README)");
+    }
+    let line = text.lines().nth(n).unwrap_or("").trim();
+    format!("line {} (`{line}`): {message}", n + 1)
 }
 
 /// The scale photo of a session: the configured one, or the first `scale.*` image.
@@ -1023,5 +1064,16 @@ mod tests {
             .contains("frame_stride"));
         std::fs::write(&p, "nonsense = 1\n").unwrap();
         assert!(SessionConfig::read(&p).is_err());
+        std::fs::write(
+            &p,
+            "expected_markers = 8\n\n[detect]\ns_min = 90\nhue_maxlow = 3\n",
+        )
+        .unwrap();
+        let e = SessionConfig::read(&p).unwrap_err().to_string();
+        assert!(e.contains("line 5 (`hue_maxlow = 3`)"), "{e}");
+        std::fs::write(&p, "frame_stride = 1\nexpected_markers = \"eight\"\n").unwrap();
+        let e = SessionConfig::read(&p).unwrap_err().to_string();
+        assert!(e.contains("line 2 (`expected_markers = \"eight\"`)"), "{e}");
+        assert_eq!(e.lines().count(), 1, "{e}");
     }
 }

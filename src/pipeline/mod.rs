@@ -38,7 +38,7 @@ use crate::rgbd::{is_rgbd_session, list_frames, RgbdError};
 use crate::scale::{scale_from_board_photo, ScaleError};
 use crate::session::{
     find_scale_image, read_manifest, read_pressure_log, session_videos, Manifest, ManifestEntry,
-    PressureLog, SessionConfig, SessionError, IMAGE_EXTENSIONS, MANIFEST, PRESSURE_LOG,
+    PressureLog, SessionConfig, SessionError, CONFIG, IMAGE_EXTENSIONS, MANIFEST, PRESSURE_LOG,
 };
 
 use cache::{Cache, CacheEntry, ItemKey};
@@ -195,7 +195,11 @@ fn read_layout(session: &Path) -> Result<Layout, PipelineError> {
     if !session.is_dir() {
         return Err(PipelineError::Layout {
             path: session.to_path_buf(),
-            why: "no such session folder".into(),
+            why: if session.exists() {
+                "is a file, not a folder: give the session folder (the one holding pressures.csv and the videos)".into()
+            } else {
+                "no such session folder: check the path".into()
+            },
         });
     }
     let manifest = session.join(MANIFEST);
@@ -269,6 +273,12 @@ pub fn measure_session(
         None => SessionConfig::for_session(session)?,
     };
     let layout = read_layout(session)?;
+    if out.exists() && !out.is_dir() {
+        return Err(PipelineError::Layout {
+            path: out.to_path_buf(),
+            why: "is a file, not a folder: give -o a folder for the results".into(),
+        });
+    }
     std::fs::create_dir_all(out).map_err(write_err(out))?;
     // Temporaries of a run killed while writing.
     crate::io::remove_stale_temporaries(&["", "cache", "overlays", "plots"].map(|d| out.join(d)));
@@ -538,9 +548,12 @@ fn session_calibration(
         },
     );
     notes.progress.finish();
+    // The calibrate command's advice names its --board flag; process reads the board
+    // from the settings.
     let calib = calib.map_err(|e| PipelineError::Layout {
         path: dir.clone(),
-        why: format!("calibration failed: {e}"),
+        why: format!("calibration failed: {e}")
+            .replace("--board", &format!("[calib_board] in {CONFIG}")),
     })?;
     write_calibration(&cached, &calib)?;
     write_atomic(&key_path, key.as_bytes()).map_err(write_err(&key_path))?;
@@ -580,9 +593,20 @@ fn session_scale(
     let b = config.scale_board;
     let board = Board::new(b.cols, b.rows, b.square_mm)?;
     let s = scale_from_board_photo(&img, calib, &board, UndistortSettings::default()).map_err(
-        |source| PipelineError::Scale {
-            path: img.clone(),
-            source,
+        |source| match source {
+            // The scale command's advice names its --board flag; process reads the
+            // board from the settings.
+            ScaleError::NoBoard { .. } => PipelineError::Layout {
+                path: img.clone(),
+                why: source
+                    .to_string()
+                    .replace(&format!("{}: ", img.display()), "")
+                    .replace("--board", &format!("[scale_board] in {CONFIG}")),
+            },
+            source => PipelineError::Scale {
+                path: img.clone(),
+                source,
+            },
         },
     )?;
     if s.looks_tilted() {
