@@ -557,6 +557,13 @@ fn session_calibration(
     })?;
     write_calibration(&cached, &calib)?;
     write_atomic(&key_path, key.as_bytes()).map_err(write_err(&key_path))?;
+    for r in &calib.views_rejected {
+        notes.push(format!(
+            "warning: {}: {}: not used for the calibration",
+            dir.join(&r.name).display(),
+            r.reason
+        ));
+    }
     notes.push(format!(
         "calibrated {} from {} views (RMS {:.3} px) -> {}",
         config.model.name(),
