@@ -15,6 +15,35 @@ use std::path::{Path, PathBuf};
 
 use xxhash_rust::xxh3::Xxh3;
 
+/// Name prefix of the temporary files [`write_atomic`] writes.
+pub const TEMP_PREFIX: &str = ".bendscope-";
+/// Name suffix of the temporary files [`write_atomic`] writes.
+pub const TEMP_SUFFIX: &str = ".tmp";
+
+/// Removes the temporary files [`write_atomic`] leaves in `dirs` (not their subfolders)
+/// when a run is killed between writing and renaming; returns how many. Call it before
+/// writing into an output folder; two runs writing into the same folder at once are not
+/// supported (one would remove the other's temporaries).
+pub fn remove_stale_temporaries(dirs: &[PathBuf]) -> usize {
+    let mut removed = 0;
+    for dir in dirs {
+        let Ok(rd) = fs::read_dir(dir) else { continue };
+        for e in rd.flatten() {
+            let name = e.file_name();
+            let name = name.to_string_lossy();
+            let is_file = e.file_type().map(|t| t.is_file()).unwrap_or(false);
+            if is_file
+                && name.starts_with(TEMP_PREFIX)
+                && name.ends_with(TEMP_SUFFIX)
+                && fs::remove_file(e.path()).is_ok()
+            {
+                removed += 1;
+            }
+        }
+    }
+    removed
+}
+
 /// Writes `bytes` to `path` atomically (temporary file in the same folder, then rename).
 /// Creates the parent folder when missing.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
@@ -33,8 +62,8 @@ pub fn write_atomic_with(
     fs::create_dir_all(&parent)?;
     // Dropped on any error below: the temporary file is removed.
     let mut tmp = tempfile::Builder::new()
-        .prefix(".bendscope-")
-        .suffix(".tmp")
+        .prefix(TEMP_PREFIX)
+        .suffix(TEMP_SUFFIX)
         .tempfile_in(&parent)?;
     write(tmp.as_file_mut())?;
     tmp.as_file().sync_all()?;
@@ -160,6 +189,28 @@ mod tests {
         assert!(e.is_err());
         assert_eq!(fs::read(&path).unwrap(), b"old");
         assert_eq!(names(dir.path()).len(), 1, "{:?}", names(dir.path()));
+    }
+
+    #[test]
+    fn stale_temporaries_are_removed_and_nothing_else() {
+        let dir = tempfile::tempdir().unwrap();
+        let sub = dir.path().join("cache");
+        fs::create_dir(&sub).unwrap();
+        for p in [
+            ".bendscope-a1B2c3.tmp",
+            "keep.tmp",
+            ".bendscope-notes",
+            "a.json",
+        ] {
+            fs::write(sub.join(p), b"x").unwrap();
+        }
+        fs::write(dir.path().join(".bendscope-x.tmp"), b"x").unwrap();
+        let n = remove_stale_temporaries(&[dir.path().to_path_buf(), sub.clone()]);
+        assert_eq!(n, 2);
+        let mut left = names(&sub);
+        left.sort();
+        assert_eq!(left, [".bendscope-notes", "a.json", "keep.tmp"]);
+        assert_eq!(names(dir.path()), ["cache"]);
     }
 
     #[test]

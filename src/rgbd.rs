@@ -28,6 +28,9 @@ use crate::pipeline::records::FrameStatus;
 /// Name of the intrinsics file.
 pub const INTRINSICS: &str = "intrinsics.json";
 
+/// What to do about a missing or unreadable intrinsics file.
+const INTRINSICS_HINT: &str = "write the colour camera's intrinsics as JSON: {\"width\", \"height\", \"fx\", \"fy\", \"cx\", \"cy\", \"depth_scale_m\", \"fps\"} (the RealSense SDK prints them)";
+
 /// Errors of RGB-D sessions.
 #[derive(Debug, thiserror::Error)]
 pub enum RgbdError {
@@ -78,8 +81,14 @@ impl RgbdIntrinsics {
             path: path.to_path_buf(),
             why,
         };
-        let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
-        let i: RgbdIntrinsics = serde_json::from_str(&text).map_err(|e| bad(e.to_string()))?;
+        let text = std::fs::read_to_string(path).map_err(|e| {
+            bad(match e.kind() {
+                std::io::ErrorKind::NotFound => format!("no such file: {INTRINSICS_HINT}"),
+                _ => format!("{e}: {INTRINSICS_HINT}"),
+            })
+        })?;
+        let i: RgbdIntrinsics = serde_json::from_str(&text)
+            .map_err(|e| bad(format!("not valid JSON ({e}): {INTRINSICS_HINT}")))?;
         let pos = [i.fx, i.fy, i.depth_scale_m, i.fps];
         if i.width == 0 || i.height == 0 || !pos.iter().all(|v| v.is_finite() && *v > 0.0) {
             return Err(bad(

@@ -18,6 +18,55 @@ use ffmpeg::software::scaling;
 use ffmpeg_next as ffmpeg;
 use image::RgbImage;
 
+/// Why an MP4/MOV file is cut short, or `None` when its top-level boxes are whole (or
+/// it is not an ISO media file): an empty file, a box that runs past the end of the file
+/// (the index, `moov`, is written last unless the file was made with faststart), or no
+/// index at all.
+pub fn mp4_truncation(path: &Path) -> Option<String> {
+    use std::io::{Read, Seek, SeekFrom};
+    /// Box types that may come first in an MP4 or QuickTime file.
+    const FIRST: [&[u8; 4]; 6] = [b"ftyp", b"wide", b"free", b"skip", b"mdat", b"moov"];
+    let mut f = std::fs::File::open(path).ok()?;
+    let len = f.metadata().ok()?.len();
+    if len == 0 {
+        return Some("the file is empty (0 bytes)".into());
+    }
+    let (mut pos, mut first, mut index) = (0u64, true, false);
+    while pos < len {
+        let mut head = [0u8; 16];
+        f.seek(SeekFrom::Start(pos)).ok()?;
+        let got = f.read(&mut head).ok()?;
+        if got < 8 {
+            break;
+        }
+        let kind: [u8; 4] = head[4..8].try_into().ok()?;
+        if first && !FIRST.contains(&&kind) {
+            return None;
+        }
+        first = false;
+        index |= &kind == b"moov";
+        let size = match u32::from_be_bytes(head[..4].try_into().ok()?) as u64 {
+            0 => len - pos,
+            1 if got >= 16 => u64::from_be_bytes(head[8..16].try_into().ok()?),
+            1 => break,
+            s => s,
+        };
+        if size < 8 {
+            return None;
+        }
+        if pos + size > len {
+            let name = String::from_utf8_lossy(&kind).into_owned();
+            return Some(if index {
+                format!("truncated: the file ends inside its '{name}' box")
+            } else {
+                format!("truncated: the file ends inside its '{name}' box, before its index (moov)")
+            });
+        }
+        pos += size;
+    }
+    (!first && !index).then(|| "truncated: the file has no index (moov box)".to_string())
+}
+
 /// Errors of video decoding and encoding.
 #[derive(Debug, thiserror::Error)]
 pub enum VideoError {
@@ -36,6 +85,14 @@ pub enum VideoError {
         path: PathBuf,
         /// FFmpeg's reason.
         reason: String,
+    },
+    /// The file is cut short (an interrupted copy or recording).
+    #[error("{path}: {why}: copy it again from the camera")]
+    Truncated {
+        /// The file.
+        path: PathBuf,
+        /// What is missing.
+        why: String,
     },
     /// Encoding failed.
     #[error("{path}: cannot encode video ({reason})")]
@@ -281,7 +338,16 @@ impl VideoReader {
             path: path.to_path_buf(),
             reason,
         };
-        let input = ffmpeg::format::input(&path).map_err(|e| not_video(e.to_string()))?;
+        let input = ffmpeg::format::input(&path).map_err(|e| {
+            // Why FFmpeg cannot open it, when the file is cut short.
+            match mp4_truncation(path) {
+                Some(why) => VideoError::Truncated {
+                    path: path.to_path_buf(),
+                    why,
+                },
+                None => not_video(e.to_string()),
+            }
+        })?;
         let stream = input
             .streams()
             .best(ffmpeg::media::Type::Video)
@@ -967,9 +1033,16 @@ mod tests {
         // and must say so.
         let cut = dir.path().join("cut.mp4");
         std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+        match VideoReader::open(&cut) {
+            Err(VideoError::Truncated { why, .. }) => {
+                assert!(why.contains("before its index (moov)"), "{why}")
+            }
+            other => panic!("{:?}", other.map(|r| r.info().clone())),
+        }
+        std::fs::write(&cut, b"").unwrap();
         assert!(matches!(
             VideoReader::open(&cut),
-            Err(VideoError::NotAVideo { .. })
+            Err(VideoError::Truncated { .. })
         ));
         // Garbage inside the frame data: the video opens and decodes what it can.
         let mut bad = bytes.clone();

@@ -141,6 +141,11 @@ pub fn detect_views(
 fn load_gray(source: &ViewSource) -> Result<Mat, String> {
     match source {
         ViewSource::Image(path) => {
+            // A truncated JPEG or PNG: the decoders would print their own warning on
+            // stderr and return half a picture (then "no board found").
+            if let Some(why) = std::fs::read(path).ok().and_then(|b| truncation(&b)) {
+                return Err(format!("truncated ({why}): copy it again from the camera"));
+            }
             let m = imgcodecs::imread(path, imgcodecs::IMREAD_GRAYSCALE)
                 .map_err(|e| format!("unreadable image ({})", e.message))?;
             if m.empty() {
@@ -150,6 +155,78 @@ fn load_gray(source: &ViewSource) -> Result<Mat, String> {
         }
         ViewSource::Frame { gray, .. } => super::cv::mat_from_gray(gray)
             .map_err(|e| format!("frame conversion failed ({})", e.message)),
+    }
+}
+
+/// Why `bytes`, a JPEG or PNG file, is cut short (it ends before its end marker), or
+/// `None` when it is complete or another kind of file.
+fn truncation(bytes: &[u8]) -> Option<&'static str> {
+    const PNG: &[u8] = b"\x89PNG\r\n\x1a\n";
+    if bytes.starts_with(&[0xFF, 0xD8, 0xFF]) {
+        jpeg_truncation(bytes)
+    } else if let Some(mut rest) = bytes.strip_prefix(PNG) {
+        // Chunks: length (4, big-endian), type (4), data, CRC (4); IEND ends the file.
+        while rest.len() >= 8 {
+            let len = u32::from_be_bytes([rest[0], rest[1], rest[2], rest[3]]) as usize;
+            let end = len.checked_add(12)?;
+            if rest.len() < end {
+                return Some("the file ends inside a PNG chunk");
+            }
+            if &rest[4..8] == b"IEND" {
+                return None;
+            }
+            rest = &rest[end..];
+        }
+        Some("the file ends before the PNG end chunk")
+    } else {
+        None
+    }
+}
+
+/// [`truncation`] of a JPEG: walks the segments (each with its length) and the
+/// entropy-coded scans (where 0xFF is followed by 0x00 or a restart marker) to the end
+/// marker (EOI).
+fn jpeg_truncation(bytes: &[u8]) -> Option<&'static str> {
+    let n = bytes.len();
+    let mut i = 2;
+    loop {
+        // A marker: 0xFF (fill bytes allowed) and its code.
+        while i < n && bytes[i] == 0xFF {
+            i += 1;
+        }
+        if i >= n {
+            return Some("the file ends before the JPEG end marker");
+        }
+        let code = bytes[i];
+        i += 1;
+        match code {
+            0xD9 => return None,
+            0x01 | 0xD0..=0xD7 => continue,
+            _ => {}
+        }
+        if i + 2 > n {
+            return Some("the file ends inside a JPEG segment");
+        }
+        let len = u16::from_be_bytes([bytes[i], bytes[i + 1]]) as usize;
+        if len < 2 || i + len > n {
+            return Some("the file ends inside a JPEG segment");
+        }
+        i += len;
+        if code == 0xDA {
+            // Entropy-coded data up to the next marker.
+            loop {
+                if i + 1 >= n {
+                    return Some("the file ends inside the JPEG image data");
+                }
+                if bytes[i] == 0xFF
+                    && bytes[i + 1] != 0x00
+                    && !(0xD0..=0xD7).contains(&bytes[i + 1])
+                {
+                    break;
+                }
+                i += 1;
+            }
+        }
     }
 }
 
@@ -299,4 +376,49 @@ pub fn read_gray(path: &Path) -> Result<Mat, CalibError> {
         path: path.to_path_buf(),
         why,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn fixture(rel: &str) -> Vec<u8> {
+        std::fs::read(
+            Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("fixtures")
+                .join(rel),
+        )
+        .unwrap()
+    }
+
+    fn png() -> Vec<u8> {
+        let img = image::GrayImage::from_fn(64, 48, |x, y| image::Luma([(x * y) as u8]));
+        let mut out = std::io::Cursor::new(Vec::new());
+        img.write_to(&mut out, image::ImageFormat::Png).unwrap();
+        out.into_inner()
+    }
+
+    #[test]
+    fn a_photo_cut_anywhere_is_truncated_and_a_whole_one_is_not() {
+        for bytes in [
+            fixture("sessions/example/scale.jpg"),
+            fixture("opencv-left/left01.jpg"),
+            png(),
+        ] {
+            assert_eq!(truncation(&bytes), None);
+            let n = bytes.len();
+            for cut in [10, n / 10, n / 2, n - 100, n - 2, n - 1] {
+                assert!(truncation(&bytes[..cut]).is_some(), "cut at {cut} of {n}");
+            }
+            // Bytes after the end marker (some cameras append data) are not a truncation.
+            let mut longer = bytes.clone();
+            longer.extend_from_slice(b"trailer");
+            assert_eq!(truncation(&longer), None);
+        }
+        assert_eq!(
+            truncation(b"not an image"),
+            None,
+            "other files are left to the decoder"
+        );
+    }
 }

@@ -73,7 +73,10 @@ pub fn read_calibration(path: &Path) -> Result<Calibration, CalibError> {
     if !path.is_file() {
         return Err(CalibError::Io {
             path: path.to_path_buf(),
-            source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
+            source: std::io::Error::new(
+                std::io::ErrorKind::NotFound,
+                "no such file: check the path, or make a calibration with `bendscope calibrate`",
+            ),
         });
     }
     // OpenCV's parser reports a malformed file with an exception; some files it simply

@@ -96,6 +96,7 @@ impl Cache {
 
 #[cfg(test)]
 mod tests {
+    use super::super::records::FrameStatus;
     use super::*;
 
     #[test]
@@ -119,5 +120,39 @@ mod tests {
         assert!(cache.get("a.mp4", &ItemKey::new(9, &[], 0.0)).is_none());
         std::fs::write(cache.path("a.mp4"), b"{garbage").unwrap();
         assert!(cache.get("a.mp4", &key).is_none());
+    }
+
+    #[test]
+    fn cached_values_read_back_bit_exact() {
+        let dir = tempfile::tempdir().unwrap();
+        let cache = Cache::new(dir.path());
+        let key = ItemKey::new(1, &[2], 50.0);
+        // Values whose shortest decimal form a fast float parser may read 1 ULP off.
+        let values: Vec<f64> = (1..2000)
+            .map(|i| 1.0 / 3.0 * i as f64 + 1e-13 * i as f64)
+            .collect();
+        let frames = values
+            .iter()
+            .enumerate()
+            .map(|(i, &v)| {
+                let mut f = FrameRecord::rejected("a.mp4", i as u64, v, v * 7.1, FrameStatus::Ok);
+                f.radius_mm = v.sqrt();
+                f
+            })
+            .collect();
+        let entry = CacheEntry {
+            key: key.clone(),
+            frames,
+            problems: vec![],
+            clamp_marker_px: None,
+            outputs: vec![],
+        };
+        cache.put("a.mp4", &entry).unwrap();
+        let back = cache.get("a.mp4", &key).unwrap();
+        for (a, b) in back.frames.iter().zip(&entry.frames) {
+            assert_eq!(a.time_s.to_bits(), b.time_s.to_bits());
+            assert_eq!(a.pressure_kpa.to_bits(), b.pressure_kpa.to_bits());
+            assert_eq!(a.radius_mm.to_bits(), b.radius_mm.to_bits());
+        }
     }
 }

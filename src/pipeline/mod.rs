@@ -38,7 +38,7 @@ use crate::rgbd::{is_rgbd_session, list_frames, RgbdError};
 use crate::scale::{scale_from_board_photo, ScaleError};
 use crate::session::{
     find_scale_image, read_manifest, read_pressure_log, session_videos, Manifest, ManifestEntry,
-    PressureLog, SessionConfig, SessionError, IMAGE_EXTENSIONS, MANIFEST, PRESSURE_LOG,
+    PressureLog, SessionConfig, SessionError, CONFIG, IMAGE_EXTENSIONS, MANIFEST, PRESSURE_LOG,
 };
 
 use cache::{Cache, CacheEntry, ItemKey};
@@ -195,7 +195,11 @@ fn read_layout(session: &Path) -> Result<Layout, PipelineError> {
     if !session.is_dir() {
         return Err(PipelineError::Layout {
             path: session.to_path_buf(),
-            why: "no such session folder".into(),
+            why: if session.exists() {
+                "is a file, not a folder: give the session folder (the one holding pressures.csv and the videos)".into()
+            } else {
+                "no such session folder: check the path".into()
+            },
         });
     }
     let manifest = session.join(MANIFEST);
@@ -232,7 +236,8 @@ fn read_layout(session: &Path) -> Result<Layout, PipelineError> {
         }
         _ => {
             let m = read_manifest(session)?;
-            if m.entries.is_empty() && m.issues.is_empty() {
+            // No row at all (issues without a line are videos the manifest lacks).
+            if m.entries.is_empty() && m.issues.iter().all(|i| i.line.is_none()) {
                 return Err(PipelineError::Layout {
                     path: session.join(MANIFEST),
                     why: "lists no videos: add one row per video".into(),
@@ -268,7 +273,15 @@ pub fn measure_session(
         None => SessionConfig::for_session(session)?,
     };
     let layout = read_layout(session)?;
+    if out.exists() && !out.is_dir() {
+        return Err(PipelineError::Layout {
+            path: out.to_path_buf(),
+            why: "is a file, not a folder: give -o a folder for the results".into(),
+        });
+    }
     std::fs::create_dir_all(out).map_err(write_err(out))?;
+    // Temporaries of a run killed while writing.
+    crate::io::remove_stale_temporaries(&["", "cache", "overlays", "plots"].map(|d| out.join(d)));
     let mut notes = Notes {
         lines: vec![],
         progress,
@@ -535,12 +548,22 @@ fn session_calibration(
         },
     );
     notes.progress.finish();
+    // The calibrate command's advice names its --board flag; process reads the board
+    // from the settings.
     let calib = calib.map_err(|e| PipelineError::Layout {
         path: dir.clone(),
-        why: format!("calibration failed: {e}"),
+        why: format!("calibration failed: {e}")
+            .replace("--board", &format!("[calib_board] in {CONFIG}")),
     })?;
     write_calibration(&cached, &calib)?;
     write_atomic(&key_path, key.as_bytes()).map_err(write_err(&key_path))?;
+    for r in &calib.views_rejected {
+        notes.push(format!(
+            "warning: {}: {}: not used for the calibration",
+            dir.join(&r.name).display(),
+            r.reason
+        ));
+    }
     notes.push(format!(
         "calibrated {} from {} views (RMS {:.3} px) -> {}",
         config.model.name(),
@@ -577,9 +600,20 @@ fn session_scale(
     let b = config.scale_board;
     let board = Board::new(b.cols, b.rows, b.square_mm)?;
     let s = scale_from_board_photo(&img, calib, &board, UndistortSettings::default()).map_err(
-        |source| PipelineError::Scale {
-            path: img.clone(),
-            source,
+        |source| match source {
+            // The scale command's advice names its --board flag; process reads the
+            // board from the settings.
+            ScaleError::NoBoard { .. } => PipelineError::Layout {
+                path: img.clone(),
+                why: source
+                    .to_string()
+                    .replace(&format!("{}: ", img.display()), "")
+                    .replace("--board", &format!("[scale_board] in {CONFIG}")),
+            },
+            source => PipelineError::Scale {
+                path: img.clone(),
+                source,
+            },
         },
     )?;
     if s.looks_tilted() {
@@ -815,7 +849,14 @@ impl VideoRun<'_> {
                         &m,
                     ) {
                         Ok(rel) => result.outputs.push(rel),
-                        Err(e) => result.problems.push(format!("overlay not written: {e}")),
+                        Err(e) => {
+                            result.problems.push(format!(
+                                "overlay not written: {e}: check that overlays/ in the output folder is a writable folder (a rerun makes it)"
+                            ));
+                            // Named all the same: the cache entry stays stale until the
+                            // overlay exists, so a rerun makes it.
+                            result.outputs.push(overlay::overlay_rel_path(&entry.file));
+                        }
                     }
                 }
                 result.frames.push(FrameRecord {

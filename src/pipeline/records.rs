@@ -89,6 +89,40 @@ impl fmt::Display for FrameStatus {
     }
 }
 
+/// Serde for an `f64` that may be NaN or infinite, as in the records of rejected frames:
+/// JSON has no such numbers (serde_json writes them as `null`, which does not read back
+/// as an `f64`, so a cache entry holding one would never be read). NaN is written as
+/// `null`, infinities as the strings `"inf"` and `"-inf"`.
+mod non_finite {
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer>(v: &f64, s: S) -> Result<S::Ok, S::Error> {
+        match *v {
+            v if v.is_finite() => s.serialize_f64(v),
+            v if v.is_nan() => s.serialize_none(),
+            v if v > 0.0 => s.serialize_str("inf"),
+            _ => s.serialize_str("-inf"),
+        }
+    }
+
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum Repr {
+        Number(f64),
+        Text(String),
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+        match Option::<Repr>::deserialize(d)? {
+            None => Ok(f64::NAN),
+            Some(Repr::Number(v)) => Ok(v),
+            Some(Repr::Text(t)) if t == "inf" => Ok(f64::INFINITY),
+            Some(Repr::Text(t)) if t == "-inf" => Ok(f64::NEG_INFINITY),
+            Some(Repr::Text(t)) => Err(serde::de::Error::custom(format!("`{t}` is not a number"))),
+        }
+    }
+}
+
 /// One row of `per_frame.csv`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FrameRecord {
@@ -98,22 +132,29 @@ pub struct FrameRecord {
     /// RGB-D frame's name).
     pub frame: u64,
     /// Time, s (stream timestamps; chapters continue the previous chapter's clock).
+    #[serde(with = "non_finite")]
     pub time_s: f64,
     /// Pressure, kPa.
+    #[serde(with = "non_finite")]
     pub pressure_kpa: f64,
     /// Markers used (or red blobs found, when too few).
     pub n_markers: usize,
     /// Red blobs found besides the markers (not used).
     pub n_ignored: usize,
     /// Radius, undistorted px (NaN for RGB-D, where the circle is fitted in mm).
+    #[serde(with = "non_finite")]
     pub radius_px: f64,
     /// Radius, mm.
+    #[serde(with = "non_finite")]
     pub radius_mm: f64,
     /// Curvature, 1/m.
+    #[serde(with = "non_finite")]
     pub curvature_per_m: f64,
     /// Bending angle, degrees (half-angle convention).
+    #[serde(with = "non_finite")]
     pub bending_angle_deg: f64,
     /// RMS residual of the circle fit (px, or mm for RGB-D).
+    #[serde(with = "non_finite")]
     pub fit_rms: f64,
     /// Outcome.
     pub status: FrameStatus,
@@ -262,5 +303,28 @@ mod tests {
             let j = serde_json::to_string(&s).unwrap();
             assert_eq!(serde_json::from_str::<FrameStatus>(&j).unwrap(), s);
         }
+    }
+
+    #[test]
+    fn a_rejected_frame_survives_the_cache() {
+        let mut r = FrameRecord::rejected("a.mp4", 3, 0.1, 20.0, FrameStatus::OutsidePressureLog);
+        r.radius_px = f64::INFINITY;
+        r.curvature_per_m = f64::NEG_INFINITY;
+        let j = serde_json::to_string(&r).unwrap();
+        let back: FrameRecord = serde_json::from_str(&j).unwrap();
+        let bits = |r: &FrameRecord| {
+            [
+                r.time_s,
+                r.pressure_kpa,
+                r.radius_px,
+                r.radius_mm,
+                r.curvature_per_m,
+                r.bending_angle_deg,
+                r.fit_rms,
+            ]
+            .map(|v| if v.is_nan() { u64::MAX } else { v.to_bits() })
+        };
+        assert_eq!(bits(&back), bits(&r), "{j}");
+        assert_eq!(back.status, r.status);
     }
 }
