@@ -87,7 +87,8 @@ impl RgbdIntrinsics {
                 _ => format!("{e}: {INTRINSICS_HINT}"),
             })
         })?;
-        let i: RgbdIntrinsics = serde_json::from_str(&text)
+        let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+        let i: RgbdIntrinsics = serde_json::from_str(text)
             .map_err(|e| bad(format!("not valid JSON ({e}): {INTRINSICS_HINT}")))?;
         let pos = [i.fx, i.fy, i.depth_scale_m, i.fps];
         if i.width == 0 || i.height == 0 || !pos.iter().all(|v| v.is_finite() && *v > 0.0) {
@@ -450,4 +451,61 @@ pub fn markers_on_depth_plane(
 /// The colour camera's undistorter (identity framing: rays only are used).
 pub fn undistorter(intr: &RgbdIntrinsics) -> Result<Undistorter, crate::calib::CalibError> {
     Undistorter::new(&intr.calibration(), UndistortSettings::default())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    #[test]
+    fn intrinsics_read_and_check() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join(INTRINSICS);
+        let good = r#"{"width": 640, "height": 480, "fx": 600, "fy": 600, "cx": 320, "cy": 240, "depth_scale_m": 0.001}"#;
+        std::fs::write(&p, format!("\u{feff}{good}")).unwrap();
+        let i = RgbdIntrinsics::read(&p).unwrap();
+        assert_eq!((i.width, i.fps, i.distortion.len()), (640, 30.0, 0));
+        for bad in [
+            good.replace("600,", "-600,"),
+            good.replace("}", r#", "distortion": [0.1]}"#),
+            good.replace("}", r#", "extra": 1}"#),
+            "{".to_string(),
+        ] {
+            std::fs::write(&p, &bad).unwrap();
+            let e = RgbdIntrinsics::read(&p).unwrap_err().to_string();
+            assert!(e.starts_with(&p.display().to_string()), "{e}");
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(128))]
+
+        #[test]
+        fn arbitrary_intrinsics_read_or_fail_without_panicking(
+            bytes in prop_oneof![
+                prop::collection::vec(any::<u8>(), 0..120),
+                prop::collection::vec(
+                    prop::sample::select(
+                        [
+                            "{", "}", "[", "]", ",", ":", "\"width\"", "\"height\"", "\"fx\"",
+                            "\"fy\"", "\"cx\"", "\"cy\"", "\"depth_scale_m\"", "\"fps\"",
+                            "\"distortion\"", "0", "1", "-1", "1e400", "0.001", "4294967296",
+                            "null", " ",
+                        ]
+                        .to_vec(),
+                    ),
+                    0..40,
+                )
+                .prop_map(|t| t.concat().into_bytes()),
+            ]
+        ) {
+            let d = tempfile::tempdir().unwrap();
+            let p = d.path().join(INTRINSICS);
+            std::fs::write(&p, &bytes).unwrap();
+            if let Ok(i) = RgbdIntrinsics::read(&p) {
+                prop_assert!(i.fx > 0.0 && i.fy > 0.0 && i.fps > 0.0 && i.width > 0);
+            }
+        }
+    }
 }

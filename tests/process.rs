@@ -219,6 +219,14 @@ fn bad_videos_and_manifest_rows_are_reported_and_the_rest_kept() {
     assert!(status("clip_b.mp4").contains("not a number"));
     assert!(status("clip_c.mp4").contains("negative"));
     assert!(status("extra.mp4").contains("not in pressures.csv"));
+    // One row per file: a file named by a bad row is not also "not in pressures.csv".
+    for f in ["clip_b.mp4", "clip_c.mp4", "GX019999.MP4", "extra.mp4"] {
+        assert_eq!(
+            rows.iter().filter(|r| r[0] == f).count(),
+            1,
+            "{f}: {rows:?}"
+        );
+    }
     assert!(rows
         .iter()
         .any(|r| r[0] == "GX010101.MP4" && r[col(&hd, "status")].contains("listed twice")));

@@ -6,6 +6,11 @@
 //! `per_view_reprojection_errors` (Nx1, px) in the order of `views_used`,
 //! `board_width`, `board_height` (inner corners), `square_size_mm`, `views_used`
 //! (sequence of names), `views_rejected` (sequence of {name, reason}).
+//!
+//! OpenCV's parser recurses once per level of nesting with no limit and overflows the
+//! stack (aborting the process, not raising an error) on a few thousand levels; files
+//! nested deeper than a calibration can be, or larger than one can be, are refused before
+//! OpenCV reads them.
 
 use std::path::Path;
 
@@ -15,6 +20,61 @@ use opencv::prelude::*;
 use super::cv::{mat_from_column, mat_from_matrix3, matrix3_from_mat, values_from_mat};
 use super::{Board, CalibError, Calibration, CameraModel, RejectedView, ViewError};
 use crate::io::write_atomic;
+
+/// Deepest nesting of a file handed to OpenCV's parser. `FileStorage` recurses once per
+/// level (flow `[` and `{`, XML elements, indented blocks, `- ` items) with no limit of
+/// its own: a few thousand levels overflow the stack, which aborts the whole process
+/// instead of raising an error. A calibration file nests 3 levels.
+const MAX_NESTING: usize = 64;
+
+/// Largest calibration file read, bytes (one with a thousand views is under 100 kB).
+const MAX_CALIBRATION_BYTES: u64 = 16 << 20;
+
+/// An upper bound of how deep `text` nests, for any of OpenCV's formats: per line, the
+/// indentation levels enclosing it, its leading `- ` items, and the open `[`/`{` and XML
+/// elements (quotes are not taken into account, which can only over-count).
+fn nesting_depth(text: &[u8]) -> usize {
+    let mut flow = 0usize;
+    let mut xml = 0usize;
+    let mut indents: Vec<usize> = Vec::new();
+    let mut deepest = 0;
+    for line in text.split(|b| *b == b'\n' || *b == b'\r') {
+        let indent = line
+            .iter()
+            .take_while(|b| **b == b' ' || **b == b'\t')
+            .count();
+        let rest = &line[indent..];
+        if rest.is_empty() {
+            continue;
+        }
+        while indents.last().is_some_and(|&i| i >= indent) {
+            indents.pop();
+        }
+        indents.push(indent);
+        let dashes = rest
+            .split(|b| *b == b' ' || *b == b'\t')
+            .filter(|w| !w.is_empty())
+            .take_while(|w| *w == b"-")
+            .count();
+        let mut open = flow + xml;
+        for (k, &b) in rest.iter().enumerate() {
+            match b {
+                b'[' | b'{' => flow += 1,
+                b']' | b'}' => flow = flow.saturating_sub(1),
+                b'<' => match rest.get(k + 1) {
+                    Some(b'/') => xml = xml.saturating_sub(1),
+                    Some(c) if c.is_ascii_alphabetic() || *c == b'_' => xml += 1,
+                    _ => {}
+                },
+                b'>' if k > 0 && rest[k - 1] == b'/' => xml = xml.saturating_sub(1),
+                _ => {}
+            }
+            open = open.max(flow + xml);
+        }
+        deepest = deepest.max(indents.len() + dashes + open);
+    }
+    deepest
+}
 
 /// Writes `calib` to `path` (YAML, atomically).
 pub fn write_calibration(path: &Path, calib: &Calibration) -> Result<(), CalibError> {
@@ -78,6 +138,24 @@ pub fn read_calibration(path: &Path) -> Result<Calibration, CalibError> {
                 "no such file: check the path, or make a calibration with `bendscope calibrate`",
             ),
         });
+    }
+    // OpenCV's parser would abort the process on a deeply nested file (see MAX_NESTING):
+    // such a file is no calibration, and is turned away before OpenCV sees it.
+    let size = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
+    if size > MAX_CALIBRATION_BYTES {
+        return Err(not(&format!(
+            "{size} bytes, more than a calibration file holds"
+        )));
+    }
+    let bytes = std::fs::read(path).map_err(|source| CalibError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let depth = nesting_depth(&bytes);
+    if depth > MAX_NESTING {
+        return Err(not(&format!(
+            "nested {depth} levels deep, a calibration file nests 3"
+        )));
     }
     // OpenCV's parser reports a malformed file with an exception; some files it simply
     // opens as empty.
@@ -187,4 +265,153 @@ pub fn read_calibration(path: &Path) -> Result<Calibration, CalibError> {
         views_used: names,
         views_rejected,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Matrix3;
+    use proptest::prelude::*;
+
+    fn sample() -> Calibration {
+        Calibration {
+            model: CameraModel::Fisheye,
+            image_width: 640,
+            image_height: 480,
+            camera_matrix: Matrix3::new(300.0, 0.0, 320.0, 0.0, 300.0, 240.0, 0.0, 0.0, 1.0),
+            distortion: vec![0.1, -0.02, 0.003, -0.0004],
+            avg_reprojection_error: 0.2,
+            per_view_errors: vec![],
+            board: None,
+            views_used: vec!["a.png".into()],
+            views_rejected: vec![],
+        }
+    }
+
+    /// Reads `bytes` as a calibration file; the outcome must be a calibration or an error.
+    fn read_bytes(bytes: &[u8]) -> Result<Calibration, CalibError> {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("cam.yaml");
+        std::fs::write(&p, bytes).unwrap();
+        read_calibration(&p)
+    }
+
+    #[test]
+    fn written_calibrations_read_back_and_garbage_is_an_error() {
+        let yaml = calibration_to_yaml(&sample()).unwrap();
+        let c = read_bytes(yaml.as_bytes()).unwrap();
+        assert_eq!(c.camera_matrix, sample().camera_matrix);
+        for bad in [
+            &b""[..],
+            b"\0\0\0",
+            b"%YAML:1.0\n",
+            b"camera_matrix: [",
+            b"{{{{",
+        ] {
+            assert!(read_bytes(bad).is_err(), "{bad:?}");
+        }
+    }
+
+    #[test]
+    fn deep_nesting_is_an_error_not_a_stack_overflow() {
+        // Each of these kinds overflowed OpenCV's parser (and aborted the process) at
+        // 10 000 to 20 000 levels on a 2 MB stack.
+        let deep =
+            |head: &str, open: &str| [head.as_bytes(), &open.repeat(100_000).into_bytes()].concat();
+        let lines = |f: fn(usize) -> String| {
+            [
+                b"%YAML:1.0\na:\n".to_vec(),
+                (0..3_000).map(f).collect::<String>().into_bytes(),
+            ]
+            .concat()
+        };
+        for bytes in [
+            deep("%YAML:1.0\na: ", "["),
+            deep("%YAML:1.0\na: ", "{ b: "),
+            deep("", "{\"a\":"),
+            deep("<?xml version=\"1.0\"?>\n<opencv_storage>", "<a>"),
+            deep("%YAML:1.0\na:\n  ", "- "),
+            lines(|i| format!("{}-\n", " ".repeat(i + 1))),
+        ] {
+            let e = read_bytes(&bytes).unwrap_err().to_string();
+            assert!(e.contains("levels deep"), "{e}");
+        }
+        let yaml = calibration_to_yaml(&Calibration {
+            views_rejected: vec![RejectedView {
+                name: "b[1].png".into(),
+                reason: "no board {found}".into(),
+            }],
+            ..sample()
+        })
+        .unwrap();
+        assert!(nesting_depth(yaml.as_bytes()) <= 4, "{yaml}");
+    }
+
+    /// Pieces of OpenCV YAML, to reach its parser's corners.
+    fn yamlish() -> impl Strategy<Value = Vec<u8>> {
+        let tokens = prop::sample::select(
+            [
+                "%YAML:1.0\n",
+                "---\n",
+                "camera_matrix: ",
+                "distortion_coefficients: ",
+                "!!opencv-matrix\n",
+                "   rows: 3\n",
+                "   cols: 3\n",
+                "   rows: 99999999\n",
+                "   dt: d\n",
+                "   dt: \"3i\"\n",
+                "   data: [ ",
+                "1., ",
+                "0. ",
+                "]\n",
+                "[",
+                "]",
+                "{",
+                "}",
+                "- ",
+                ": ",
+                "\n",
+                "  ",
+                "image_width: 640\n",
+                "model: pinhole\n",
+                "!!binary |\n",
+                "\"",
+                "'",
+                "1e999",
+                "<?xml version=\"1.0\"?>\n",
+                "<opencv_storage>",
+                "&a ",
+                "*a ",
+                "...\n",
+            ]
+            .to_vec(),
+        );
+        prop::collection::vec(tokens, 0..40).prop_map(|t| t.concat().into_bytes())
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(128))]
+
+        #[test]
+        fn arbitrary_files_read_or_fail_without_aborting(
+            bytes in prop_oneof![prop::collection::vec(any::<u8>(), 0..200), yamlish()]
+        ) {
+            let _ = read_bytes(&bytes);
+        }
+
+        #[test]
+        fn damaged_calibrations_read_or_fail_without_aborting(
+            cut in 0usize..2000,
+            at in 0usize..2000,
+            byte in any::<u8>(),
+        ) {
+            let mut yaml = calibration_to_yaml(&sample()).unwrap().into_bytes();
+            if let Some(b) = yaml.get_mut(at) {
+                *b = byte;
+            }
+            yaml.truncate(cut);
+            let _ = read_bytes(&yaml);
+        }
+    }
 }

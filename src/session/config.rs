@@ -80,18 +80,180 @@ impl Default for SessionConfig {
     }
 }
 
+/// A value out of its range: its table (`None`: top level), its key and what is wrong.
+struct BadValue {
+    table: Option<&'static str>,
+    key: &'static str,
+    why: String,
+}
+
+impl BadValue {
+    fn new(table: Option<&'static str>, key: &'static str, why: String) -> Self {
+        Self { table, key, why }
+    }
+}
+
+/// 1-based line of byte `offset` in `text`.
+fn line_of(text: &str, offset: usize) -> usize {
+    let end = offset.min(text.len());
+    1 + text.as_bytes()[..end]
+        .iter()
+        .filter(|b| **b == b'\n')
+        .count()
+}
+
+/// 1-based line where `key` is set (in `[table]` when given), when the text parses.
+fn key_line(text: &str, table: Option<&str>, key: &str) -> Option<usize> {
+    use toml::de::{DeTable, DeValue};
+    let doc = DeTable::parse(text).ok()?;
+    let mut t = doc.get_ref();
+    if let Some(name) = table {
+        match t.iter().find(|(k, _)| k.get_ref() == name)?.1.get_ref() {
+            DeValue::Table(inner) => t = inner,
+            _ => return None,
+        }
+    }
+    let (k, _) = t.iter().find(|(k, _)| k.get_ref() == key)?;
+    Some(line_of(text, k.span().start))
+}
+
+/// The line at byte `offset` of `text`: where it starts and its text.
+fn line_at(text: &str, offset: usize) -> (usize, &str) {
+    let end = offset.min(text.len());
+    let start = text
+        .get(..end)
+        .and_then(|head| head.rfind('\n'))
+        .map(|i| i + 1)
+        .unwrap_or(0);
+    let line = text
+        .get(start..)
+        .and_then(|rest| rest.lines().next())
+        .unwrap_or("");
+    (start, line)
+}
+
+/// The table name of a `[table]` (or `[[table]]`) header line.
+fn header_name(line: &str) -> Option<String> {
+    line.trim()
+        .strip_prefix('[')
+        .and_then(|r| r.strip_suffix(']'))
+        .map(|name| name.trim_matches(['[', ']', ' ']).to_string())
+}
+
+/// The `[table]` the line at `offset` belongs to (`None`: top level).
+fn table_at(text: &str, offset: usize) -> Option<String> {
+    let (start, _) = line_at(text, offset);
+    text.get(..start)?.lines().rev().find_map(header_name)
+}
+
+/// The key set on the line at `offset` (`key = value`), when there is one.
+fn key_at(text: &str, offset: usize) -> Option<String> {
+    let (key, _) = line_at(text, offset).1.split_once('=')?;
+    let key = key.trim();
+    (!key.is_empty() && !key.starts_with(['[', '#'])).then(|| key.to_string())
+}
+
+/// The name of the `[table]` header on the line at `offset`, when that line is one.
+fn header_at(text: &str, offset: usize) -> Option<String> {
+    header_name(line_at(text, offset).1)
+}
+
+/// The first key of the `[detect]` table whose value alone does not deserialize, and its
+/// line. [`DetectSettings`] flattens its colour thresholds, and through a flattened
+/// struct toml reports errors at the table, not at the key.
+fn failing_detect_key(text: &str) -> Option<(String, usize)> {
+    let doc: toml::Table = toml::from_str(text).ok()?;
+    let detect = doc.get("detect")?.as_table()?;
+    detect.iter().find_map(|(key, value)| {
+        let mut single = toml::Table::new();
+        single.insert(key.clone(), value.clone());
+        toml::Value::Table(single)
+            .try_into::<DetectSettings>()
+            .is_err()
+            .then(|| {
+                (
+                    key.clone(),
+                    key_line(text, Some("detect"), key).unwrap_or(0),
+                )
+            })
+    })
+}
+
+/// A TOML or serde error as `line L: what`, naming the key: an unknown key by name (and
+/// its `[table]`), a value of the wrong type by the key it is set to.
+fn describe_toml_error(text: &str, e: &toml::de::Error) -> String {
+    let msg = e.message().trim();
+    let Some(span) = e.span() else {
+        return msg.to_string();
+    };
+    let mut line = line_of(text, span.start);
+    let header = header_at(text, span.start);
+    let what = if let Some(rest) = msg.strip_prefix("unknown field ") {
+        let (key, expected) = rest.split_once(", ").unwrap_or((rest, ""));
+        let table = header.clone().or_else(|| table_at(text, span.start));
+        if let Some(t) = &header {
+            // Reported at the table: find the key in it.
+            let name = key.trim_matches('`');
+            line = key_line(text, Some(t), name).unwrap_or(line);
+        }
+        let table = table.map(|t| format!(" in [{t}]")).unwrap_or_default();
+        let expected = if expected.is_empty() {
+            String::new()
+        } else {
+            format!(": {expected}")
+        };
+        format!("unknown key {key}{table}{expected}")
+    } else if header.as_deref() == Some("detect") {
+        match failing_detect_key(text) {
+            Some((key, key_line)) if key_line > 0 => {
+                line = key_line;
+                format!("`detect.{key}`: {msg}")
+            }
+            _ => format!("[detect]: {msg}"),
+        }
+    } else {
+        let table = table_at(text, span.start)
+            .map(|t| format!("{t}."))
+            .unwrap_or_default();
+        match key_at(text, span.start) {
+            Some(key) => format!("`{table}{key}`: {msg}"),
+            None => msg.to_string(),
+        }
+    };
+    format!("line {line}: {what}")
+}
+
 impl SessionConfig {
-    /// Reads `path` (TOML); missing fields take their defaults.
+    /// Reads `path` (TOML); missing fields take their defaults. Errors name the line and
+    /// the key: syntax errors, unknown keys, values of the wrong type or out of range.
     pub fn read(path: &Path) -> Result<Self, SessionError> {
-        let text = std::fs::read_to_string(path).map_err(|e| SessionError::Config {
+        let bad = |why: String| SessionError::Config {
             path: path.to_path_buf(),
-            why: e.to_string(),
+            why,
+        };
+        let bytes = std::fs::read(path).map_err(|e| bad(e.to_string()))?;
+        let text = String::from_utf8(bytes).map_err(|e| {
+            let line = 1 + e.as_bytes()[..e.utf8_error().valid_up_to()]
+                .iter()
+                .filter(|b| **b == b'\n')
+                .count();
+            bad(format!(
+                "line {line}: not UTF-8 text: save the file as UTF-8"
+            ))
         })?;
-        let c: SessionConfig = toml::from_str(&text).map_err(|e| SessionError::Config {
-            path: path.to_path_buf(),
-            why: e.message().to_string(),
+        let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+        let c: SessionConfig =
+            toml::from_str(text).map_err(|e| bad(describe_toml_error(text, &e)))?;
+        c.check().map_err(|b| {
+            let key = match b.table {
+                Some(t) => format!("{t}.{}", b.key),
+                None => b.key.to_string(),
+            };
+            let at = key_line(text, b.table, b.key)
+                .map(|l| format!("line {l}: "))
+                .unwrap_or_default();
+            bad(format!("{at}{key} = {}", b.why))
         })?;
-        c.check(path)?;
         Ok(c)
     }
 
@@ -105,46 +267,68 @@ impl SessionConfig {
         }
     }
 
-    fn check(&self, path: &Path) -> Result<(), SessionError> {
-        let bad = |why: String| {
-            Err(SessionError::Config {
-                path: path.to_path_buf(),
-                why,
-            })
-        };
+    /// Checks the values' ranges; the error names the first key out of range.
+    fn check(&self) -> Result<(), BadValue> {
+        let top = |key, why| Err(BadValue::new(None, key, why));
         if self.expected_markers < 3 {
-            return bad(format!(
-                "expected_markers = {}: a circle needs at least 3 markers",
-                self.expected_markers
-            ));
+            return top(
+                "expected_markers",
+                format!(
+                    "{}: a circle needs at least 3 markers",
+                    self.expected_markers
+                ),
+            );
         }
-        if !(self.ramp_bin_kpa.is_finite() && self.ramp_bin_kpa > 0.0)
-            || !self.ramp_time_offset_s.is_finite()
-        {
-            return bad(
-                "ramp_bin_kpa must be a positive number and ramp_time_offset_s a number".into(),
+        if !(self.ramp_bin_kpa.is_finite() && self.ramp_bin_kpa > 0.0) {
+            return top(
+                "ramp_bin_kpa",
+                format!("{}: must be a positive number of kPa", self.ramp_bin_kpa),
+            );
+        }
+        if !self.ramp_time_offset_s.is_finite() {
+            return top(
+                "ramp_time_offset_s",
+                format!(
+                    "{}: must be a finite number of seconds",
+                    self.ramp_time_offset_s
+                ),
             );
         }
         if self.frame_stride == 0 {
-            return bad("frame_stride must be at least 1".into());
+            return top("frame_stride", "0: must be at least 1".into());
         }
         if let Some(m) = self.mm_per_px {
             if !(m.is_finite() && m > 0.0) {
-                return bad(format!("mm_per_px = {m} must be a positive number"));
+                return top("mm_per_px", format!("{m}: must be a positive number"));
             }
         }
         for (name, b) in [
             ("calib_board", &self.calib_board),
             ("scale_board", &self.scale_board),
         ] {
-            if b.cols < 2 || b.rows < 2 || !(b.square_mm.is_finite() && b.square_mm > 0.0) {
-                return bad(format!(
-                    "{name}: cols and rows must be >= 2 and square_mm > 0"
-                ));
+            let bad = |key, why| Err(BadValue::new(Some(name), key, why));
+            if b.cols < 2 {
+                return bad("cols", format!("{}: must be >= 2 inner corners", b.cols));
+            }
+            if b.rows < 2 {
+                return bad("rows", format!("{}: must be >= 2 inner corners", b.rows));
+            }
+            if !(b.square_mm.is_finite() && b.square_mm > 0.0) {
+                return bad(
+                    "square_mm",
+                    format!("{}: must be a positive number of mm", b.square_mm),
+                );
             }
         }
         if self.detect.min_area_px > self.detect.max_area_px {
-            return bad("detect: min_area_px is larger than max_area_px".into());
+            return Err(BadValue::new(
+                Some("detect"),
+                "min_area_px",
+                format!(
+                    "{}: larger than max_area_px = {}: lower min_area_px or raise max_area_px",
+                    self.detect.min_area_px, self.detect.max_area_px
+                ),
+            ));
         }
         Ok(())
     }
@@ -175,5 +359,91 @@ mod tests {
             .contains("frame_stride"));
         std::fs::write(&p, "nonsense = 1\n").unwrap();
         assert!(SessionConfig::read(&p).is_err());
+    }
+
+    fn error_of(text: impl AsRef<[u8]>) -> String {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join(CONFIG);
+        std::fs::write(&p, text).unwrap();
+        let e = SessionConfig::read(&p).unwrap_err().to_string();
+        let prefix = format!("{}: ", p.display());
+        e.strip_prefix(&prefix).unwrap_or(&e).to_string()
+    }
+
+    #[test]
+    fn errors_name_the_key_and_line() {
+        let e = error_of("# settings\nexpected_markers = 8\nnonsense = 1\n");
+        assert!(
+            e.starts_with("line 3: unknown key `nonsense`: expected one of"),
+            "{e}"
+        );
+        let e = error_of("expected_markers = 8\n[scale_board]\ncols = 9\nsquares = 3\n");
+        assert!(
+            e.starts_with("line 4: unknown key `squares` in [scale_board]"),
+            "{e}"
+        );
+        let e = error_of("[detect]\ns_min = 90\n\nfoo = 1\n");
+        assert!(
+            e.starts_with("line 4: unknown key `foo` in [detect]"),
+            "{e}"
+        );
+        let e = error_of("[detect]\ns_min = 90\nhue_max_low = 300\n");
+        assert!(
+            e.starts_with("line 3: `detect.hue_max_low`: invalid value"),
+            "{e}"
+        );
+        let e = error_of("mm_per_px = 0.2\nexpected_markers = \"eight\"\n");
+        assert!(
+            e.starts_with("line 2: `expected_markers`: invalid type"),
+            "{e}"
+        );
+        let e = error_of("frame_stride = 1\nmodel = fisheye\n");
+        assert!(e.starts_with("line 2: "), "{e}");
+        assert_eq!(
+            error_of("\n\nframe_stride = 0\n"),
+            "line 3: frame_stride = 0: must be at least 1"
+        );
+        assert_eq!(
+            error_of("[calib_board]\nrows = 6\ncols = 1\n"),
+            "line 3: calib_board.cols = 1: must be >= 2 inner corners"
+        );
+        assert_eq!(
+            error_of("scale_board.square_mm = -2.5\n"),
+            "line 1: scale_board.square_mm = -2.5: must be a positive number of mm"
+        );
+        assert_eq!(
+            error_of("ramp_bin_kpa = nan\n"),
+            "line 1: ramp_bin_kpa = NaN: must be a positive number of kPa"
+        );
+        assert!(error_of("[detect]\nmax_area_px = 5\nmin_area_px = 10\n")
+            .starts_with("line 3: detect.min_area_px = 10: larger than max_area_px = 5"),);
+        assert!(error_of(b"a = \xff\n").starts_with("line 1: not UTF-8"));
+        // A byte order mark is not an error.
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join(CONFIG);
+        std::fs::write(&p, "\u{feff}expected_markers = 6\n").unwrap();
+        assert_eq!(SessionConfig::read(&p).unwrap().expected_markers, 6);
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(128))]
+
+        #[test]
+        fn arbitrary_configs_read_or_fail_without_panicking(
+            bytes in proptest::prop_oneof![
+                proptest::collection::vec(proptest::prelude::any::<u8>(), 0..120),
+                proptest::collection::vec(
+                    proptest::sample::select(b"[]=\"'\n#.,{}0123 aemodl_xpk-".to_vec()),
+                    0..120,
+                ),
+            ]
+        ) {
+            let d = tempfile::tempdir().unwrap();
+            let p = d.path().join(CONFIG);
+            std::fs::write(&p, &bytes).unwrap();
+            if let Ok(c) = SessionConfig::read(&p) {
+                proptest::prop_assert!(c.expected_markers >= 3 && c.frame_stride >= 1);
+            }
+        }
     }
 }

@@ -66,8 +66,57 @@ pub fn gopro_parts(name: &str) -> Option<(String, u32, String)> {
     Some((stem[..2].to_string(), chapter, stem[4..].to_string()))
 }
 
+/// The videos of a session folder grouped by upper-case name (names sorted): more than
+/// one name in a group means files that differ only in case.
+fn videos_by_upper_name(session: &Path) -> BTreeMap<String, Vec<String>> {
+    let mut videos: BTreeMap<String, Vec<String>> = BTreeMap::new();
+    if let Ok(rd) = std::fs::read_dir(session) {
+        for e in rd.flatten() {
+            let p = e.path();
+            if p.is_file() && has_extension(&p, VIDEO_EXTENSIONS) {
+                let name = e.file_name().to_string_lossy().into_owned();
+                videos
+                    .entry(name.to_ascii_uppercase())
+                    .or_default()
+                    .push(name);
+            }
+        }
+    }
+    for names in videos.values_mut() {
+        names.sort();
+    }
+    videos
+}
+
+/// The chapters (02, 03, ...) in `videos` that continue the GoPro recording whose first
+/// chapter is `first`, in order; names in `named` are videos of their own, not chapters.
+fn chapters_of(
+    first: &str,
+    videos: &BTreeMap<String, String>,
+    named: &HashSet<String>,
+) -> Vec<String> {
+    let Some((prefix, 1, rec)) = gopro_parts(first) else {
+        return vec![];
+    };
+    let mut chapters: Vec<(u32, String)> = videos
+        .iter()
+        .filter(|(upper, _)| !named.contains(*upper))
+        .filter_map(|(_, v)| match gopro_parts(v) {
+            Some((p, ch, r)) if p == prefix && r == rec && ch > 1 => Some((ch, v.clone())),
+            _ => None,
+        })
+        .collect();
+    chapters.sort();
+    chapters.into_iter().map(|(_, c)| c).collect()
+}
+
 /// Reads `SESSION/pressures.csv`, checks every row against the folder, groups GoPro
 /// chapters and lists videos that are not in the manifest.
+///
+/// Every file gives at most one issue: a file named by a row (even a row that cannot be
+/// used) is not also reported as missing from the manifest, and files whose names differ
+/// only in case are one issue naming all of them (none of them is measured: which one
+/// the row means is ambiguous).
 pub fn read_manifest(session: &Path) -> Result<Manifest, SessionError> {
     let path = session.join(MANIFEST);
     if !session.is_dir() {
@@ -92,20 +141,17 @@ pub fn read_manifest(session: &Path) -> Result<Manifest, SessionError> {
         "name the column of video names `file` (header `file,pressure_bar`)",
     )?;
     let (p_col, unit) = require_pressure_column(&table)?;
-    // Videos in the folder, by upper-case name.
-    let mut videos: BTreeMap<String, String> = BTreeMap::new();
-    if let Ok(rd) = std::fs::read_dir(session) {
-        for e in rd.flatten() {
-            let p = e.path();
-            if p.is_file() && has_extension(&p, VIDEO_EXTENSIONS) {
-                let name = e.file_name().to_string_lossy().into_owned();
-                videos.insert(name.to_ascii_uppercase(), name);
-            }
-        }
-    }
+    let folder = videos_by_upper_name(session);
+    let unique: BTreeMap<String, String> = folder
+        .iter()
+        .filter(|(_, names)| names.len() == 1)
+        .map(|(upper, names)| (upper.clone(), names[0].clone()))
+        .collect();
     let mut entries: Vec<ManifestEntry> = Vec::new();
     let mut issues = Vec::new();
     let mut seen: HashSet<String> = HashSet::new();
+    // Every file a row names, usable or not, and the first row naming each.
+    let mut named: BTreeMap<String, (usize, String)> = BTreeMap::new();
     for row in 0..table.len() {
         let lineno = table.line(row);
         let file = table.cell(row, file_col).trim().to_string();
@@ -119,6 +165,8 @@ pub fn read_manifest(session: &Path) -> Result<Manifest, SessionError> {
             issues.push(issue("no file name in this row".into()));
             continue;
         }
+        let upper = file.to_ascii_uppercase();
+        named.entry(upper.clone()).or_insert((lineno, file.clone()));
         let pressure: f64 = match raw.parse::<f64>() {
             Ok(v) if v.is_finite() && v >= 0.0 => v,
             Ok(v) => {
@@ -143,11 +191,15 @@ pub fn read_manifest(session: &Path) -> Result<Manifest, SessionError> {
                 continue;
             }
         };
-        if !seen.insert(file.to_ascii_uppercase()) {
+        if !seen.insert(upper.clone()) {
             issues.push(issue("listed twice: the first row is used".into()));
             continue;
         }
-        let Some(actual) = videos.get(&file.to_ascii_uppercase()).cloned() else {
+        if folder.get(&upper).is_some_and(|names| names.len() > 1) {
+            // Reported once below, with every name.
+            continue;
+        }
+        let Some(actual) = unique.get(&upper).cloned() else {
             issues.push(issue(
                 "no such video in the session folder: check the name".into(),
             ));
@@ -162,36 +214,42 @@ pub fn read_manifest(session: &Path) -> Result<Manifest, SessionError> {
         });
     }
     // GoPro chapters continue the recording of chapter 01 listed in the manifest.
-    let listed: HashSet<String> = entries
-        .iter()
-        .map(|e| e.file.to_ascii_uppercase())
-        .collect();
-    let mut claimed: HashSet<String> = HashSet::new();
+    let named_upper: HashSet<String> = named.keys().cloned().collect();
     for e in entries.iter_mut() {
-        if let Some((prefix, 1, rec)) = gopro_parts(&e.file) {
-            let mut chapters: Vec<(u32, String)> = videos
-                .values()
-                .filter_map(|v| match gopro_parts(v) {
-                    Some((p, ch, r))
-                        if p == prefix
-                            && r == rec
-                            && ch > 1
-                            && !listed.contains(&v.to_ascii_uppercase()) =>
-                    {
-                        Some((ch, v.clone()))
-                    }
-                    _ => None,
-                })
-                .collect();
-            chapters.sort();
-            for (_, c) in &chapters {
-                claimed.insert(c.to_ascii_uppercase());
-            }
-            e.chapters = chapters.into_iter().map(|(_, c)| c).collect();
-        }
+        e.chapters = chapters_of(&e.file, &unique, &named_upper);
     }
-    for (upper, name) in &videos {
-        if !listed.contains(upper) && !claimed.contains(upper) {
+    // The chapters of every named recording, usable or not, belong to a row.
+    let claimed: HashSet<String> = named
+        .values()
+        .flat_map(|(_, file)| {
+            let first = unique
+                .get(&file.to_ascii_uppercase())
+                .cloned()
+                .unwrap_or_else(|| file.clone());
+            chapters_of(&first, &unique, &named_upper)
+        })
+        .map(|c| c.to_ascii_uppercase())
+        .collect();
+    for (upper, names) in folder.iter().filter(|(_, names)| names.len() > 1) {
+        let (line, file) = match named.get(upper) {
+            Some((line, file)) => (Some(*line), file.clone()),
+            None => (None, names[0].clone()),
+        };
+        let count = match names.len() {
+            2 => "two".to_string(),
+            n => n.to_string(),
+        };
+        issues.push(SessionIssue {
+            file,
+            line,
+            message: format!(
+                "{count} files differ only in case ({}): rename or remove one",
+                names.join(", ")
+            ),
+        });
+    }
+    for (upper, name) in &unique {
+        if !named.contains_key(upper) && !claimed.contains(upper) {
             issues.push(SessionIssue {
                 file: name.clone(),
                 line: None,
@@ -300,6 +358,72 @@ mod tests {
     }
 
     #[test]
+    fn every_file_is_reported_at_most_once() {
+        // Bad rows name files that are in the folder: they are not also "not in the
+        // manifest", nor are the chapters of a recording named by a bad row.
+        let d = session(
+            "file,pressure_bar\nGX010002.MP4,abc\nGX010003.MP4,-1\nGX010004.MP4,\n",
+            &[
+                "GX010002.MP4",
+                "GX010003.MP4",
+                "GX010004.MP4",
+                "GX020004.MP4",
+            ],
+        );
+        let m = read_manifest(d.path()).unwrap();
+        assert!(m.entries.is_empty());
+        let files: Vec<&str> = m.issues.iter().map(|i| i.file.as_str()).collect();
+        assert_eq!(
+            files,
+            ["GX010002.MP4", "GX010003.MP4", "GX010004.MP4"],
+            "{:?}",
+            m.issues
+        );
+        assert!(m
+            .issues
+            .iter()
+            .all(|i| !i.message.contains("not in pressures.csv")));
+        assert_eq!(m.issues[0].line, Some(2));
+    }
+
+    #[test]
+    fn files_differing_only_in_case_are_one_issue_and_not_measured() {
+        let d = tempfile::tempdir().unwrap();
+        std::fs::write(
+            d.path().join(MANIFEST),
+            "file,pressure_kpa\nGX010103.MP4,20\nGX010101.MP4,40\n",
+        )
+        .unwrap();
+        for f in [
+            "GX010103.MP4",
+            "gx010103.mp4",
+            "GX010101.MP4",
+            "a.mov",
+            "A.MOV",
+        ] {
+            std::fs::write(d.path().join(f), b"x").unwrap();
+        }
+        let names: Vec<_> = std::fs::read_dir(d.path()).unwrap().collect();
+        if names.len() < 6 {
+            // A case-insensitive file system: nothing to tell apart.
+            return;
+        }
+        let m = read_manifest(d.path()).unwrap();
+        assert_eq!(m.entries.len(), 1);
+        assert_eq!(m.entries[0].file, "GX010101.MP4");
+        assert_eq!(m.issues.len(), 2, "{:?}", m.issues);
+        let listed = &m.issues.iter().find(|i| i.file == "GX010103.MP4").unwrap();
+        assert_eq!(listed.line, Some(2));
+        assert_eq!(
+            listed.message,
+            "two files differ only in case (GX010103.MP4, gx010103.mp4): rename or remove one"
+        );
+        let unlisted = &m.issues.iter().find(|i| i.file == "A.MOV").unwrap();
+        assert_eq!(unlisted.line, None);
+        assert!(unlisted.message.contains("(A.MOV, a.mov)"), "{unlisted:?}");
+    }
+
+    #[test]
     fn header_problems_name_the_file_and_line() {
         let d = session(
             "\nfile_name,pressure_kpa\nGX010001.MP4,1\n",
@@ -313,5 +437,34 @@ mod tests {
         let d = session("\n\n", &[]);
         let e = read_manifest(d.path()).unwrap_err().to_string();
         assert!(e.contains("empty manifest"), "{e}");
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+
+        #[test]
+        fn arbitrary_manifests_parse_or_fail_without_panicking(
+            bytes in proptest::collection::vec(
+                proptest::sample::select(b"GX010001.MP4gx2,\",\n\r -1e5x\xff".to_vec()),
+                0..160,
+            )
+        ) {
+            let d = tempfile::tempdir().unwrap();
+            std::fs::write(d.path().join(MANIFEST), &bytes).unwrap();
+            for f in ["GX010001.MP4", "GX020001.MP4", "gx010002.mp4", "GX010002.MP4"] {
+                std::fs::write(d.path().join(f), b"x").unwrap();
+            }
+            let prefix = b"file,pressure_kpa\n";
+            if let Ok(m) = read_manifest(d.path()) {
+                // At most one issue or entry per row and per file.
+                let rows = Table::parse(&bytes, Path::new(MANIFEST)).map(|t| t.len()).unwrap_or(0);
+                proptest::prop_assert!(m.entries.len() + m.issues.len() <= rows + 4);
+                for e in &m.entries {
+                    proptest::prop_assert!(e.pressure_kpa.is_finite() && e.pressure_kpa >= 0.0);
+                }
+            }
+            std::fs::write(d.path().join(MANIFEST), [prefix.as_slice(), &bytes].concat()).unwrap();
+            let _ = read_manifest(d.path());
+        }
     }
 }
