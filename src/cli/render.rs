@@ -131,6 +131,7 @@ pub fn render_fem_session(
         radius_law: (0.0, 0.0, 0.0),
         frames: args.frames,
         calib_views: args.calib_views,
+        calib_view_reach: 1.0,
         scale_square_mm: 10.0,
         distractor: args.distractor,
         supersample: args.supersample,
