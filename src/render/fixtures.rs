@@ -86,6 +86,7 @@ impl CameraTruth {
             board: None,
             views_used: vec![],
             views_rejected: vec![],
+            coverage: None,
         }
     }
 }

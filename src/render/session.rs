@@ -386,6 +386,7 @@ pub fn rgbd_camera() -> Calibration {
         board: None,
         views_used: vec![],
         views_rejected: vec![],
+        coverage: None,
     }
 }
 
