@@ -23,6 +23,7 @@ fn main() -> anyhow::Result<()> {
         camera,
         board: Board::new(9, 6, 25.0)?,
         views,
+        view_reach: 1.0,
         scale_distance_mm: 400.0,
         photo: PhotoSettings {
             supersample,

@@ -25,6 +25,7 @@ fn main() -> anyhow::Result<()> {
         radius_law: (3000.0, -0.9, 5.0),
         frames,
         calib_views: 16,
+        calib_view_reach: 1.0,
         scale_square_mm: 10.0,
         distractor,
         supersample: 3,

@@ -121,6 +121,7 @@ impl RgbdIntrinsics {
             board: None,
             views_used: vec![],
             views_rejected: vec![],
+            coverage: None,
         }
     }
 }

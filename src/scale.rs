@@ -6,6 +6,12 @@
 //! (first to last corner, the longest baselines) gives mm per px. The spread between rows
 //! and columns tells whether the board was parallel to the image plane.
 //!
+//! Every corner must lie inside the calibration's valid field
+//! ([`crate::calib::field`]): outside, the lens model is extrapolated and the scale would
+//! be wrong by an unknown amount, so a corner outside is an error naming how many and
+//! where the field ends, not a silent skip (the scale is one number for the whole
+//! session; it should come from corners the calibration vouches for).
+//!
 //! Or, the published manual method: a field of view of `fov_mm` across the frame width,
 //! radius_mm = radius_px x fov_mm / frame_width_px.
 
@@ -34,6 +40,18 @@ pub enum ScaleError {
         path: PathBuf,
         /// The board looked for.
         board: String,
+    },
+    /// Board corners outside the calibration's valid field.
+    #[error("{path}: {outside} of {total} board corners lie outside the calibrated field (beyond {field_deg:.1}° from the optical axis, where the calibration photos' board never reached): put the scale board nearer the centre of the frame, or calibrate again with photos that also hold the board where the scale board lies")]
+    OutsideField {
+        /// The photo.
+        path: PathBuf,
+        /// Corners outside the field.
+        outside: usize,
+        /// Corners found.
+        total: usize,
+        /// The valid field angle, degrees.
+        field_deg: f64,
     },
     /// A nonsense number.
     #[error("{what} must be a positive finite number, got {value}")]
@@ -138,7 +156,8 @@ pub fn scale_from_corners(
     Ok((board.square_mm / mean, sd / mean))
 }
 
-/// mm per undistorted px from a photo of `board` lying in the actuator plane.
+/// mm per undistorted px from a photo of `board` lying in the actuator plane; every
+/// corner must lie inside the calibration's valid field ([`ScaleError::OutsideField`]).
 pub fn scale_from_board_photo(
     path: &Path,
     calib: &Calibration,
@@ -161,6 +180,15 @@ pub fn scale_from_board_photo(
             path: path.to_path_buf(),
             board: board.to_string(),
         })?;
+    let outside = corners.iter().filter(|c| !und.in_valid_field(**c)).count();
+    if outside > 0 {
+        return Err(ScaleError::OutsideField {
+            path: path.to_path_buf(),
+            outside,
+            total: corners.len(),
+            field_deg: und.valid_field().valid_angle_deg(),
+        });
+    }
     let flat = und.undistort_points(&corners)?;
     let (mm_per_px, spread) = scale_from_corners(&flat, board)?;
     Ok(Scale {

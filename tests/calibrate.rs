@@ -113,6 +113,27 @@ fn fisheye_on_synthetic_gopro_photos_recovers_the_camera() {
     assert!(text.starts_with("%YAML:1.0"));
     assert!(text.contains("model: fisheye"));
     assert!(text.contains("camera_matrix: !!opencv-matrix"));
+    // The boards were spread to the frame's corners: the field reaches about 60° (the
+    // frame's corners lie at 73°), the true lens is monotonic throughout, and no warning.
+    for key in [
+        "valid_field_angle_deg:",
+        "monotonic_field_angle_deg:",
+        "coverage_field_angle_deg:",
+        "coverage_grid: !!opencv-matrix",
+    ] {
+        assert!(text.contains(key), "{key} missing");
+    }
+    let field = c.valid_field();
+    assert_eq!(field.monotonic_angle_deg, 90.0);
+    assert!(
+        field.valid_angle_deg() > 55.0 && field.valid_angle_deg() < 65.0,
+        "{field:?}"
+    );
+    assert!(
+        run.stdout.contains("board coverage: corners reached"),
+        "{run}"
+    );
+    assert!(!run.stderr.contains("warning"), "{run}");
 }
 
 #[test]

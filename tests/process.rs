@@ -250,6 +250,7 @@ fn an_extra_red_object_is_ignored_and_counted() {
         radius_law: (3000.0, -0.9, 5.0),
         frames: 3,
         calib_views: 3,
+        calib_view_reach: 1.0,
         scale_square_mm: 8.0,
         distractor: true,
         supersample: 2,

@@ -1080,6 +1080,7 @@ fn wide_session() -> &'static (PathBuf, SessionTruth) {
             radius_law: (3000.0, -0.9, 5.0),
             frames: 2,
             calib_views: 3,
+            calib_view_reach: 1.0,
             scale_square_mm: 8.0,
             distractor: false,
             supersample: 2,

@@ -11,6 +11,14 @@
 //! stack (aborting the process, not raising an error) on a few thousand levels; files
 //! nested deeper than a calibration can be, or larger than one can be, are refused before
 //! OpenCV reads them.
+//!
+//! The valid field ([`super::field`]), in degrees from the optical axis:
+//! `valid_field_angle_deg` and `monotonic_field_angle_deg` (always written, for readers of
+//! the file; bendscope recomputes both from the coefficients), and, when the calibration
+//! knows where its board went ([`super::coverage`]), `coverage_field_angle_deg` (the
+//! coverage limit bendscope reads back), `coverage_half_diagonal_share` and
+//! `coverage_grid` (3x3, rows top to bottom). A file without `coverage_field_angle_deg`
+//! (older files, hand-written ones) gets the monotonic limit only.
 
 use std::path::Path;
 
@@ -18,7 +26,7 @@ use opencv::core::{FileNode, FileStorage, FileStorage_Mode, Mat, Vector};
 use opencv::prelude::*;
 
 use super::cv::{mat_from_column, mat_from_matrix3, matrix3_from_mat, values_from_mat};
-use super::{Board, CalibError, Calibration, CameraModel, RejectedView, ViewError};
+use super::{Board, CalibError, Calibration, CameraModel, Coverage, RejectedView, ViewError};
 use crate::io::write_atomic;
 
 /// Deepest nesting of a file handed to OpenCV's parser. `FileStorage` recurses once per
@@ -109,6 +117,18 @@ pub fn calibration_to_yaml(calib: &Calibration) -> opencv::Result<String> {
         fs.write_i32("board_width", b.cols as i32)?;
         fs.write_i32("board_height", b.rows as i32)?;
         fs.write_f64("square_size_mm", b.square_mm)?;
+    }
+    let field = calib.valid_field();
+    fs.write_f64("valid_field_angle_deg", field.valid_angle_deg())?;
+    fs.write_f64("monotonic_field_angle_deg", field.monotonic_angle_deg)?;
+    if let Some(c) = &calib.coverage {
+        fs.write_f64("coverage_field_angle_deg", c.field_angle_deg)?;
+        if let Some(share) = c.half_diagonal_share {
+            fs.write_f64("coverage_half_diagonal_share", share)?;
+        }
+        if let Some(grid) = &c.grid {
+            fs.write_mat("coverage_grid", &Mat::from_slice_2d(grid)?)?;
+        }
     }
     let used: Vector<String> = calib.views_used.iter().map(|s| s.as_str()).collect();
     fs.write_str_vec("views_used", &used)?;
@@ -253,6 +273,34 @@ pub fn read_calibration(path: &Path) -> Result<Calibration, CalibError> {
         }
         _ => None,
     };
+    let real = |key: &str| -> Option<f64> {
+        fs.get(key)
+            .ok()
+            .filter(|n| n.is_real().unwrap_or(false) || n.is_int().unwrap_or(false))
+            .and_then(|n| n.to_f64().ok())
+            .filter(|v| v.is_finite())
+    };
+    let coverage = real("coverage_field_angle_deg")
+        .filter(|a| *a > 0.0)
+        .map(|field_angle_deg| Coverage {
+            field_angle_deg,
+            half_diagonal_share: real("coverage_half_diagonal_share").filter(|s| *s >= 0.0),
+            grid: fs
+                .get("coverage_grid")
+                .ok()
+                .filter(|n| !n.empty().unwrap_or(true))
+                .and_then(|n| n.mat().ok())
+                .filter(|m| m.rows() == 3 && m.cols() == 3)
+                .and_then(|m| values_from_mat(&m).ok())
+                .and_then(|v| {
+                    let cell = |r: usize, c: usize| v.get(r * 3 + c).copied();
+                    Some([
+                        [cell(0, 0)?, cell(0, 1)?, cell(0, 2)?],
+                        [cell(1, 0)?, cell(1, 1)?, cell(1, 2)?],
+                        [cell(2, 0)?, cell(2, 1)?, cell(2, 2)?],
+                    ])
+                }),
+        });
     Ok(Calibration {
         model,
         image_width: image_width as u32,
@@ -264,6 +312,7 @@ pub fn read_calibration(path: &Path) -> Result<Calibration, CalibError> {
         board,
         views_used: names,
         views_rejected,
+        coverage,
     })
 }
 
@@ -285,6 +334,7 @@ mod tests {
             board: None,
             views_used: vec!["a.png".into()],
             views_rejected: vec![],
+            coverage: None,
         }
     }
 
@@ -309,6 +359,64 @@ mod tests {
             b"{{{{",
         ] {
             assert!(read_bytes(bad).is_err(), "{bad:?}");
+        }
+    }
+
+    /// A fisheye calibration whose theta_d folds at 70 degrees (hand-made coefficients).
+    fn folding_fisheye(coverage: Option<Coverage>) -> Calibration {
+        Calibration {
+            model: CameraModel::Fisheye,
+            image_width: 1920,
+            image_height: 1080,
+            camera_matrix: Matrix3::new(860.0, 0.0, 962.6, 0.0, 862.4, 537.6, 0.0, 0.0, 1.0),
+            distortion: vec![0.02, 0.03, -0.08, 0.01],
+            avg_reprojection_error: 0.08,
+            per_view_errors: vec![
+                ViewError {
+                    name: "a.jpg".into(),
+                    rms_px: 0.07,
+                },
+                ViewError {
+                    name: "b.jpg".into(),
+                    rms_px: 0.09,
+                },
+            ],
+            board: Some(Board::new(9, 6, 25.0).unwrap()),
+            views_used: vec!["a.jpg".into(), "b.jpg".into()],
+            views_rejected: vec![RejectedView {
+                name: "c.jpg".into(),
+                reason: "no 9x6 board found".into(),
+            }],
+            coverage,
+        }
+    }
+
+    fn round_trip(c: &Calibration) -> (Calibration, String) {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("cam.yaml");
+        write_calibration(&path, c).unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        (read_calibration(&path).unwrap(), text)
+    }
+
+    #[test]
+    fn the_coverage_survives_a_round_trip() {
+        let c = folding_fisheye(Some(Coverage {
+            field_angle_deg: 38.7,
+            half_diagonal_share: Some(0.54),
+            grid: Some([[0.1, 0.5, 0.2], [0.6, 1.0, 0.7], [0.3, 0.4, 0.0]]),
+        }));
+        let (back, text) = round_trip(&c);
+        assert_eq!(back, c);
+        assert_eq!(back.valid_field().valid_angle_deg(), 38.7);
+        for key in [
+            "valid_field_angle_deg: 3.87",
+            "monotonic_field_angle_deg: 7.0",
+            "coverage_field_angle_deg: 3.87",
+            "coverage_half_diagonal_share: 5.4",
+            "coverage_grid: !!opencv-matrix",
+        ] {
+            assert!(text.contains(key), "`{key}` missing in:\n{text}");
         }
     }
 
@@ -413,5 +521,47 @@ mod tests {
             yaml.truncate(cut);
             let _ = read_bytes(&yaml);
         }
+    }
+
+    #[test]
+    fn a_file_without_the_keys_gets_the_monotonic_limit_only() {
+        let c = folding_fisheye(None);
+        let (back, text) = round_trip(&c);
+        assert_eq!(back, c);
+        assert!(!text.contains("coverage"), "{text}");
+        let field = back.valid_field();
+        assert_eq!(field.coverage_angle_deg, None);
+        assert!(field.monotonic_angle_deg > 69.0 && field.monotonic_angle_deg < 71.0);
+        assert_eq!(field.valid_angle_deg(), field.monotonic_angle_deg);
+    }
+
+    #[test]
+    fn hand_written_files_are_read_with_or_without_a_coverage() {
+        let dir = tempfile::tempdir().unwrap();
+        let base = "%YAML:1.0\n---\nimage_width: 1920\nimage_height: 1080\ncamera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   data: [ 860., 0., 962.6, 0., 862.4, 537.6, 0., 0., 1. ]\ndistortion_coefficients: !!opencv-matrix\n   rows: 4\n   cols: 1\n   dt: d\n   data: [ 0.02, 0.03, -0.08, 0.01 ]\n";
+        let old = dir.path().join("old.yaml");
+        std::fs::write(&old, base).unwrap();
+        let c = read_calibration(&old).unwrap();
+        assert_eq!(c.model, CameraModel::Fisheye);
+        assert_eq!(c.coverage, None);
+        let f = c.valid_field();
+        assert_eq!(f.valid_angle_deg(), f.monotonic_angle_deg);
+        // Only the coverage angle, typed as an integer: read, the rest unknown.
+        let narrowed = dir.path().join("narrowed.yaml");
+        std::fs::write(&narrowed, format!("{base}coverage_field_angle_deg: 40\n")).unwrap();
+        let c = read_calibration(&narrowed).unwrap();
+        assert_eq!(
+            c.coverage,
+            Some(Coverage {
+                field_angle_deg: 40.0,
+                half_diagonal_share: None,
+                grid: None,
+            })
+        );
+        assert_eq!(c.valid_field().valid_angle_deg(), 40.0);
+        // A nonsense coverage is ignored rather than trusted.
+        let bad = dir.path().join("bad.yaml");
+        std::fs::write(&bad, format!("{base}coverage_field_angle_deg: -3.\n")).unwrap();
+        assert_eq!(read_calibration(&bad).unwrap().coverage, None);
     }
 }

@@ -4,11 +4,17 @@
 //!   searched on a downscaled copy, then refined at full resolution), views in parallel.
 //! - [`solve`]: run OpenCV's calibration: Kannala-Brandt fisheye (`cv::fisheye::calibrate`)
 //!   or pinhole + 5 Brown coefficients (`cv::calibrateCamera`, Zhang's method).
+//! - [`coverage`]: where the board went (field angle, share of the frame, 3x3 grid) and
+//!   where to hold it next.
+//! - [`field`]: the valid field of a calibration, the smaller of the field the board
+//!   covered and the field over which the distortion polynomial is monotonic.
 //! - [`file`]: read and write calibration files (OpenCV `FileStorage` YAML).
 //! - [`undistort`]: raw pixel <-> undistorted pixel for points, full-frame maps and the
-//!   crop rectangle free of the black border.
+//!   crop rectangle free of the black border, inside the valid field.
 
 pub mod corners;
+pub mod coverage;
+pub mod field;
 pub mod file;
 pub mod solve;
 pub mod undistort;
@@ -23,6 +29,8 @@ use nalgebra::Matrix3;
 use serde::{Deserialize, Serialize};
 
 pub use corners::{detect_views, BoardView, DetectSettings as CornerSettings, ViewSource};
+pub use coverage::Coverage;
+pub use field::ValidField;
 pub use solve::{calibrate, CalibrationSettings};
 pub use undistort::{UndistortSettings, Undistorter};
 
@@ -318,6 +326,9 @@ pub struct Calibration {
     pub views_used: Vec<String>,
     /// Views left out, with the reason.
     pub views_rejected: Vec<RejectedView>,
+    /// Where the board's detected corners went; `None` when unknown (cameras described
+    /// by hand, calibration files written before bendscope recorded it).
+    pub coverage: Option<Coverage>,
 }
 
 impl Calibration {
@@ -369,6 +380,19 @@ impl Calibration {
         Ok(out)
     }
 
+    /// Where the lens model may be used ([`field`]): field angles up to the smaller of the
+    /// largest angle the board's corners covered (when known) and the largest angle up to
+    /// which the distortion polynomial is monotonic (Kannala-Brandt theta_d(theta), or
+    /// the Brown radial r (1 + k1 r^2 + k2 r^4 + k3 r^6)). Angles do not depend on the
+    /// frame size, so this holds for [`Calibration::for_resolution`]'s result too.
+    pub fn valid_field(&self) -> ValidField {
+        ValidField::new(
+            self.model,
+            &self.distortion,
+            self.coverage.as_ref().map(|c| c.field_angle_deg),
+        )
+    }
+
     /// True when [`Calibration::for_resolution`] would scale (not copy) for this size.
     pub fn needs_scaling(&self, width: u32, height: u32) -> bool {
         width != self.image_width || height != self.image_height
@@ -416,6 +440,7 @@ mod tests {
             board: None,
             views_used: vec![],
             views_rejected: vec![],
+            coverage: None,
         };
         let s = c.for_resolution(1920, 1440).unwrap();
         assert!((s.fx() - 864.0).abs() < 1e-9);

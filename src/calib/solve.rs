@@ -9,12 +9,13 @@
 //! The reported `avg_reprojection_error` is the RMS over all corners of all views used,
 //! as in OpenCV's calibration sample; per-view errors are the RMS of each view.
 
-use nalgebra::{Matrix3, Point2};
+use nalgebra::{Matrix3, Point2, Rotation3, Vector3};
 use opencv::calib3d;
 use opencv::core::{Mat, Point2f, Point3f, Size, TermCriteria, TermCriteria_Type, Vector};
 use opencv::prelude::*;
 
 use super::corners::{common_size, BoardView, Detections};
+use super::coverage::{coverage_grid, half_diagonal_share, Coverage};
 use super::cv::{matrix3_from_mat, values_from_mat};
 use super::{Board, CalibError, Calibration, CameraModel, RejectedView, ViewError};
 
@@ -268,12 +269,18 @@ fn finish(
         .iter()
         .map(|p| Point3f::new(p[0] as f32, p[1] as f32, p[2] as f32))
         .collect();
+    let board_mm = settings.board.object_points_mm();
     let mut per_view = Vec::with_capacity(views.len());
     let mut total_sq = 0.0;
     let mut total_n = 0usize;
+    let mut field_angle_deg = 0.0f64;
     for (i, v) in views.iter().enumerate() {
         let rvec = s.rvecs.get(i).map_err(|e| CalibError::cv("view pose", e))?;
         let tvec = s.tvecs.get(i).map_err(|e| CalibError::cv("view pose", e))?;
+        field_angle_deg = field_angle_deg.max(
+            largest_field_angle_deg(&board_mm, &rvec, &tvec)
+                .map_err(|e| CalibError::cv("view pose", e))?,
+        );
         let projected = project(&object, &rvec, &tvec, &s.k, &s.d, s.model)
             .map_err(|e| CalibError::cv("reprojection", e))?;
         let sq: f64 = projected
@@ -288,6 +295,17 @@ fn finish(
             rms_px: (sq / v.corners.len() as f64).sqrt(),
         });
     }
+    if !(field_angle_deg.is_finite() && field_angle_deg > 0.0) {
+        return Err(CalibError::Diverged {
+            what: "board poses with no finite field angle".to_string(),
+        });
+    }
+    let corners: Vec<&[Point2<f64>]> = views.iter().map(|v| v.corners.as_slice()).collect();
+    let coverage = Coverage {
+        field_angle_deg,
+        half_diagonal_share: Some(half_diagonal_share(&corners, width, height)),
+        grid: Some(coverage_grid(&corners, &settings.board, width, height)),
+    };
     Ok(Calibration {
         model: s.model,
         image_width: width,
@@ -299,7 +317,31 @@ fn finish(
         board: Some(settings.board),
         views_used: views.iter().map(|v| v.name.clone()).collect(),
         views_rejected: rejected,
+        coverage: Some(coverage),
     })
+}
+
+/// The largest field angle (degrees from the optical axis) of the board's corners at the
+/// calibrated pose: corner X_c = R(rvec) X + t (Rodrigues' rotation of the axis-angle
+/// vector), angle atan2(|(x, y)|, z).
+fn largest_field_angle_deg(board_mm: &[[f64; 3]], rvec: &Mat, tvec: &Mat) -> opencv::Result<f64> {
+    let r = values_from_mat(rvec)?;
+    let t = values_from_mat(tvec)?;
+    if r.len() != 3 || t.len() != 3 {
+        return Err(opencv::Error::new(
+            opencv::core::StsBadSize,
+            format!("pose vectors of {} and {} values", r.len(), t.len()),
+        ));
+    }
+    let rotation = Rotation3::from_scaled_axis(Vector3::new(r[0], r[1], r[2]));
+    let t = Vector3::new(t[0], t[1], t[2]);
+    Ok(board_mm
+        .iter()
+        .map(|p| {
+            let c = rotation * Vector3::new(p[0], p[1], p[2]) + t;
+            c.x.hypot(c.y).atan2(c.z).to_degrees()
+        })
+        .fold(0.0, f64::max))
 }
 
 /// Projects board points through a posed camera.

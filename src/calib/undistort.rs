@@ -1,34 +1,47 @@
-//! Undistortion: raw pixel <-> undistorted pixel, full-frame maps and the crop rectangle.
+//! Undistortion: raw pixel <-> undistorted pixel, full-frame maps and the crop rectangle,
+//! all inside the calibration's valid field ([`super::field`]).
 //!
 //! The undistorted image is a pinhole view with camera matrix
 //! P = [s f, 0, cx; 0, s f, cy; 0, 0, 1], f = (fx + fy) / 2: the calibration's principal
 //! point kept, square pixels (so a circle in the actuator plane stays a circle and one
-//! mm-per-px holds in both directions), and the focal length scaled by `s`. bendscope chooses `s` itself rather than trusting
+//! mm-per-px holds in both directions), and the focal length scaled by `s`. bendscope
+//! chooses `s` itself rather than trusting
 //! `cv::fisheye::estimateNewCameraMatrixForUndistortRectify`, which is known to return
-//! NaN or absurd focal lengths for some calibrations:
+//! NaN or absurd focal lengths for some calibrations. The "valid part of the raw frame"
+//! below is the raw frame inside the valid field (a disc of radius tan(theta_valid) around
+//! the principal point in undistorted normalized coordinates):
 //!
-//! - `balance = 0` (default): the smallest zoom at which the raw frame covers the whole
-//!   output (its four mid-edge points land on or beyond the output edges): no black
-//!   border; the raw corners and, when the principal point is off-centre or the aspect
-//!   ratio differs from the lens's, a strip of one side are lost;
-//! - `balance = 1`: the whole raw frame fits in the output (black border around it);
+//! - `balance = 0` (default): the smallest zoom at which the valid part of the raw frame
+//!   covers the whole output (its mid-edge points inside the field land on or beyond the
+//!   output edges, and the output corners lie inside the field): no black border and no
+//!   pixel from outside the field; the raw corners and, when the principal point is
+//!   off-centre or the aspect ratio differs from the lens's, a strip of one side are lost;
+//! - `balance = 1`: the whole valid part of the raw frame fits in the output (black border
+//!   around it);
 //! - in between: `s` interpolated linearly.
 //!
-//! [`Undistorter::crop_rect`] is the largest axis-aligned rectangle of the output whose
-//! pixels all come from inside the raw frame.
+//! Without a field limit inside the frame this is the framing bendscope always used. The
+//! model is never evaluated beyond the field: framing undistorts only raw points inside
+//! it, [`Undistorter::crop_rect`] is the largest axis-aligned rectangle of output pixels
+//! that lie inside the field and come from inside the raw frame, and the maps of
+//! [`Undistorter::maps`] leave pixels outside the field black.
 //!
 //! Two ways to use it: undistort whole frames with [`Undistorter::undistort_image`]
 //! (remap with precomputed maps), or, much cheaper, detect in the raw frame and
-//! undistort only the detected points with [`Undistorter::undistort_points`].
+//! undistort only the detected points with [`Undistorter::undistort_points`] after
+//! checking them with [`Undistorter::in_valid_field`].
 
 use nalgebra::{Matrix3, Point2, Vector3};
 use opencv::core::{
-    Mat, Point2d, Point3d, Rect, Scalar, Size, TermCriteria, TermCriteria_Type, Vector,
+    Mat, Point2d, Point3d, Rect, Scalar, Size, TermCriteria, TermCriteria_Type, Vec2s, Vector,
     BORDER_CONSTANT, CV_16SC2,
 };
+use opencv::prelude::*;
 use opencv::{calib3d, imgproc};
+use rayon::prelude::*;
 
 use super::cv::{mat_from_column, mat_from_matrix3, points_from_vector, vector_from_points};
+use super::field::{distort_normalized, fisheye_theta_d, ValidField};
 use super::{CalibError, Calibration, CameraModel};
 
 /// Iteration limit of the iterative point undistortion.
@@ -36,13 +49,27 @@ pub const UNDISTORT_MAX_ITER: i32 = 100;
 /// Convergence threshold (normalized coordinates) of the point undistortion: far below
 /// 1e-6 px for any focal length up to 10^5 px.
 pub const UNDISTORT_EPS: f64 = 1e-14;
-/// Samples per raw-frame edge used to find the scale and the crop rectangle.
+/// Samples per raw-frame edge used to find the scale.
 pub const EDGE_SAMPLES: usize = 64;
+/// Tolerance, px, with which an output pixel's raw position may sit outside the raw
+/// frame and still count as inside (rounding of the forward projection at the edge the
+/// framing puts exactly on an output edge).
+pub const RAW_EDGE_TOLERANCE_PX: f64 = 1e-6;
+/// Relative tolerance on the squared field radius with which an output pixel counts as
+/// inside the field (rounding of the framing that puts output corners exactly on it).
+pub const FIELD_EDGE_TOLERANCE: f64 = 1e-12;
+/// Largest disagreement, px, between a raw point and the forward projection of its
+/// undistorted point for the pinhole model's field test: iterative undistortion that did
+/// not converge (beyond the model's turning point) misses by far more.
+pub const ROUND_TRIP_TOLERANCE_PX: f64 = 1e-3;
+/// Map value given to output pixels outside the valid field: far enough outside the raw
+/// frame that bilinear remap reads only the border (black).
+const OUTSIDE_MAP_VALUE: i16 = -16;
 
 /// How the undistorted view is framed.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct UndistortSettings {
-    /// 0: no black border (raw corners lost); 1: the whole raw frame visible.
+    /// 0: no black border (raw corners lost); 1: the whole valid raw frame visible.
     pub balance: f64,
 }
 
@@ -52,7 +79,8 @@ impl Default for UndistortSettings {
     }
 }
 
-/// Maps between raw and undistorted pixels of one calibrated camera.
+/// Maps between raw and undistorted pixels of one calibrated camera, inside its valid
+/// field.
 #[derive(Debug)]
 pub struct Undistorter {
     model: CameraModel,
@@ -61,18 +89,32 @@ pub struct Undistorter {
     k: Mat,
     d: Mat,
     p: Mat,
+    camera_matrix: Matrix3<f64>,
+    distortion: Vec<f64>,
+    field: ValidField,
+    /// Fisheye: theta_d at the valid field angle, the largest distorted normalized radius
+    /// inside the field.
+    distorted_radius_limit: f64,
     new_camera_matrix: Matrix3<f64>,
     crop: Rect,
 }
 
 impl Undistorter {
     /// Prepares undistortion for `calib` (frames of the calibration's size; use
-    /// [`Calibration::for_resolution`] first for another size).
+    /// [`Calibration::for_resolution`] first for another size), framed by `settings`
+    /// inside the calibration's valid field ([`Calibration::valid_field`]).
     pub fn new(calib: &Calibration, settings: UndistortSettings) -> Result<Self, CalibError> {
         let cv = |e| CalibError::cv("undistortion set-up", e);
         let k = mat_from_matrix3(&calib.camera_matrix).map_err(cv)?;
         let d = mat_from_column(&calib.distortion).map_err(cv)?;
         let identity = Matrix3::<f64>::identity();
+        let field = calib.valid_field();
+        let distorted_radius_limit = match calib.model {
+            CameraModel::Fisheye => {
+                fisheye_theta_d(field.valid_angle_deg().to_radians(), &calib.distortion)
+            }
+            CameraModel::Pinhole => f64::INFINITY,
+        };
         let mut u = Undistorter {
             model: calib.model,
             width: calib.image_width,
@@ -80,57 +122,50 @@ impl Undistorter {
             k,
             d,
             p: mat_from_matrix3(&identity).map_err(cv)?,
+            camera_matrix: calib.camera_matrix,
+            distortion: calib.distortion.clone(),
+            field,
+            distorted_radius_limit,
             new_camera_matrix: identity,
             crop: Rect::new(0, 0, calib.image_width as i32, calib.image_height as i32),
         };
-        // Normalized coordinates of the raw frame's edges and corners (P = identity).
         let (w, h) = (
             calib.image_width as f64 - 1.0,
             calib.image_height as f64 - 1.0,
         );
         let (cx, cy) = (calib.cx(), calib.cy());
         let f = 0.5 * (calib.fx() + calib.fy());
-        let (fx, fy) = (f, f);
-        let probe = [
+        let rho = field.undistorted_radius_limit();
+        // Normalized coordinates (P = identity) of the raw mid-edge points inside the field.
+        let mid_edges = [
             Point2::new(0.0, cy),
             Point2::new(w, cy),
             Point2::new(cx, 0.0),
             Point2::new(cx, h),
-            Point2::new(0.0, 0.0),
-            Point2::new(w, 0.0),
-            Point2::new(0.0, h),
-            Point2::new(w, h),
         ];
-        let n = u.undistort_points(&probe)?;
-        // Smallest scale that puts every mid-edge point on or beyond its output edge, so
-        // the raw frame covers the whole output.
-        let inner = [
-            cx / (fx * n[0].x.abs()),
-            (w - cx) / (fx * n[1].x.abs()),
-            cy / (fy * n[2].y.abs()),
-            (h - cy) / (fy * n[3].y.abs()),
-        ]
-        .into_iter()
-        .filter(|s| s.is_finite() && *s > 0.0)
-        .fold(0.0, f64::max);
-        // Scale that keeps every raw corner inside the output.
-        let outer = n[4..]
+        let n = u.undistort_inside(&mid_edges)?;
+        // Smallest scale that puts every mid-edge point inside the field on or beyond its
+        // output edge, so the raw frame covers the whole output...
+        let room = [cx, w - cx, cy, h - cy];
+        let along = |i: usize, q: Point2<f64>| if i < 2 { q.x.abs() } else { q.y.abs() };
+        let edges = n
             .iter()
-            .map(|q| {
-                let sx = if q.x < 0.0 {
-                    cx / (fx * -q.x)
-                } else {
-                    (w - cx) / (fx * q.x)
-                };
-                let sy = if q.y < 0.0 {
-                    cy / (fy * -q.y)
-                } else {
-                    (h - cy) / (fy * q.y)
-                };
-                sx.min(sy)
-            })
+            .enumerate()
+            .filter_map(|(i, q)| q.map(|q| room[i] / (f * along(i, q))))
             .filter(|s| s.is_finite() && *s > 0.0)
-            .fold(f64::INFINITY, f64::min);
+            .fold(0.0, f64::max);
+        // ... and the output corners inside the field.
+        let corner_px = [(0.0, 0.0), (w, 0.0), (0.0, h), (w, h)]
+            .iter()
+            .map(|&(x, y): &(f64, f64)| (x - cx).hypot(y - cy))
+            .fold(0.0, f64::max);
+        let disc = if rho.is_finite() {
+            corner_px / (f * rho)
+        } else {
+            0.0
+        };
+        let inner = edges.max(disc);
+        let outer = u.outer_scale(f, rho)?;
         let b = settings.balance.clamp(0.0, 1.0);
         let s = if outer.is_finite() {
             inner * (1.0 - b) + outer.min(inner) * b
@@ -142,7 +177,7 @@ impl Undistorter {
                 what: "no finite undistortion scale: the calibration is degenerate".to_string(),
             });
         }
-        let p = Matrix3::new(s * fx, 0.0, cx, 0.0, s * fy, cy, 0.0, 0.0, 1.0);
+        let p = Matrix3::new(s * f, 0.0, cx, 0.0, s * f, cy, 0.0, 0.0, 1.0);
         u.p = mat_from_matrix3(&p).map_err(cv)?;
         u.new_camera_matrix = p;
         u.crop = u.compute_crop()?;
@@ -159,37 +194,53 @@ impl Undistorter {
         (self.width, self.height)
     }
 
-    /// Largest rectangle of the undistorted frame without black border: (x, y, w, h), px.
+    /// Largest rectangle of the undistorted frame whose pixels all lie inside the valid
+    /// field and come from inside the raw frame: (x, y, w, h), px.
     pub fn crop_rect(&self) -> (i32, i32, i32, i32) {
         (self.crop.x, self.crop.y, self.crop.width, self.crop.height)
     }
 
-    /// Raw (distorted) pixels -> undistorted pixels of [`Self::new_camera_matrix`].
-    pub fn undistort_points(&self, raw: &[Point2<f64>]) -> Result<Vec<Point2<f64>>, CalibError> {
-        if raw.is_empty() {
-            return Ok(vec![]);
-        }
-        let src = vector_from_points(raw);
-        let mut dst = Vector::<Point2d>::new();
-        let r = Mat::default();
-        let criteria = TermCriteria::new(
-            TermCriteria_Type::COUNT as i32 + TermCriteria_Type::EPS as i32,
-            UNDISTORT_MAX_ITER,
-            UNDISTORT_EPS,
-        )
-        .map_err(|e| CalibError::cv("undistort points", e))?;
-        match self.model {
-            CameraModel::Fisheye => calib3d::fisheye_undistort_points(
-                &src, &mut dst, &self.k, &self.d, &r, &self.p, criteria,
-            ),
-            CameraModel::Pinhole => calib3d::undistort_points_iter(
-                &src, &mut dst, &self.k, &self.d, &r, &self.p, criteria,
-            ),
-        }
-        .map_err(|e| CalibError::cv("undistort points", e))?;
-        Ok(points_from_vector(&dst))
+    /// The calibration's valid field this undistorter works in.
+    pub fn valid_field(&self) -> &ValidField {
+        &self.field
     }
 
+    /// True when the raw (distorted) pixel `raw_px` sees a ray inside the calibration's
+    /// valid field ([`super::field`]): fisheye, its distorted normalized radius is at most
+    /// theta_d(theta_valid) (theta_d increases up to there, so this is exactly
+    /// theta <= theta_valid); pinhole, its undistorted normalized radius is at most
+    /// tan(theta_valid) and the undistortion converged (the forward model gives the raw
+    /// point back within [`ROUND_TRIP_TOLERANCE_PX`]).
+    pub fn in_valid_field(&self, raw_px: Point2<f64>) -> bool {
+        if !(raw_px.x.is_finite() && raw_px.y.is_finite()) {
+            return false;
+        }
+        match self.model {
+            CameraModel::Fisheye => {
+                self.distorted_normalized(raw_px).coords.norm() <= self.distorted_radius_limit
+            }
+            CameraModel::Pinhole => {
+                if !self.field.is_limited() {
+                    return true;
+                }
+                let Ok(n) = self.normalized_from_raw(&[raw_px]) else {
+                    return false;
+                };
+                let Some(n) = n.first().copied() else {
+                    return false;
+                };
+                n.coords.norm() <= self.field.undistorted_radius_limit()
+                    && (self.raw_from_normalized(n) - raw_px).norm() <= ROUND_TRIP_TOLERANCE_PX
+            }
+        }
+    }
+
+    /// Raw (distorted) pixels -> undistorted pixels of [`Self::new_camera_matrix`].
+    /// Points outside the valid field are extrapolated with the model, which may be far
+    /// off or meaningless there: check them with [`Self::in_valid_field`] first.
+    pub fn undistort_points(&self, raw: &[Point2<f64>]) -> Result<Vec<Point2<f64>>, CalibError> {
+        self.undistort_with(raw, &self.p)
+    }
     /// Raw pixels -> viewing rays (x, y, 1) in the camera frame (normalized coordinates).
     pub fn rays_from_pixels(&self, raw: &[Point2<f64>]) -> Result<Vec<Vector3<f64>>, CalibError> {
         let p = &self.new_camera_matrix;
@@ -240,7 +291,8 @@ impl Undistorter {
     }
 
     /// Maps for `cv::remap` from the raw frame to the undistorted frame (fixed-point
-    /// `CV_16SC2` + interpolation table, OpenCV's fastest form).
+    /// `CV_16SC2` + interpolation table, OpenCV's fastest form). Output pixels outside the
+    /// valid field read from outside the raw frame, so they come out black.
     pub fn maps(&self) -> Result<(Mat, Mat), CalibError> {
         let mut m1 = Mat::default();
         let mut m2 = Mat::default();
@@ -255,6 +307,15 @@ impl Undistorter {
             ),
         }
         .map_err(|e| CalibError::cv("undistortion maps", e))?;
+        if self.field.is_limited() {
+            let inside = self.output_mask(true);
+            let xy = m1
+                .data_typed_mut::<Vec2s>()
+                .map_err(|e| CalibError::cv("undistortion maps", e))?;
+            for (m, _) in xy.iter_mut().zip(&inside).filter(|(_, v)| !**v) {
+                *m = Vec2s::from([OUTSIDE_MAP_VALUE, OUTSIDE_MAP_VALUE]);
+            }
+        }
         Ok((m1, m2))
     }
 
@@ -274,34 +335,238 @@ impl Undistorter {
         Ok(out)
     }
 
-    /// The raw frame's outline in the undistorted frame, reduced to the largest inner
-    /// axis-aligned rectangle.
-    fn compute_crop(&self) -> Result<Rect, CalibError> {
+    /// Raw pixels -> undistorted pixels of the camera matrix `p` (OpenCV's iterative
+    /// undistortion of the model).
+    fn undistort_with(&self, raw: &[Point2<f64>], p: &Mat) -> Result<Vec<Point2<f64>>, CalibError> {
+        if raw.is_empty() {
+            return Ok(vec![]);
+        }
+        let src = vector_from_points(raw);
+        let mut dst = Vector::<Point2d>::new();
+        let r = Mat::default();
+        let criteria = TermCriteria::new(
+            TermCriteria_Type::COUNT as i32 + TermCriteria_Type::EPS as i32,
+            UNDISTORT_MAX_ITER,
+            UNDISTORT_EPS,
+        )
+        .map_err(|e| CalibError::cv("undistort points", e))?;
+        match self.model {
+            CameraModel::Fisheye => {
+                calib3d::fisheye_undistort_points(&src, &mut dst, &self.k, &self.d, &r, p, criteria)
+            }
+            CameraModel::Pinhole => {
+                calib3d::undistort_points_iter(&src, &mut dst, &self.k, &self.d, &r, p, criteria)
+            }
+        }
+        .map_err(|e| CalibError::cv("undistort points", e))?;
+        Ok(points_from_vector(&dst))
+    }
+
+    /// Raw pixels -> undistorted normalized coordinates `(x/z, y/z)`.
+    fn normalized_from_raw(&self, raw: &[Point2<f64>]) -> Result<Vec<Point2<f64>>, CalibError> {
+        let identity = mat_from_matrix3(&Matrix3::identity())
+            .map_err(|e| CalibError::cv("undistort points", e))?;
+        self.undistort_with(raw, &identity)
+    }
+
+    /// Normalized coordinates of the raw points inside the valid field; `None` for the
+    /// others (the model is not evaluated there).
+    fn undistort_inside(
+        &self,
+        raw: &[Point2<f64>],
+    ) -> Result<Vec<Option<Point2<f64>>>, CalibError> {
+        let inside: Vec<bool> = raw.iter().map(|p| self.in_valid_field(*p)).collect();
+        let valid: Vec<Point2<f64>> = raw
+            .iter()
+            .zip(&inside)
+            .filter(|(_, v)| **v)
+            .map(|(p, _)| *p)
+            .collect();
+        let mut n = self.normalized_from_raw(&valid)?.into_iter();
+        Ok(inside
+            .into_iter()
+            .map(|v| if v { n.next() } else { None })
+            .collect())
+    }
+
+    /// Raw pixel -> distorted normalized coordinates: K^-1 applied (skew included).
+    fn distorted_normalized(&self, raw: Point2<f64>) -> Point2<f64> {
+        let k = &self.camera_matrix;
+        let y = (raw.y - k[(1, 2)]) / k[(1, 1)];
+        let x = (raw.x - k[(0, 2)] - k[(0, 1)] * y) / k[(0, 0)];
+        Point2::new(x, y)
+    }
+
+    /// Undistorted normalized coordinates -> raw pixel through the model
+    /// ([`distort_normalized`]) and K.
+    fn raw_from_normalized(&self, n: Point2<f64>) -> Point2<f64> {
+        let q = distort_normalized(self.model, &self.distortion, n);
+        let k = &self.camera_matrix;
+        Point2::new(
+            k[(0, 0)] * q.x + k[(0, 1)] * q.y + k[(0, 2)],
+            k[(1, 1)] * q.y + k[(1, 2)],
+        )
+    }
+
+    /// The largest zoom at which the whole valid part of the raw frame fits in the output
+    /// (`balance = 1`): the raw frame's outline, sampled, with the samples outside the
+    /// field replaced by the field's edge in the same direction (exact for the radial
+    /// fisheye model; the pinhole model's tangential terms, small, are ignored there).
+    /// Infinite when nothing bounds it.
+    fn outer_scale(&self, f: f64, rho: f64) -> Result<f64, CalibError> {
         let (w, h) = (self.width as f64 - 1.0, self.height as f64 - 1.0);
         let t = |i: usize| i as f64 / (EDGE_SAMPLES - 1) as f64;
-        let edge = |f: &dyn Fn(f64) -> Point2<f64>| -> Vec<Point2<f64>> {
-            (0..EDGE_SAMPLES).map(|i| f(t(i))).collect()
-        };
-        let left = self.undistort_points(&edge(&|s| Point2::new(0.0, s * h)))?;
-        let right = self.undistort_points(&edge(&|s| Point2::new(w, s * h)))?;
-        let top = self.undistort_points(&edge(&|s| Point2::new(s * w, 0.0)))?;
-        let bottom = self.undistort_points(&edge(&|s| Point2::new(s * w, h)))?;
-        let x0 = left.iter().map(|p| p.x).fold(0.0, f64::max).ceil();
-        let x1 = right.iter().map(|p| p.x).fold(w, f64::min).floor();
-        let y0 = top.iter().map(|p| p.y).fold(0.0, f64::max).ceil();
-        let y1 = bottom.iter().map(|p| p.y).fold(h, f64::min).floor();
-        if !(x1 > x0 && y1 > y0) {
-            return Err(CalibError::Diverged {
-                what: "empty crop rectangle after undistortion".to_string(),
-            });
-        }
-        Ok(Rect::new(
-            x0 as i32,
-            y0 as i32,
-            (x1 - x0) as i32 + 1,
-            (y1 - y0) as i32 + 1,
-        ))
+        let (cx, cy) = (self.camera_matrix[(0, 2)], self.camera_matrix[(1, 2)]);
+        // The mid-edge points (on the axes through the principal point) and samples of
+        // every edge.
+        let outline: Vec<Point2<f64>> = [
+            Point2::new(0.0, cy),
+            Point2::new(w, cy),
+            Point2::new(cx, 0.0),
+            Point2::new(cx, h),
+        ]
+        .into_iter()
+        .chain((0..EDGE_SAMPLES).flat_map(|i| {
+            let s = t(i);
+            [
+                Point2::new(0.0, s * h),
+                Point2::new(w, s * h),
+                Point2::new(s * w, 0.0),
+                Point2::new(s * w, h),
+            ]
+        }))
+        .collect();
+        let n = self.undistort_inside(&outline)?;
+        let points: Vec<Point2<f64>> = outline
+            .iter()
+            .zip(n)
+            .filter_map(|(raw, n)| match n {
+                Some(n) => Some(n),
+                None if rho.is_finite() => {
+                    let q = self.distorted_normalized(*raw);
+                    let r = q.coords.norm();
+                    (r > 0.0).then(|| Point2::from(q.coords * (rho / r)))
+                }
+                None => None,
+            })
+            .filter(|q| q.x.is_finite() && q.y.is_finite())
+            .collect();
+        let reach = |g: &dyn Fn(&Point2<f64>) -> f64| points.iter().map(g).fold(0.0, f64::max);
+        let sides = [
+            (cx, reach(&|q| -q.x)),
+            (w - cx, reach(&|q| q.x)),
+            (cy, reach(&|q| -q.y)),
+            (h - cy, reach(&|q| q.y)),
+        ];
+        Ok(sides
+            .iter()
+            .map(|(room, extent)| room / (f * extent))
+            .filter(|s| s.is_finite() && *s > 0.0)
+            .fold(f64::INFINITY, f64::min))
     }
+
+    /// Whether the output pixel (x, y) lies inside the valid field (undistorted
+    /// normalized radius at most tan(theta_valid)) and, unless `only_field`, its raw
+    /// position from the forward model lies inside the raw frame.
+    fn output_pixel_inside(&self, x: f64, y: f64, only_field: bool) -> bool {
+        let p = &self.new_camera_matrix;
+        let n = Point2::new((x - p[(0, 2)]) / p[(0, 0)], (y - p[(1, 2)]) / p[(1, 1)]);
+        let rho = self.field.undistorted_radius_limit();
+        if n.x * n.x + n.y * n.y > rho * rho * (1.0 + FIELD_EDGE_TOLERANCE) {
+            return false;
+        }
+        if only_field {
+            return true;
+        }
+        let raw = self.raw_from_normalized(n);
+        raw.x >= -RAW_EDGE_TOLERANCE_PX
+            && raw.y >= -RAW_EDGE_TOLERANCE_PX
+            && raw.x <= self.width as f64 - 1.0 + RAW_EDGE_TOLERANCE_PX
+            && raw.y <= self.height as f64 - 1.0 + RAW_EDGE_TOLERANCE_PX
+    }
+
+    /// [`Self::output_pixel_inside`] for every output pixel, row-major.
+    fn output_mask(&self, only_field: bool) -> Vec<bool> {
+        let w = self.width as usize;
+        let mut mask = vec![false; w * self.height as usize];
+        mask.par_chunks_mut(w.max(1))
+            .enumerate()
+            .for_each(|(y, row)| {
+                for (x, v) in row.iter_mut().enumerate() {
+                    *v = self.output_pixel_inside(x as f64, y as f64, only_field);
+                }
+            });
+        mask
+    }
+
+    /// The largest axis-aligned rectangle of output pixels inside the valid field that
+    /// come from inside the raw frame ([`Self::output_pixel_inside`]). That region is
+    /// star-shaped about the principal point (a disc intersected with the image of the raw
+    /// frame under a radial model increasing inside the field), so when every pixel of the
+    /// output's border is inside, the whole output is: the common case is settled by the
+    /// border alone, the others by the full mask.
+    fn compute_crop(&self) -> Result<Rect, CalibError> {
+        let (w, h) = (self.width as usize, self.height as usize);
+        let border = (0..w)
+            .flat_map(|x| [(x, 0), (x, h.saturating_sub(1))])
+            .chain((0..h).flat_map(|y| [(0, y), (w.saturating_sub(1), y)]));
+        let (cx, cy) = (
+            self.new_camera_matrix[(0, 2)],
+            self.new_camera_matrix[(1, 2)],
+        );
+        let centre_inside = cx >= 0.0 && cy >= 0.0 && cx <= w as f64 - 1.0 && cy <= h as f64 - 1.0;
+        if centre_inside
+            && border
+                .into_iter()
+                .all(|(x, y)| self.output_pixel_inside(x as f64, y as f64, false))
+        {
+            return Ok(Rect::new(0, 0, w as i32, h as i32));
+        }
+        let mask = self.output_mask(false);
+        largest_rectangle(&mask, w, h).ok_or_else(|| CalibError::Diverged {
+            what: "no pixel of the undistorted view lies inside the calibrated field".to_string(),
+        })
+    }
+}
+
+/// The largest-area axis-aligned rectangle of `true` cells in a row-major `w` x `h` mask
+/// (the classic histogram-and-stack method, O(w h)); `None` when no cell is set.
+fn largest_rectangle(mask: &[bool], w: usize, h: usize) -> Option<Rect> {
+    let mut heights = vec![0usize; w];
+    let mut best: Option<(usize, Rect)> = None;
+    let mut stack: Vec<usize> = Vec::with_capacity(w + 1);
+    for y in 0..h {
+        for x in 0..w {
+            heights[x] = if mask[y * w + x] { heights[x] + 1 } else { 0 };
+        }
+        stack.clear();
+        for x in 0..=w {
+            let current = if x < w { heights[x] } else { 0 };
+            while let Some(&top) = stack.last() {
+                if heights[top] < current {
+                    break;
+                }
+                stack.pop();
+                let height = heights[top];
+                let left = stack.last().map(|&l| l + 1).unwrap_or(0);
+                let width = x - left;
+                let area = height * width;
+                if height > 0 && best.as_ref().map(|(a, _)| area > *a).unwrap_or(true) {
+                    best = Some((
+                        area,
+                        Rect::new(
+                            left as i32,
+                            (y + 1 - height) as i32,
+                            width as i32,
+                            height as i32,
+                        ),
+                    ));
+                }
+            }
+            stack.push(x);
+        }
+    }
+    best.map(|(_, r)| r)
 }
 
 /// Projects camera-frame rays (x, y, z) through the lens model to raw pixels.
@@ -376,6 +641,162 @@ mod tests {
             w < 959 && h < 719,
             "a border remains to crop: {:?}",
             u.crop_rect()
+        );
+    }
+
+    /// The GoPro-like camera with a recorded coverage of `deg` degrees.
+    fn covered_to(width: u32, height: u32, deg: f64) -> Calibration {
+        let mut c = gopro_like_camera(width, height);
+        c.coverage = Some(crate::calib::Coverage {
+            field_angle_deg: deg,
+            half_diagonal_share: None,
+            grid: None,
+        });
+        c
+    }
+
+    /// Raw pixel of the ray at field angle `deg` towards azimuth `az` (radians).
+    fn raw_at(u: &Undistorter, deg: f64, az: f64) -> Point2<f64> {
+        let t = deg.to_radians().tan();
+        u.project(&[Vector3::new(t * az.cos(), t * az.sin(), 1.0)])
+            .unwrap()[0]
+    }
+
+    #[test]
+    fn the_field_test_follows_the_field_angle() {
+        let u =
+            Undistorter::new(&covered_to(960, 720, 40.0), UndistortSettings::default()).unwrap();
+        for az in [0.0, 0.7, 2.0, 3.5, 5.0] {
+            assert!(u.in_valid_field(raw_at(&u, 39.99, az)), "az {az}");
+            assert!(!u.in_valid_field(raw_at(&u, 40.01, az)), "az {az}");
+        }
+        assert!(!u.in_valid_field(Point2::new(f64::NAN, 3.0)));
+        // Without a recorded coverage the whole frame is inside (the model is monotonic).
+        let u =
+            Undistorter::new(&gopro_like_camera(960, 720), UndistortSettings::default()).unwrap();
+        assert!(u.in_valid_field(Point2::new(0.0, 0.0)));
+        assert!(u.in_valid_field(Point2::new(959.0, 719.0)));
+    }
+
+    #[test]
+    fn balance_zero_frames_inside_the_field() {
+        let u =
+            Undistorter::new(&covered_to(960, 720, 40.0), UndistortSettings::default()).unwrap();
+        let p = u.new_camera_matrix();
+        // Every output corner sees a ray at 40 degrees at most, the farthest one at 40.
+        let angle = |x: f64, y: f64| {
+            ((x - p[(0, 2)]).hypot(y - p[(1, 2)]) / p[(0, 0)])
+                .atan()
+                .to_degrees()
+        };
+        let corners = [(0.0, 0.0), (959.0, 0.0), (0.0, 719.0), (959.0, 719.0)];
+        let widest = corners
+            .iter()
+            .map(|&(x, y)| angle(x, y))
+            .fold(0.0, f64::max);
+        assert!((widest - 40.0).abs() < 1e-9, "{widest}");
+        // So the whole output is usable.
+        assert_eq!(u.crop_rect(), (0, 0, 960, 720));
+        // A narrower field zooms in: a longer focal length than the unlimited framing.
+        let free =
+            Undistorter::new(&gopro_like_camera(960, 720), UndistortSettings::default()).unwrap();
+        assert!(p[(0, 0)] > free.new_camera_matrix()[(0, 0)]);
+    }
+
+    #[test]
+    fn balance_one_shows_the_field_and_blanks_what_lies_beyond() {
+        let u = Undistorter::new(
+            &covered_to(960, 720, 40.0),
+            UndistortSettings { balance: 1.0 },
+        )
+        .unwrap();
+        let p = u.new_camera_matrix();
+        let (cx, cy, f) = (p[(0, 2)], p[(1, 2)], p[(0, 0)]);
+        let rho = 40f64.to_radians().tan();
+        // The field's disc fits in the output and touches one of its edges.
+        let room = [cx, 959.0 - cx, cy, 719.0 - cy];
+        let tight = room.iter().copied().fold(f64::INFINITY, f64::min);
+        assert!((f * rho - tight).abs() < 1e-6, "{} vs {tight}", f * rho);
+        // The crop lies inside the disc.
+        let (x, y, w, h) = u.crop_rect();
+        for (px, py) in [
+            (x, y),
+            (x + w - 1, y),
+            (x, y + h - 1),
+            (x + w - 1, y + h - 1),
+        ] {
+            let r = (px as f64 - cx).hypot(py as f64 - cy) / f;
+            assert!(r <= rho, "crop corner ({px}, {py}) at radius {r} > {rho}");
+        }
+        assert!(w > 400 && h > 400, "{:?}", u.crop_rect());
+        // Remapping a white frame: white inside the field, black beyond.
+        let white =
+            Mat::new_rows_cols_with_default(720, 960, opencv::core::CV_8UC1, Scalar::all(255.0))
+                .unwrap();
+        let flat = u.undistort_image(&u.maps().unwrap(), &white).unwrap();
+        let at = |x: i32, y: i32| *flat.at_2d::<u8>(y, x).unwrap();
+        assert_eq!(at(cx as i32, cy as i32), 255);
+        assert_eq!(at(0, 0), 0);
+        assert_eq!(at(959, 719), 0);
+        let inside_x = (cx + 0.95 * f * rho) as i32;
+        assert_eq!(at(inside_x, cy as i32), 255);
+    }
+
+    #[test]
+    fn a_fit_that_folds_inside_the_frame_still_frames_and_crops() {
+        // theta_d turns over near 70 degrees: the 1920x1080 frame's side edges and corners
+        // (60..70 degrees for this focal length) lie beyond what the model can undistort.
+        let mut c = gopro_like_camera(1920, 1080);
+        c.distortion = vec![0.02, 0.03, -0.08, 0.01];
+        let field = c.valid_field();
+        assert!(field.is_limited() && field.coverage_angle_deg.is_none());
+        let u = Undistorter::new(&c, UndistortSettings::default()).unwrap();
+        assert!(!u.in_valid_field(Point2::new(0.0, 0.0)));
+        assert!(!u.in_valid_field(Point2::new(1919.0, c.cy())));
+        let (x, y, w, h) = u.crop_rect();
+        assert!(w > 1000 && h > 500, "{:?}", u.crop_rect());
+        let corners = [
+            Point2::new(x as f64, y as f64),
+            Point2::new((x + w - 1) as f64, (y + h - 1) as f64),
+        ];
+        for raw in u.distort_points(&corners).unwrap() {
+            assert!(u.in_valid_field(raw), "{raw}");
+        }
+    }
+
+    #[test]
+    fn the_pinhole_field_test_stops_at_the_turning_point() {
+        // r_d = r (1 - r^2 / 2) turns over at r = sqrt(2/3) (39.2 degrees), where
+        // r_d = 0.544; the 640x480 frame's corners sit at r_d = 0.78.
+        let mut c = left_camera();
+        c.distortion = vec![-0.5, 0.0, 0.0, 0.0, 0.0];
+        let u = Undistorter::new(&c, UndistortSettings::default()).unwrap();
+        assert!(
+            (u.valid_field().valid_angle_deg() - (2.0f64 / 3.0).sqrt().atan().to_degrees()).abs()
+                < 1e-9
+        );
+        assert!(!u.in_valid_field(Point2::new(0.0, 0.0)));
+        assert!(u.in_valid_field(Point2::new(342.3, 235.6)));
+        assert!(u.in_valid_field(raw_at(&u, 35.0, 0.3)));
+        let (_, _, w, h) = u.crop_rect();
+        assert!(w > 100 && h > 100, "{:?}", u.crop_rect());
+    }
+
+    #[test]
+    fn the_largest_rectangle_of_a_mask() {
+        #[rustfmt::skip]
+        let mask = [
+            0, 1, 1, 0, 0,
+            1, 1, 1, 1, 0,
+            1, 1, 1, 1, 1,
+            0, 1, 1, 1, 0,
+        ].map(|v| v == 1);
+        let r = largest_rectangle(&mask, 5, 4).unwrap();
+        assert_eq!((r.x, r.y, r.width, r.height), (1, 1, 3, 3));
+        assert!(largest_rectangle(&[false; 6], 3, 2).is_none());
+        assert_eq!(
+            largest_rectangle(&[true; 6], 3, 2).unwrap(),
+            Rect::new(0, 0, 3, 2)
         );
     }
 

@@ -4,6 +4,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use bendscope::calib::corners::{detect_views, display_name, DetectSettings, ViewSource};
+use bendscope::calib::field::NO_LIMIT_DEG;
 use bendscope::calib::file::write_calibration;
 use bendscope::calib::{
     calibrate, Board, BoardSize, CalibError, Calibration, CalibrationSettings, CameraModel,
@@ -222,5 +223,53 @@ fn print_summary(c: &Calibration, out: &Path) {
     for r in &c.views_rejected {
         super::out!("  rejected {}: {}", r.name, r.reason);
     }
+    print_coverage(c);
     super::out!("  written to {}", out.display());
+}
+
+/// The board's coverage of the frame and the valid field; a warning on stderr, saying
+/// where to hold the board, when the coverage is thin.
+fn print_coverage(c: &Calibration) {
+    let field = c.valid_field();
+    let limit = |deg: f64| {
+        if deg >= NO_LIMIT_DEG {
+            "no limit".to_string()
+        } else {
+            format!("{deg:.1}°")
+        }
+    };
+    let Some(cov) = &c.coverage else {
+        super::out!(
+            "  valid field: {} (distortion monotonic; board coverage unknown)",
+            limit(field.valid_angle_deg())
+        );
+        return;
+    };
+    let reach = cov
+        .half_diagonal_share
+        .map(|s| format!("{:.0}% of the frame's half-diagonal, ", 100.0 * s))
+        .unwrap_or_default();
+    super::out!(
+        "  board coverage: corners reached {reach}field angle {:.1}°",
+        cov.field_angle_deg
+    );
+    super::out!(
+        "  valid field: up to {} from the optical axis (coverage {:.1}°, distortion monotonic to {})",
+        limit(field.valid_angle_deg()),
+        cov.field_angle_deg,
+        limit(field.monotonic_angle_deg)
+    );
+    if let Some(grid) = &cov.grid {
+        super::out!("  share of each third of the frame the board covered:");
+        for row in grid {
+            let cells: Vec<String> = row.iter().map(|v| format!("{:>4.0}%", 100.0 * v)).collect();
+            super::out!("    {}", cells.join(" "));
+        }
+    }
+    if let Some(advice) = cov.advice() {
+        eprintln!(
+            "warning: the board covered the frame thinly; the calibration is valid only up to {} from the optical axis, and markers or scale boards beyond cannot be measured: {advice}, then calibrate again",
+            limit(field.valid_angle_deg())
+        );
+    }
 }

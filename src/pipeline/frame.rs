@@ -196,6 +196,17 @@ pub fn measure_frame<S: PixelSource>(
         .filter(|i| !order.contains(i))
         .map(|i| working[i])
         .collect();
+    // The calibration is valid only where its board went: a marker beyond that field
+    // would be undistorted by an extrapolated lens model.
+    if let Geometry::Plane {
+        undistorter: Some(u),
+        ..
+    } = geometry
+    {
+        if order.iter().any(|&i| !u.in_valid_field(raw[i])) {
+            return FrameMeasurement::rejected(found, FrameStatus::OutsideCalibratedField);
+        }
+    }
     let chosen: Vec<Point2<f64>> = order.iter().map(|&i| working[i]).collect();
     let m = match geometry {
         Geometry::Plane { mm_per_px, .. } => measure_plane(chosen, *mm_per_px),

@@ -168,6 +168,21 @@ pub fn random_board_poses(
     n: usize,
     seed: u64,
 ) -> Result<Vec<BoardPose>, RenderError> {
+    random_board_poses_within(camera, board, n, seed, 1.0)
+}
+
+/// Like [`random_board_poses`], with every board (with margin) inside the disc of radius
+/// `reach` x the frame's half-diagonal around the frame centre, as people hold a board
+/// when they rarely bring it into the frame's corners: the target grid is shrunk by
+/// `reach` and the boards are made smaller in proportion (farther away). `reach >= 1`
+/// gives exactly [`random_board_poses`].
+pub fn random_board_poses_within(
+    camera: &Calibration,
+    board: &Board,
+    n: usize,
+    seed: u64,
+    reach: f64,
+) -> Result<Vec<BoardPose>, RenderError> {
     let und = Undistorter::new(camera, UndistortSettings::default())?;
     let (w, h) = (camera.image_width as f64, camera.image_height as f64);
     let mut rng = SplitMix64::new(seed);
@@ -178,9 +193,17 @@ pub fn random_board_poses(
         0.0,
     );
     let board_size = board.square_mm * (board.cols.max(board.rows) as f64 + 1.0);
-    // Distance at which the board spans about 45% of the frame width near the centre.
-    let z_ref = camera.fx() * board_size / (0.45 * w);
+    let reach = if reach.is_finite() && reach > 0.0 {
+        reach.min(1.0)
+    } else {
+        1.0
+    };
+    // Distance at which the board spans about 45% (x reach) of the frame width near the
+    // centre.
+    let z_ref = camera.fx() * board_size / (0.45 * w) / reach;
     let margin = 0.02 * w.min(h);
+    let (fcx, fcy) = (0.5 * (w - 1.0), 0.5 * (h - 1.0));
+    let max_radius = reach * fcx.hypot(fcy);
     let tries_per_pose = 400;
     let mut poses = Vec::with_capacity(n);
     let grid = (n as f64).sqrt().ceil() as usize;
@@ -191,8 +214,8 @@ pub fn random_board_poses(
             // Target the board centre at a jittered grid cell, drifting towards the
             // centre of the frame on repeated failures.
             let pull = (t as f64 / tries_per_pose as f64).min(0.8);
-            let tx = ((gx + rng.uniform()) / grid as f64 - 0.5) * (1.0 - pull) + 0.5;
-            let ty = ((gy + rng.uniform()) / grid as f64 - 0.5) * (1.0 - pull) + 0.5;
+            let tx = ((gx + rng.uniform()) / grid as f64 - 0.5) * (1.0 - pull) * reach + 0.5;
+            let ty = ((gy + rng.uniform()) / grid as f64 - 0.5) * (1.0 - pull) * reach + 0.5;
             let target = Point2::new(tx * (w - 1.0), ty * (h - 1.0));
             let z = z_ref * rng.range(0.7, 1.2) * (1.0 + 0.5 * pull);
             let rot = Rotation3::from_euler_angles(
@@ -213,7 +236,11 @@ pub fn random_board_poses(
             }
             let px = und.project(&pts)?;
             let inside = px.iter().all(|p| {
-                p.x >= margin && p.y >= margin && p.x <= w - 1.0 - margin && p.y <= h - 1.0 - margin
+                p.x >= margin
+                    && p.y >= margin
+                    && p.x <= w - 1.0 - margin
+                    && p.y <= h - 1.0 - margin
+                    && (reach >= 1.0 || (p.x - fcx).hypot(p.y - fcy) <= max_radius)
             });
             if inside {
                 placed = Some(BoardPose {

@@ -9,7 +9,7 @@ use nalgebra::{Matrix3, Rotation3, Vector3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::board::{random_board_poses, render_board_photo, BoardPose, PhotoSettings};
+use super::board::{random_board_poses_within, render_board_photo, BoardPose, PhotoSettings};
 use super::RenderError;
 use crate::calib::{Board, Calibration, CameraModel, UndistortSettings, Undistorter};
 use crate::io::write_atomic;
@@ -26,6 +26,10 @@ pub struct CalibrationSetSpec {
     pub board: Board,
     /// Number of calibration photos.
     pub views: usize,
+    /// The boards stay inside the disc of this share of the frame's half-diagonal around
+    /// the frame centre (1: anywhere in the frame; see
+    /// [`super::board::random_board_poses_within`]).
+    pub view_reach: f64,
     /// Distance of the scale board from the camera, mm.
     pub scale_distance_mm: f64,
     /// Image formation.
@@ -82,6 +86,7 @@ impl CameraTruth {
             board: None,
             views_used: vec![],
             views_rejected: vec![],
+            coverage: None,
         }
     }
 }
@@ -134,7 +139,13 @@ pub fn write_calibration_set(
     dir: &Path,
     spec: &CalibrationSetSpec,
 ) -> Result<CalibrationSetTruth, RenderError> {
-    let poses = random_board_poses(&spec.camera, &spec.board, spec.views, spec.seed)?;
+    let poses = random_board_poses_within(
+        &spec.camera,
+        &spec.board,
+        spec.views,
+        spec.seed,
+        spec.view_reach,
+    )?;
     let calib_dir = dir.join("calib");
     poses
         .par_iter()

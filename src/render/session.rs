@@ -31,6 +31,9 @@ pub struct SessionSpec {
     pub frames: usize,
     /// Calibration photos.
     pub calib_views: usize,
+    /// The calibration boards stay inside the disc of this share of the frame's
+    /// half-diagonal around the frame centre (1: anywhere in the frame).
+    pub calib_view_reach: f64,
     /// Square size of the scale board (9x6 inner corners) lying in the actuator plane, mm.
     pub scale_square_mm: f64,
     /// A red object that is not a marker, in every frame.
@@ -133,6 +136,7 @@ pub fn render_session<S: Shade + Sync>(
             camera: spec.camera.clone(),
             board: Board::new(9, 6, 25.0).map_err(RenderError::Camera)?,
             views: spec.calib_views,
+            view_reach: spec.calib_view_reach,
             scale_distance_mm: 400.0,
             photo: PhotoSettings {
                 supersample: spec.supersample,
@@ -395,6 +399,7 @@ pub fn rgbd_camera() -> Calibration {
         board: None,
         views_used: vec![],
         views_rejected: vec![],
+        coverage: None,
     }
 }
 
@@ -612,6 +617,7 @@ pub fn render_fem_session(
         radius_law: (0.0, 0.0, 0.0),
         frames: s.frames,
         calib_views: s.calib_views,
+        calib_view_reach: 1.0,
         scale_square_mm: 10.0,
         distractor: s.distractor,
         supersample: s.supersample,
