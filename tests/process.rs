@@ -282,6 +282,19 @@ fn an_extra_red_object_is_ignored_and_counted() {
         frames.iter().all(|f| f[col(&fh, "n_ignored")] == "1"),
         "the distractor is listed as ignored in every frame"
     );
+    // A region of interest (undistorted px) that holds no marker: nothing is measured,
+    // and the reason says so.
+    fs::write(
+        s.join("bendscope.toml"),
+        "roi = [[0, 0], [20, 0], [20, 20], [0, 20]]\n[scale_board]\nsquare_mm = 8\n",
+    )
+    .unwrap();
+    let run = Run::new(
+        dir.path(),
+        &["process", "red", "--calibration", cal.to_str().unwrap()],
+    );
+    assert_eq!(run.code, 3, "{run}");
+    assert!(run.stderr.contains("0 markers found, 8 expected"), "{run}");
 }
 
 #[test]

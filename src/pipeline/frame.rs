@@ -123,6 +123,7 @@ pub fn measure_frame<S: PixelSource>(
     geometry: &Geometry,
     detect: &DetectSettings,
     expected_markers: usize,
+    roi: Option<&[[f64; 2]]>,
     tracker: &mut Tracker,
 ) -> FrameMeasurement {
     let d = detect_markers_with(pixels, detect, &mut tracker.mask);
@@ -158,13 +159,31 @@ pub fn measure_frame<S: PixelSource>(
         },
         _ => raw.clone(),
     };
-    let order = if found == expected_markers {
-        order_marker_indices(&working, tracker.start)
+    // Blobs outside the region of interest are never markers.
+    let inside: Vec<usize> = (0..found)
+        .filter(|&i| roi.is_none_or(|poly| inside_polygon(working[i], poly)))
+        .collect();
+    if inside.len() < expected_markers {
+        return FrameMeasurement::rejected(
+            inside.len(),
+            FrameStatus::MarkerCount {
+                found: inside.len(),
+                expected: expected_markers,
+                specks: d.specks,
+                too_large: d.too_large,
+            },
+        );
+    }
+    let order: Vec<usize> = if inside.len() == expected_markers {
+        let pts: Vec<Point2<f64>> = inside.iter().map(|&i| working[i]).collect();
+        order_marker_indices(&pts, tracker.start)
+            .into_iter()
+            .map(|k| inside[k])
+            .collect()
     } else {
-        let candidates: Vec<Candidate> = d
-            .blobs
+        let candidates: Vec<Candidate> = inside
             .iter()
-            .zip(&working)
+            .map(|&i| (&d.blobs[i], &working[i]))
             .map(|(b, p)| {
                 let (w, h) = (
                     (b.bbox[2] - b.bbox[0] + 1) as f64,
@@ -183,7 +202,7 @@ pub fn measure_frame<S: PixelSource>(
             tracker.start,
             tracker.previous.as_deref(),
         ) {
-            Ok(order) => order,
+            Ok(order) => order.into_iter().map(|k| inside[k]).collect(),
             Err(e) => {
                 return FrameMeasurement::rejected(
                     found,
@@ -300,6 +319,20 @@ fn measure_depth(
     }
 }
 
+/// Whether `p` lies inside the polygon `poly` (even-odd rule).
+pub fn inside_polygon(p: Point2<f64>, poly: &[[f64; 2]]) -> bool {
+    let mut inside = false;
+    let n = poly.len();
+    for i in 0..n {
+        let (a, b) = (poly[i], poly[(i + n - 1) % n]);
+        if (a[1] > p.y) != (b[1] > p.y) && p.x < (b[0] - a[0]) * (p.y - a[1]) / (b[1] - a[1]) + a[0]
+        {
+            inside = !inside;
+        }
+    }
+    inside
+}
+
 /// [`measure_frame`] on decoded [`Pixels`] (YUV planes or RGB) with the session's
 /// detection settings.
 pub fn measure_pixels(
@@ -316,6 +349,7 @@ pub fn measure_pixels(
             geometry,
             &config.detect,
             config.expected_markers,
+            config.roi.as_deref(),
             tracker,
         ),
         Pixels::Yuv10(yuv) => measure_frame(
@@ -324,6 +358,7 @@ pub fn measure_pixels(
             geometry,
             &config.detect,
             config.expected_markers,
+            config.roi.as_deref(),
             tracker,
         ),
         Pixels::Rgb(rgb) => measure_frame(
@@ -332,7 +367,31 @@ pub fn measure_pixels(
             geometry,
             &config.detect,
             config.expected_markers,
+            config.roi.as_deref(),
             tracker,
         ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn polygon_inside_test() {
+        let square = [[0.0, 0.0], [10.0, 0.0], [10.0, 10.0], [0.0, 10.0]];
+        assert!(inside_polygon(Point2::new(5.0, 5.0), &square));
+        assert!(!inside_polygon(Point2::new(15.0, 5.0), &square));
+        assert!(!inside_polygon(Point2::new(5.0, -1.0), &square));
+        let l_shape = [
+            [0.0, 0.0],
+            [10.0, 0.0],
+            [10.0, 4.0],
+            [4.0, 4.0],
+            [4.0, 10.0],
+            [0.0, 10.0],
+        ];
+        assert!(inside_polygon(Point2::new(2.0, 8.0), &l_shape));
+        assert!(!inside_polygon(Point2::new(8.0, 8.0), &l_shape));
     }
 }

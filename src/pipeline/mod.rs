@@ -818,6 +818,7 @@ impl VideoRun<'_> {
                                     },
                                     &config.detect,
                                     config.expected_markers,
+                                    config.roi.as_deref(),
                                     &mut tracker,
                                 ),
                                 Err(e) => {

@@ -57,6 +57,9 @@ pub struct SessionConfig {
     /// Undistort every whole frame before detection (the original method; slower, for
     /// comparison) instead of undistorting only the detected centroids.
     pub full_frame_undistort: bool,
+    /// Region of interest: a polygon of undistorted pixels `[[x, y], ...]` (at least 3
+    /// vertices); red blobs outside it are never markers (counted as ignored).
+    pub roi: Option<Vec<[f64; 2]>>,
     /// Marker detection.
     pub detect: DetectSettings,
 }
@@ -75,6 +78,7 @@ impl Default for SessionConfig {
             ramp_bin_kpa: 1.0,
             ramp_time_offset_s: 0.0,
             full_frame_undistort: false,
+            roi: None,
             detect: DetectSettings::default(),
         }
     }
@@ -231,7 +235,12 @@ impl SessionConfig {
             path: path.to_path_buf(),
             why,
         };
-        let bytes = std::fs::read(path).map_err(|e| bad(e.to_string()))?;
+        let bytes = std::fs::read(path).map_err(|e| {
+            bad(match e.kind() {
+                std::io::ErrorKind::NotFound => "no such file: check the path".to_string(),
+                _ => e.to_string(),
+            })
+        })?;
         let text = String::from_utf8(bytes).map_err(|e| {
             let line = 1 + e.as_bytes()[..e.utf8_error().valid_up_to()]
                 .iter()
@@ -296,6 +305,15 @@ impl SessionConfig {
         }
         if self.frame_stride == 0 {
             return top("frame_stride", "0: must be at least 1".into());
+        }
+        if let Some(roi) = &self.roi {
+            if roi.len() < 3 || roi.iter().flatten().any(|v| !v.is_finite()) {
+                return top(
+                    "roi",
+                    "needs at least 3 vertices [x, y] of finite undistorted pixel coordinates"
+                        .into(),
+                );
+            }
         }
         if let Some(m) = self.mm_per_px {
             if !(m.is_finite() && m > 0.0) {

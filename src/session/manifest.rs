@@ -199,9 +199,13 @@ pub fn read_manifest(session: &Path) -> Result<Manifest, SessionError> {
             // Reported once below, with every name.
             continue;
         }
-        let Some(actual) = unique.get(&upper).cloned() else {
+        let Some(actual) = unique
+            .get(&upper)
+            .cloned()
+            .or_else(|| photo_item(session, &file))
+        else {
             issues.push(issue(
-                "no such video in the session folder: check the name".into(),
+                "no such video, photo or photo folder in the session folder: check the name".into(),
             ));
             continue;
         };
@@ -262,6 +266,18 @@ pub fn read_manifest(session: &Path) -> Result<Manifest, SessionError> {
         entries,
         issues,
     })
+}
+
+/// The photo protocol: a row may name a photo (JPEG, PNG, TIFF) or a folder of photos
+/// (a burst) in the session folder itself; `Some(name)` when `file` is one.
+fn photo_item(session: &Path, file: &str) -> Option<String> {
+    if file.contains(['/', '\\']) || file == "." || file == ".." {
+        return None;
+    }
+    let path = session.join(file);
+    let is_item = (path.is_file() && super::is_photo(&path))
+        || (path.is_dir() && file != "calib" && file != "bendscope-out");
+    is_item.then(|| file.to_string())
 }
 
 #[cfg(test)]
