@@ -14,5 +14,6 @@ echo "  per_frame.csv  every frame's measurement or rejection reason"
 echo "  fit.json       power law y = a x^b + c of radius and curvature vs pressure"
 echo "  plots/         radius, curvature, angle vs pressure; radius per frame (PNG + SVG)"
 echo "  overlays/      one undistorted frame per video with what was measured"
+echo "  report.html    the whole session on one page (open it in a browser)"
 echo "ground truth:    fixtures/sessions/example/truth.json"
 if command -v column > /dev/null; then column -s, -t < "$out/per_video.csv" | cut -c1-140; else cat "$out/per_video.csv"; fi

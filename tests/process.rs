@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use bendscope::render::session::SessionTruth;
 use bendscope::video::{EncodeSettings, VideoWriter};
-use common::{col, fixture, read_csv, Run};
+use common::{col, copy_dir, fixture, read_csv, Run};
 
 /// Accuracy the issue asks for on every video.
 const RADIUS_TOLERANCE: f64 = 0.005;
@@ -20,22 +20,6 @@ fn example() -> PathBuf {
 
 fn truth() -> SessionTruth {
     serde_json::from_str(&fs::read_to_string(example().join("truth.json")).unwrap()).unwrap()
-}
-
-fn copy_dir(from: &Path, to: &Path) {
-    fs::create_dir_all(to).unwrap();
-    for e in fs::read_dir(from).unwrap() {
-        let e = e.unwrap();
-        let p = e.path();
-        if p.file_name().unwrap() == "bendscope-out" {
-            continue;
-        }
-        if p.is_dir() {
-            copy_dir(&p, &to.join(e.file_name()));
-        } else {
-            fs::copy(&p, to.join(e.file_name())).unwrap();
-        }
-    }
 }
 
 #[test]

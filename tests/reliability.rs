@@ -23,7 +23,7 @@ use std::time::{Duration, Instant, SystemTime};
 
 use bendscope::render::session::SessionTruth;
 use bendscope::video::{EncodeSettings, VideoWriter};
-use common::{col, fixture, read_csv, Run};
+use common::{col, copy_dir, fixture, read_csv, Run};
 
 /// Accuracy the issue asks for on every video that is measured.
 const RADIUS_TOLERANCE: f64 = 0.005;
@@ -61,22 +61,6 @@ fn calibration() -> &'static Path {
         bendscope::calib::file::write_calibration(&p, &truth().camera.to_calibration()).unwrap();
         p
     })
-}
-
-fn copy_dir(from: &Path, to: &Path) {
-    fs::create_dir_all(to).unwrap();
-    for e in fs::read_dir(from).unwrap() {
-        let e = e.unwrap();
-        let p = e.path();
-        if p.file_name().unwrap() == "bendscope-out" {
-            continue;
-        }
-        if p.is_dir() {
-            copy_dir(&p, &to.join(e.file_name()));
-        } else {
-            fs::copy(&p, to.join(e.file_name())).unwrap();
-        }
-    }
 }
 
 /// Every file under `dir` (relative paths, sorted).

@@ -6,7 +6,7 @@ mod common;
 use std::fs;
 use std::path::Path;
 
-use common::{col, read_csv, Run};
+use common::{col, copy_dir, read_csv, Run};
 
 /// Renders an RGB-D recording of an arc actuator into `dir`: the side face tilted
 /// `tilt_deg` about the vertical axis at 230 mm, the white sheet 40 mm behind it, depth
@@ -131,23 +131,6 @@ fn rgbd_near_straight_mean_within_one_percent() {
         let e = rgbd_errors(tilt, 0.8, &radii);
         let mean = e.iter().sum::<f64>() / e.len() as f64;
         assert!(mean.abs() < 0.01, "tilt {tilt}: mean {:+.3}%", 100.0 * mean);
-    }
-}
-
-/// Copies a folder (files and sub-folders).
-fn copy_dir(from: &Path, to: &Path) {
-    fs::create_dir_all(to).unwrap();
-    for e in fs::read_dir(from).unwrap() {
-        let e = e.unwrap();
-        let p = e.path();
-        if p.file_name().unwrap() == "bendscope-out" {
-            continue;
-        }
-        if p.is_dir() {
-            copy_dir(&p, &to.join(e.file_name()));
-        } else {
-            fs::copy(&p, to.join(e.file_name())).unwrap();
-        }
     }
 }
 

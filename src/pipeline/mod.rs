@@ -690,6 +690,30 @@ impl ItemResult {
     }
 }
 
+/// The record of a measured frame of `file`.
+fn frame_record(
+    file: &str,
+    frame: u64,
+    time_s: f64,
+    pressure_kpa: f64,
+    m: frame::FrameMeasurement,
+) -> FrameRecord {
+    FrameRecord {
+        file: file.to_string(),
+        frame,
+        time_s,
+        pressure_kpa,
+        n_markers: m.n_markers,
+        n_ignored: m.ignored_px.len(),
+        radius_px: m.radius_px,
+        radius_mm: m.radius_mm,
+        curvature_per_m: m.curvature_per_m,
+        bending_angle_deg: m.bending_angle_deg,
+        fit_rms: m.fit_rms,
+        status: m.status,
+    }
+}
+
 /// The most frequent rejection of `frames`, with a hint.
 fn most_common_rejection(frames: &[FrameRecord]) -> Option<String> {
     let mut counts: std::collections::BTreeMap<String, usize> = std::collections::BTreeMap::new();
@@ -860,20 +884,9 @@ impl VideoRun<'_> {
                         }
                     }
                 }
-                result.frames.push(FrameRecord {
-                    file: entry.file.clone(),
-                    frame: index,
-                    time_s,
-                    pressure_kpa,
-                    n_markers: m.n_markers,
-                    n_ignored: m.ignored_px.len(),
-                    radius_px: m.radius_px,
-                    radius_mm: m.radius_mm,
-                    curvature_per_m: m.curvature_per_m,
-                    bending_angle_deg: m.bending_angle_deg,
-                    fit_rms: m.fit_rms,
-                    status: m.status,
-                });
+                result
+                    .frames
+                    .push(frame_record(&entry.file, index, time_s, pressure_kpa, m));
                 last_time = f.time_s;
                 last_index = f.index;
                 source.recycle(f.pixels);
@@ -962,20 +975,7 @@ fn measure_rgbd(
                     config,
                     &mut tracker,
                 );
-                FrameRecord {
-                    file: "color".into(),
-                    frame: index,
-                    time_s,
-                    pressure_kpa,
-                    n_markers: m.n_markers,
-                    n_ignored: m.ignored_px.len(),
-                    radius_px: m.radius_px,
-                    radius_mm: m.radius_mm,
-                    curvature_per_m: m.curvature_per_m,
-                    bending_angle_deg: m.bending_angle_deg,
-                    fit_rms: m.fit_rms,
-                    status: m.status,
-                }
+                frame_record("color", index, time_s, pressure_kpa, m)
             }
             Next::End => break,
         };
