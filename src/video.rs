@@ -166,10 +166,15 @@ pub struct Frame {
 /// pre-test before the exact HSV test on the converted pixel.
 pub const CR_PRETEST: i32 = 3;
 
-/// The Cr pre-test holds for thresholds at least as strict as the defaults (it was
-/// derived for them); looser thresholds get the exact test on every pixel.
-fn pretest_applies(t: &crate::detect::HsvThresholds) -> bool {
-    t.s_min >= 100 && t.v_min >= 60 && t.hue_max_low <= 10 && t.hue_min_high >= 170
+/// The Cr pre-test's threshold for thresholds `t`, when it applies: it was derived for
+/// the default hue bands and saturation at v_min = 60 (see [`CR_PRETEST`]); every
+/// constraint of the red test is homogeneous in R, G, B, so a red pixel's smallest Cr
+/// excess scales with its value and a lower v_min (a dim frame, `auto_exposure`) gets a
+/// proportionally lower threshold. Looser hue or saturation bounds get the exact test
+/// on every pixel.
+fn pretest_threshold(t: &crate::detect::HsvThresholds) -> Option<i32> {
+    (t.s_min >= 100 && t.hue_max_low <= 10 && t.hue_min_high >= 170)
+        .then(|| CR_PRETEST * (t.v_min.min(60) as i32) / 60)
 }
 
 /// A sample of a YUV plane: 8-bit, or 10-bit in 16 bits (HEVC Main 10, as recent
@@ -260,7 +265,7 @@ impl<T: Sample> crate::detect::PixelSource for YuvFrame<T> {
     #[inline]
     fn is_red_at(&self, x: u32, y: u32, t: &crate::detect::HsvThresholds) -> bool {
         let ci = (y as usize / 2) * self.width.div_ceil(2) as usize + x as usize / 2;
-        if pretest_applies(t) && self.v[ci].value() < (128 + CR_PRETEST) << T::EXTRA_BITS {
+        if pretest_threshold(t).is_some_and(|k| self.v[ci].value() < (128 + k) << T::EXTRA_BITS) {
             return false;
         }
         let p = self.rgb_at(x, y);
@@ -1156,9 +1161,9 @@ mod tests {
     proptest::proptest! {
         #![proptest_config(proptest::prelude::ProptestConfig::with_cases(20_000))]
         #[test]
-        fn cr_pretest_never_rejects_a_red_pixel(y: u8, u: u8, v: u8, full: bool) {
+        fn cr_pretest_never_rejects_a_red_pixel(y: u8, u: u8, v: u8, full: bool, v_min in 1u8..=80) {
             let f = YuvFrame { width: 2, height: 2, y: vec![y; 4], u: vec![u], v: vec![v], full_range: full };
-            let t = crate::detect::HsvThresholds::default();
+            let t = crate::detect::HsvThresholds { v_min, ..Default::default() };
             let p = f.rgb_at(0, 0);
             let exact = crate::detect::is_red(p[0], p[1], p[2], &t);
             proptest::prop_assert_eq!(crate::detect::PixelSource::is_red_at(&f, 0, 0, &t), exact, "yuv {} {} {} -> {:?}", y, u, v, p);
