@@ -2,14 +2,18 @@
 //! check them against a built-in finite-element model.
 //!
 //! The modules follow the order in which data flows:
-//! [`video`] (frame sources) -> [`calib`] (camera models, calibration, undistortion) ->
-//! [`scale`] (mm per undistorted pixel) -> [`detect`] (red mask, hole fill, labels,
-//! centroids) -> [`fit`] (circle, bending angle, power law) -> [`session`] (batch, manifests,
-//! aggregation; [`rgbd`] for colour + depth sessions) -> [`report`] (CSV, plots, overlays). Beside them: [`fem`] (the actuator
-//! model and its solver) and [`render`] (synthetic camera images with known ground truth).
-//! Every CSV read or written goes through [`table`] (on polars: BOM, CRLF and quoted fields
-//! read correctly, errors that name the file, line and column); [`io`] writes files
-//! atomically.
+//! [`video`] (decode, encode) -> [`calib`] (camera models, calibration, valid field,
+//! undistortion) -> [`scale`] (mm per undistorted pixel) -> [`detect`] (red mask, hole
+//! fill, labels, centroids) -> [`select`] (the markers among red blobs) -> [`fit`]
+//! (circle, plane, bending angle, power law) -> [`pipeline`] (a session measured:
+//! sources, `measure_frame`, statistics, records, cache, outputs) -> [`report`] (plots,
+//! overlays, the HTML page). [`session`] (manifest, pressure log, settings), [`table`]
+//! (the one CSV layer), [`rgbd`] (colour + depth) and [`io`] (atomic writes, content
+//! keys) serve them. Beside them: [`fem`] (the actuator model and its solver),
+//! [`render`] (synthetic camera images with known ground truth) and [`compare`].
+//!
+//! Measuring a session is one call, [`pipeline::measure_session`]; the `bendscope`
+//! binary only parses flags, calls it and prints.
 //!
 //! # Conventions
 //!
