@@ -107,6 +107,19 @@ pub fn write_session(dir: &Path, spec: &SessionSpec) -> Result<SessionTruth, Ren
     render_session(dir, spec, videos, &|_| {})
 }
 
+/// Writes a table of preformatted cells through [`crate::table::write_csv`] (the
+/// numbers keep the exact text the renderer gives them).
+fn write_text_table<const N: usize>(
+    path: &Path,
+    columns: [(&str, Vec<String>); N],
+) -> Result<(), RenderError> {
+    let cols: Vec<crate::table::Column> = columns
+        .into_iter()
+        .map(|(name, cells)| crate::table::Column::text(name, cells))
+        .collect();
+    crate::table::write_csv(path, &cols).map_err(|e| RenderError::Fem(e.to_string()))
+}
+
 /// GoPro-like name of the i-th video of a session.
 pub fn video_name(i: usize) -> String {
     format!("GX01{:04}.MP4", 101 + i)
@@ -175,7 +188,7 @@ pub fn render_session<S: Shade + Sync>(
     let sampler = PlaneSampler::new(&spec.camera, &plane, spec.supersample, spec.seed)?;
     let mut rng = SplitMix64::new(spec.seed ^ 0xACE);
     let mut truths = Vec::new();
-    let mut manifest = String::from("file,pressure_kpa\n");
+    let mut manifest: (Vec<String>, Vec<String>) = (vec![], vec![]);
     for (i, (scene, truth)) in videos.into_iter().enumerate() {
         let file = truth.file.clone();
         let (w, h) = (spec.camera.image_width, spec.camera.image_height);
@@ -205,11 +218,15 @@ pub fn render_session<S: Shade + Sync>(
         writer
             .finish()
             .map_err(|e| err(std::io::Error::other(e.to_string())))?;
-        manifest.push_str(&format!("{file},{}\n", truth.pressure_kpa));
+        manifest.0.push(file.clone());
+        manifest.1.push(format!("{}", truth.pressure_kpa));
         truths.push(truth);
         progress(i);
     }
-    write_atomic(&dir.join("pressures.csv"), manifest.as_bytes()).map_err(err)?;
+    write_text_table(
+        &dir.join("pressures.csv"),
+        [("file", manifest.0), ("pressure_kpa", manifest.1)],
+    )?;
     let config = format!(
         "# Settings of this session (see `bendscope process --help`).\n[scale_board]\ncols = 9\nrows = 6\nsquare_mm = {}\n",
         spec.scale_square_mm
@@ -464,7 +481,7 @@ pub fn write_fem_rgbd(
                 .map_err(|e| err(std::io::Error::other(e.to_string())))?;
             Ok(png)
         };
-    let mut log = String::from("time_s,pressure_kpa\n");
+    let mut log: (Vec<String>, Vec<String>) = (vec![], vec![]);
     let mut frame = 0usize;
     let mut truths = Vec::new();
     for (i, (scene, mut truth)) in videos.into_iter().enumerate() {
@@ -486,15 +503,17 @@ pub fn write_fem_rgbd(
         }
         let t1 = (frame - 1) as f64 / spec.fps;
         let p = truth.pressure_kpa;
-        log.push_str(&format!(
-            "{:.4},{p}\n{:.4},{p}\n",
-            t0 - 0.3 / spec.fps,
-            t1 + 0.3 / spec.fps
-        ));
+        for t in [t0 - 0.3 / spec.fps, t1 + 0.3 / spec.fps] {
+            log.0.push(format!("{t:.4}"));
+            log.1.push(format!("{p}"));
+        }
         truth.file = format!("step {}", i + 1);
         truths.push(truth);
     }
-    write_atomic(&dir.join("pressure_log.csv"), log.as_bytes()).map_err(err)?;
+    write_text_table(
+        &dir.join("pressure_log.csv"),
+        [("time_s", log.0), ("pressure_kpa", log.1)],
+    )?;
     let k = camera.camera_matrix;
     let intrinsics = format!(
         "{{\"width\": {w}, \"height\": {h}, \"fx\": {}, \"fy\": {}, \"cx\": {}, \"cy\": {}, \"depth_scale_m\": {}, \"fps\": {}}}\n",
