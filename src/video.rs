@@ -179,11 +179,13 @@ fn pretest_threshold(t: &crate::detect::HsvThresholds) -> Option<i32> {
 
 /// A sample of a YUV plane: 8-bit, or 10-bit in 16 bits (HEVC Main 10, as recent
 /// GoPros record). Conversions work at the sample's own depth.
-pub trait Sample: Copy + Default + Send + Sync + std::fmt::Debug + 'static {
+pub trait Sample: Copy + Default + Ord + Send + Sync + std::fmt::Debug + 'static {
     /// Bits beyond 8 (0 for 8-bit samples, 2 for 10-bit ones).
     const EXTRA_BITS: u32;
     /// The sample's value.
     fn value(self) -> i32;
+    /// The sample of value `v`, saturated to the type's range.
+    fn saturated(v: i32) -> Self;
 }
 
 impl Sample for u8 {
@@ -191,6 +193,9 @@ impl Sample for u8 {
     #[inline]
     fn value(self) -> i32 {
         self as i32
+    }
+    fn saturated(v: i32) -> Self {
+        v.clamp(0, u8::MAX as i32) as u8
     }
 }
 
@@ -200,7 +205,14 @@ impl Sample for u16 {
     fn value(self) -> i32 {
         self as i32
     }
+    fn saturated(v: i32) -> Self {
+        v.clamp(0, u16::MAX as i32) as u16
+    }
 }
+
+/// Cr samples scanned together by [`YuvFrame`]'s coarse pass: the largest of a chunk is
+/// compared first (a vectorized max), and a chunk below the pre-test is skipped whole.
+const CR_CHUNK: usize = 32;
 
 /// A decoded 4:2:0 frame kept in YUV at its native depth (planes copied out of the
 /// decoder): detection reads the quarter-size Cr plane first and converts to RGB only
@@ -270,6 +282,32 @@ impl<T: Sample> crate::detect::PixelSource for YuvFrame<T> {
         }
         let p = self.rgb_at(x, y);
         crate::detect::is_red(p[0], p[1], p[2], t)
+    }
+    /// The coarse pass on the Cr row under row `y`: its grid (every second pixel of
+    /// every second row) is the chroma grid, so each coarse pixel has its own Cr sample;
+    /// chunks of samples below the pre-test are skipped without converting a pixel.
+    fn coarse_row_hits(&self, y: u32, t: &crate::detect::HsvThresholds, out: &mut Vec<u32>) {
+        const { assert!(crate::detect::COARSE_STEP == 2) };
+        let Some(k) = pretest_threshold(t) else {
+            return crate::detect::coarse_row_hits_exact(self, y, t, out);
+        };
+        let threshold = T::saturated((128 + k) << T::EXTRA_BITS);
+        let cw = self.width.div_ceil(2) as usize;
+        let start = (y as usize / 2) * cw;
+        let Some(row) = self.v.get(start..start + cw) else {
+            return;
+        };
+        for (c, chunk) in row.chunks(CR_CHUNK).enumerate() {
+            if chunk.iter().fold(T::default(), |m, &s| m.max(s)) < threshold {
+                continue;
+            }
+            for (i, &s) in chunk.iter().enumerate() {
+                let x = (2 * (c * CR_CHUNK + i)) as u32;
+                if s >= threshold && x < self.width && self.is_red_at(x, y, t) {
+                    out.push(x);
+                }
+            }
+        }
     }
 }
 
@@ -1167,6 +1205,46 @@ mod tests {
             let p = f.rgb_at(0, 0);
             let exact = crate::detect::is_red(p[0], p[1], p[2], &t);
             proptest::prop_assert_eq!(crate::detect::PixelSource::is_red_at(&f, 0, 0, &t), exact, "yuv {} {} {} -> {:?}", y, u, v, p);
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+        /// The Cr-row scan finds exactly the coarse pixels the exact test finds, at both
+        /// depths, odd sizes included.
+        #[test]
+        fn cr_row_scan_matches_the_exact_coarse_pass(seed: u64, w in 1u32..150, h in 1u32..9, ten_bit: bool) {
+            let mut rng = crate::render::rng::SplitMix64::new(seed);
+            let (cw, ch) = (w.div_ceil(2) as usize, h.div_ceil(2) as usize);
+            let mut sample = |lo: f64, hi: f64| rng.range(lo, hi) as u16;
+            let y: Vec<u16> = (0..w as usize * h as usize).map(|_| sample(16.0, 236.0)).collect();
+            let u: Vec<u16> = (0..cw * ch).map(|_| sample(60.0, 196.0)).collect();
+            // Mostly neutral Cr with red patches.
+            let v: Vec<u16> = (0..cw * ch).map(|i| if i % 37 < 5 { sample(140.0, 240.0) } else { sample(100.0, 134.0) }).collect();
+            let t = crate::detect::HsvThresholds::default();
+            let check = |f: &dyn Fn(u32, &mut Vec<u32>, &mut Vec<u32>)| -> Result<(), proptest::test_runner::TestCaseError> {
+                for row in (0..h).step_by(2) {
+                    let (mut fast, mut exact) = (Vec::new(), Vec::new());
+                    f(row, &mut fast, &mut exact);
+                    proptest::prop_assert_eq!(fast, exact, "row {}", row);
+                }
+                Ok(())
+            };
+            if ten_bit {
+                let up = |p: &[u16]| p.iter().map(|&s| s << 2).collect::<Vec<u16>>();
+                let f = YuvFrame { width: w, height: h, y: up(&y), u: up(&u), v: up(&v), full_range: false };
+                check(&|row, a, b| {
+                    crate::detect::PixelSource::coarse_row_hits(&f, row, &t, a);
+                    crate::detect::coarse_row_hits_exact(&f, row, &t, b);
+                })?;
+            } else {
+                let down = |p: &[u16]| p.iter().map(|&s| s as u8).collect::<Vec<u8>>();
+                let f = YuvFrame { width: w, height: h, y: down(&y), u: down(&u), v: down(&v), full_range: false };
+                check(&|row, a, b| {
+                    crate::detect::PixelSource::coarse_row_hits(&f, row, &t, a);
+                    crate::detect::coarse_row_hits_exact(&f, row, &t, b);
+                })?;
+            }
         }
     }
 

@@ -7,10 +7,11 @@ use nalgebra::Point2;
 
 use crate::calib::Undistorter;
 use crate::detect::{
-    detect_markers_with, order_marker_indices, ChainStart, DetectSettings, PixelSource,
+    detect_markers_with, order_marker_indices, ChainStart, DetectSettings, MaskBuffer, PixelSource,
 };
 use crate::fit::{bending_angle_from_circle_deg, fit_circle_3d, fit_circle_pratt};
 use crate::rgbd::{markers_on_depth_plane, RgbdIntrinsics};
+use crate::scale::apply_homography;
 use crate::select::{select_markers, Candidate};
 use crate::session::SessionConfig;
 use crate::video::Pixels;
@@ -30,6 +31,10 @@ pub enum Geometry<'a> {
         undistorter: Option<&'a Undistorter>,
         /// mm per undistorted px at this frame size.
         mm_per_px: f64,
+        /// Undistorted px (this frame size) -> mm in the actuator plane, row-major: the
+        /// circle is fitted in mm through it when given (a plane not quite parallel to
+        /// the image plane), else in px times `mm_per_px`.
+        plane_from_px: Option<[f64; 9]>,
     },
     /// Colour + aligned depth: 3D markers, circle fitted in their plane (mm directly).
     Depth {
@@ -49,7 +54,7 @@ pub struct Tracker {
     /// The last measured frame's markers, ordered (favours the chain that moved least
     /// when a frame has extra red blobs).
     pub previous: Option<Vec<Point2<f64>>>,
-    mask: GrayImage,
+    mask: MaskBuffer,
 }
 
 impl Tracker {
@@ -58,13 +63,13 @@ impl Tracker {
         Self {
             start,
             previous: None,
-            mask: GrayImage::new(0, 0),
+            mask: MaskBuffer::default(),
         }
     }
 
     /// The mask of the last frame measured (for overlays).
     pub fn mask(&self) -> &GrayImage {
-        &self.mask
+        self.mask.mask()
     }
 }
 
@@ -228,7 +233,11 @@ pub fn measure_frame<S: PixelSource>(
     }
     let chosen: Vec<Point2<f64>> = order.iter().map(|&i| working[i]).collect();
     let m = match geometry {
-        Geometry::Plane { mm_per_px, .. } => measure_plane(chosen, *mm_per_px),
+        Geometry::Plane {
+            mm_per_px,
+            plane_from_px,
+            ..
+        } => measure_plane(chosen, *mm_per_px, plane_from_px.as_ref()),
         Geometry::Depth {
             undistorter,
             intrinsics,
@@ -247,16 +256,33 @@ pub fn measure_frame<S: PixelSource>(
     }
 }
 
-fn measure_plane(ordered: Vec<Point2<f64>>, mm_per_px: f64) -> FrameMeasurement {
+fn measure_plane(
+    ordered: Vec<Point2<f64>>,
+    mm_per_px: f64,
+    plane_from_px: Option<&[f64; 9]>,
+) -> FrameMeasurement {
     let n = ordered.len();
+    let fit_failed = |e: crate::fit::FitError| {
+        FrameMeasurement::rejected(n, FrameStatus::FitFailed { why: e.to_string() })
+    };
+    // The px circle (overlay, fit RMS in px); the mm one from the plane's homography.
     let circle = match fit_circle_pratt(&ordered) {
         Ok(c) => c,
-        Err(e) => {
-            return FrameMeasurement::rejected(n, FrameStatus::FitFailed { why: e.to_string() })
-        }
+        Err(e) => return fit_failed(e),
     };
-    let angle = match (ordered.first(), ordered.last()) {
-        (Some(o), Some(a)) => bending_angle_from_circle_deg(*o, *a, &circle).unwrap_or(f64::NAN),
+    let mm_points: Vec<Point2<f64>> = match plane_from_px {
+        Some(h) => ordered.iter().map(|p| apply_homography(h, *p)).collect(),
+        None => ordered
+            .iter()
+            .map(|p| Point2::from(p.coords * mm_per_px))
+            .collect(),
+    };
+    let circle_mm = match fit_circle_pratt(&mm_points) {
+        Ok(c) => c,
+        Err(e) => return fit_failed(e),
+    };
+    let angle = match (mm_points.first(), mm_points.last()) {
+        (Some(o), Some(a)) => bending_angle_from_circle_deg(*o, *a, &circle_mm).unwrap_or(f64::NAN),
         _ => f64::NAN,
     };
     FrameMeasurement {
@@ -264,8 +290,8 @@ fn measure_plane(ordered: Vec<Point2<f64>>, mm_per_px: f64) -> FrameMeasurement 
         ignored_px: vec![],
         center_px: circle.center,
         radius_px: circle.radius,
-        radius_mm: circle.radius * mm_per_px,
-        curvature_per_m: circle.curvature / mm_per_px * 1000.0,
+        radius_mm: circle_mm.radius,
+        curvature_per_m: circle_mm.curvature * 1000.0,
         bending_angle_deg: angle,
         fit_rms: circle.rms,
         markers_px: ordered,

@@ -402,6 +402,12 @@ impl<'a> VideoRun<'a> {
             calibration_to_yaml(&calib).unwrap_or_default().as_bytes(),
             &scale.mm_per_px.to_le_bytes(),
             &scale.width.to_le_bytes(),
+            &scale
+                .plane_from_px
+                .iter()
+                .flatten()
+                .flat_map(|v| v.to_le_bytes())
+                .collect::<Vec<u8>>(),
             &log_bytes,
         ]);
         Ok(Self {
@@ -579,6 +585,7 @@ fn session_calibration(
 struct SessionScale {
     mm_per_px: f64,
     width: u32,
+    plane_from_px: Option<[f64; 9]>,
 }
 
 fn session_scale(
@@ -591,6 +598,7 @@ fn session_scale(
         return Ok(SessionScale {
             mm_per_px: m,
             width: calib.image_width,
+            plane_from_px: None,
         });
     }
     let img = find_scale_image(session, config).ok_or_else(|| PipelineError::Layout {
@@ -626,6 +634,7 @@ fn session_scale(
     Ok(SessionScale {
         mm_per_px: s.mm_per_px,
         width: s.image_width,
+        plane_from_px: s.plane_from_px,
     })
 }
 
@@ -799,6 +808,10 @@ impl VideoRun<'_> {
             };
             // mm per px scales with the frame size (same aspect ratio as the scale photo).
             let mm_per_px = self.scale.mm_per_px * self.scale.width as f64 / w as f64;
+            let plane_from_px = self
+                .scale
+                .plane_from_px
+                .map(|h| crate::scale::homography_for_width(&h, self.scale.width, w));
             let (mut last_time, mut last_index, mut interval) = (f64::NAN, 0u64, 0.0f64);
             loop {
                 let f = match source.next() {
@@ -839,6 +852,7 @@ impl VideoRun<'_> {
                                     &Geometry::Plane {
                                         undistorter: None,
                                         mm_per_px,
+                                        plane_from_px,
                                     },
                                     &config.detect,
                                     config.expected_markers,
@@ -857,6 +871,7 @@ impl VideoRun<'_> {
                             &Geometry::Plane {
                                 undistorter: Some(&undistorter),
                                 mm_per_px,
+                                plane_from_px,
                             },
                             config,
                             &mut tracker,

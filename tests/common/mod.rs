@@ -1,6 +1,8 @@
 //! Shared helpers for integration tests: run the real binary, read its outputs.
 #![allow(dead_code)]
 
+pub mod cvscene;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
