@@ -267,9 +267,12 @@ fn step_result(
         0.0
     };
     let tip = solver.position(mesh.tip);
+    // Over the silicone only (a strain-limiting layer is far stiffer and stronger).
     let max_principal_stress = stresses
         .iter()
-        .map(max_principal)
+        .enumerate()
+        .filter(|(e, _)| mesh.model.element_material.get(*e).copied().unwrap_or(0) == 0)
+        .map(|(_, s)| max_principal(s))
         .filter(|v| v.is_finite())
         .fold(f64::NEG_INFINITY, f64::max);
     let length = |pts: &mut dyn Iterator<Item = Vector3<f64>>| {
