@@ -395,14 +395,16 @@ pub fn thinnest_wall_mm(g: &super::actuator::Geometry) -> (f64, &'static str) {
     .unwrap_or((f64::NAN, "wall"))
 }
 
-/// A note when the mesh is coarser than the thinnest wall (one element through it, far
-/// from converged; the default 2 mm mesh is +2.3% on the radius at 115 kPa).
+/// A note when the mesh is coarser than the thinnest wall (the walls are graded to
+/// [`super::actuator::MIN_WALL_ELEMENTS`] through, but the elements are then much longer
+/// than thick).
 pub fn mesh_notes(cfg: &super::actuator::ActuatorConfig) -> Vec<String> {
     let (t, name) = thinnest_wall_mm(&cfg.geometry);
     let h = cfg.mesh.size_mm;
     if h > t + 1e-9 {
         vec![format!(
-            "mesh size {h} mm is coarser than the thinnest wall ({name}, {t} mm): the walls get one element through and the results are far from converged; use {t} mm or less"
+            "mesh size {h} mm is coarser than the thinnest wall ({name}, {t} mm): the walls get {} elements through but are long and thin along them and the results are far from converged; use {t} mm or less",
+            super::actuator::MIN_WALL_ELEMENTS
         )]
     } else {
         vec![]
