@@ -10,16 +10,61 @@
 # - seconds per rendered 1080p frame (GoPro-like fisheye, 3x3 supersampling), against
 #   ffmpeg encoding the same number of frames of a test pattern (baseline);
 # - the whole `bendscope demo`.
+# - the mesh convergence study against CalculiX (FEM issue 11): the configuration of the
+#   CalculiX comparison (roof 2 mm, no gravity, bulk modulus 100 mu0, 10-115 kPa) on the
+#   default mesh, 1.5 mm and 1 mm: radius at 10/40/80/115 kPa, wall and CPU seconds, and
+#   the deviation from the converged radius (CalculiX C3D20R, 2 per wall, and bendscope
+#   at 1 mm; the issue's table), target within 1% over the ramp.
+# BIN=path/to/bendscope uses that binary instead of building one; STUDY_ONLY=1 runs the
+# convergence study only.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-cargo build --release --locked --bin bendscope
-bin=target/release/bendscope
-out=target/bench/fem
+if [ -z "${BIN:-}" ]; then
+  cargo build --release --locked --bin bendscope
+  bin=target/release/bendscope
+else
+  bin=$BIN
+fi
+out=${OUT:-target/bench/fem}
 mkdir -p "$out"
-run() { # run NAME ARGS...: wall seconds and peak RSS (MB) of `bendscope simulate ARGS`
+run() { # run NAME ARGS...: wall seconds, peak RSS (MB), user and system CPU seconds
   local name=$1; shift
-  /usr/bin/time -f "%e %M" -o "$out/$name.time" "$bin" simulate --no-vtu -o "$out/$name" "$@" > "$out/$name.log" 2>&1 || true
+  /usr/bin/time -f "%e %M %U %S" -o "$out/$name.time" "$bin" simulate --no-vtu -o "$out/$name" "$@" > "$out/$name.log" 2>&1 || true
 }
+
+# Mesh convergence against CalculiX.
+cat > "$out/calculix.toml" <<'TOML'
+[geometry]
+roof = 2.0
+[material]
+bulk_modulus_mpa = 21.488
+TOML
+for mesh in default 1.5 1; do
+  if [ "$mesh" = default ]; then args=(); else args=(--mesh-size "$mesh"); fi
+  run "study-$mesh" --config "$out/calculix.toml" --no-gravity --pressures 10:115:5 "${args[@]}"
+done
+python3 - "$out" <<'PY'
+import sys
+out = sys.argv[1]
+# Converged radius, mm (issue 11): CalculiX C3D20R h = 2.5 mm, 2 per wall, at 10-80 kPa;
+# bendscope 1 mm (42.56) and C3D20R (42.52) agree at 115 kPa.
+ref = {10: 342.9, 40: 92.62, 80: 53.23, 115: 42.52}
+print("mesh     " + "".join(f"{str(p) + ' kPa':>17}" for p in ref) + "   wall s    CPU s  max |dev|")
+for mesh in ["default", "1.5", "1"]:
+    try:
+        rows = [l.split(",") for l in open(f"{out}/study-{mesh}/steps.csv").read().split()[1:]]
+        wall, _, user, sys_ = open(f"{out}/study-{mesh}.time").read().split()
+    except (OSError, ValueError):
+        print(f"{mesh:<9} failed: see {out}/study-{mesh}.log")
+        continue
+    r = {round(float(row[0])): float(row[1]) for row in rows}
+    dev = max(abs(r[p] / ref[p] - 1) for p in ref if p in r)
+    nan = float("nan")
+    cells = "".join(f"{r.get(p, nan):9.2f} ({100 * (r.get(p, nan) / ref[p] - 1):+5.2f}%)" for p in ref)
+    print(f"{mesh:<9} {cells}  {float(wall):7.1f}  {float(user) + float(sys_):7.1f}  {100 * dev:.2f}%")
+PY
+[ -n "${STUDY_ONLY:-}" ] && exit 0
+
 last_radius() { tail -1 "$1/steps.csv" | cut -d, -f2; }
 field() { python3 -c "import json,sys; print(json.load(open('$1/summary.json'))['$2'])"; }
 
@@ -29,7 +74,7 @@ mu0=$(python3 -c "print(2 * 0.10744)")
 run bulk100 --bulk-modulus "$(python3 -c "print(100 * $mu0)")"
 run bulk10000 --bulk-modulus "$(python3 -c "print(10000 * $mu0)")"
 for n in default refined bulk100 bulk10000; do
-  read -r s m < "$out/$n.time"
+  read -r s m _ _ < "$out/$n.time"
   printf '%-10s %7.1f s %6.0f MB  nodes %6s dofs %6s steps %s/%s Newton %4s  radius@115 %s mm\n' \
     "$n" "$s" "$(python3 -c "print($m / 1024)")" "$(field "$out/$n" nodes_half_model)" "$(field "$out/$n" free_dofs)" \
     "$(field "$out/$n" steps_converged)" "$(field "$out/$n" steps_requested)" "$(field "$out/$n" newton_iterations)" \

@@ -192,8 +192,8 @@ fn nonsense_parameters_get_one_line_naming_them() {
 
 #[test]
 fn radius_at_115_kpa_changes_less_than_3_percent_on_a_refined_mesh() {
-    // Mesh convergence of the reference actuator: the default mesh (2 mm) against a
-    // refined one (1.5 mm; two elements through the 2 mm side walls), gravity on.
+    // Mesh convergence of the reference actuator: the former default mesh (2 mm) against
+    // a refined one (1.5 mm; two elements through the 2 mm side walls), gravity on.
     let dir = tempfile::tempdir().unwrap();
     let radius = |mesh: &str, out: &str| {
         let run = Run::new(

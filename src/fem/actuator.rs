@@ -24,6 +24,7 @@ use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
 use super::hex::{nodal_volumes, HexGeometry};
+use super::layer::LayerConfig;
 use super::material::{MaterialPreset, Yeoh, DEFAULT_BULK_TO_SHEAR};
 use super::pressure::CLOSED;
 use super::solve::{Model, NewtonSettings};
@@ -321,9 +322,11 @@ pub struct MeshConfig {
     pub size_mm: f64,
 }
 
-/// Default element size, mm: the default ramp in under a minute on 2 cores; the radius
-/// at 115 kPa is within 3% of the 1.5 mm mesh's (see the mesh-convergence test).
-pub const DEFAULT_MESH_SIZE_MM: f64 = 2.0;
+/// Default element size, mm: within 1% of the converged radius over the whole ramp
+/// (+0.2..+0.7% against CalculiX C3D20R and bendscope at 1 mm, issue 11's configuration;
+/// 2 mm was +3..+5%) in half the CPU time the 2 mm default took before the assembly and
+/// element speed-ups (scripts/bench-simulate.sh).
+pub const DEFAULT_MESH_SIZE_MM: f64 = 1.5;
 
 /// Largest mesh accepted (elements); a finer one would not fit a workstation's memory.
 pub const MAX_ELEMENTS: usize = 400_000;
@@ -381,6 +384,8 @@ pub struct ActuatorConfig {
     pub load: LoadConfig,
     /// Newton settings.
     pub solver: SolverConfig,
+    /// An optional strain-limiting layer in the base (`[layer]`; none by default).
+    pub layer: Option<LayerConfig>,
 }
 
 /// Loads of a simulation.
@@ -475,6 +480,9 @@ impl ActuatorConfig {
         self.geometry.validate()?;
         self.material.yeoh()?;
         self.pressures_kpa()?;
+        if let Some(layer) = &self.layer {
+            layer.validate(self.geometry.f)?;
+        }
         let h = self.mesh.size_mm;
         if !(h.is_finite() && h > 0.0) {
             return Err(bad("mesh size", format!("{h} mm: must be positive")));
@@ -556,14 +564,29 @@ pub struct ActuatorMesh {
     pub clamp_mm: f64,
 }
 
+/// Least number of elements through every wall (side walls beside the chambers and the
+/// channel, chamber walls, top wall, bottom): one trilinear element through a wall in
+/// bending is far too stiff (the 2 mm mesh with one element through the 2 mm side walls
+/// was +2.5..+4.5% on the radius); two through, at the mesh size along, converge.
+pub const MIN_WALL_ELEMENTS: usize = 2;
+
 /// Coordinate lines through `features` (sorted, deduplicated), each interval cut into
-/// equal parts no longer than `h`.
-fn coordinate_lines(mut features: Vec<f64>, h: f64) -> Vec<f64> {
+/// equal parts no longer than `h`; an interval that is one of `walls` (lo, hi) gets at
+/// least `MIN_WALL_ELEMENTS` parts.
+fn coordinate_lines(mut features: Vec<f64>, h: f64, walls: &[(f64, f64)]) -> Vec<f64> {
     features.sort_by(f64::total_cmp);
     features.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+    let is_wall = |a: f64, b: f64| {
+        walls
+            .iter()
+            .any(|(lo, hi)| (a - lo).abs() < 1e-9 && (b - hi).abs() < 1e-9)
+    };
     let mut out = vec![features[0]];
     for w in features.windows(2) {
-        let parts = ((w[1] - w[0]) / h - 1e-9).ceil().max(1.0) as usize;
+        let mut parts = ((w[1] - w[0]) / h - 1e-9).ceil().max(1.0) as usize;
+        if is_wall(w[0], w[1]) {
+            parts = parts.max(MIN_WALL_ELEMENTS);
+        }
         for k in 1..=parts {
             out.push(w[0] + (w[1] - w[0]) * k as f64 / parts as f64);
         }
@@ -606,12 +629,26 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
     for ((b0, b1), (c0, c1)) in blocks.iter().zip(&cavities) {
         fx.extend([*b0, *b1, *c0, *c1, 0.5 * (b0 + b1)]);
     }
-    let xs = coordinate_lines(fx, h);
-    let ys = coordinate_lines(vec![0.0, 0.5 * g.p, 0.5 * g.l, 0.5 * g.i], h);
-    let zs = coordinate_lines(
-        vec![0.0, z_channel, z_cavity, z_gap, g.marker_z(), z_top, a],
+    let x_walls: Vec<(f64, f64)> = blocks
+        .iter()
+        .zip(&cavities)
+        .flat_map(|((b0, b1), (c0, c1))| [(*b0, *c0), (*c1, *b1)])
+        .collect();
+    let xs = coordinate_lines(fx, h, &x_walls);
+    let ys = coordinate_lines(
+        vec![0.0, 0.5 * g.p, 0.5 * g.l, 0.5 * g.i],
         h,
+        &[(0.5 * g.l, 0.5 * g.i), (0.5 * g.p, 0.5 * g.i)],
     );
+    let layer_z = cfg
+        .layer
+        .as_ref()
+        .map(|l| (l.height_mm, l.height_mm + l.thickness_mm));
+    let mut fz = vec![0.0, z_channel, z_cavity, z_gap, g.marker_z(), z_top, a];
+    if let Some((z0, z1)) = layer_z {
+        fz.extend([z0, z1]);
+    }
+    let zs = coordinate_lines(fz, h, &[(0.0, z_channel), (z_top, a)]);
     let (nx, ny, nz) = (xs.len() - 1, ys.len() - 1, zs.len() - 1);
     if nx * ny * nz > MAX_ELEMENTS {
         return Err(bad(
@@ -666,12 +703,18 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
         node_of[gi]
     };
     let mut elements = Vec::new();
+    let mut element_material = Vec::new();
+    let in_layer = |k: usize| {
+        let zc = 0.5 * (zs[k] + zs[k + 1]);
+        layer_z.is_some_and(|(z0, z1)| zc > z0 && zc < z1)
+    };
     for k in 0..nz {
         for j in 0..ny {
             for i in 0..nx {
                 if cells[cell_id(i, j, k)] != Cell::Solid {
                     continue;
                 }
+                element_material.push(u8::from(in_layer(k)));
                 let corners = [
                     (i, j, k),
                     (i + 1, j, k),
@@ -809,6 +852,8 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
             loads,
             pressure_faces,
             volume_weights: CLOSED,
+            element_material,
+            extra_materials: cfg.layer.iter().map(LayerConfig::material).collect(),
         },
         markers,
         tip,

@@ -184,36 +184,50 @@ pub fn element_kinematics(
         energy += w * iso.energy(&f);
         v += w * j;
         let grads = &geom.grads[g];
+        // Per node: P ∇N_a (force), q_a = F⁻ᵀ ∇N_a (∂J/∂u_a = J q_a), and
+        // m_a[i][3k + l] = Σ_J ∇N_a,J A_iJkL: the tangent's blocks are then
+        // K_ab,ik = Σ_L m_a[i][3k + l] ∇N_b,L and the volume Hessian's
+        // H_ab,ik = J (q_a,i q_b,k − q_b,i q_a,k) (from ∂²J/∂F_iJ∂F_kL =
+        // J (F⁻ᵀ_iJ F⁻ᵀ_kL − F⁻ᵀ_iL F⁻ᵀ_kJ)): O(8·81 + 64·27) per Gauss point instead of
+        // O(576·9).
+        let mut q = [Vector3::zeros(); 8];
+        let mut m = [[[0.0; 9]; 3]; 8];
         for (an, ga) in grads.iter().enumerate() {
+            let pa = p * ga;
+            q[an] = fit * ga;
             for i in 0..3 {
-                let row = 3 * an + i;
-                // ∂F_iJ/∂u_ai = ∂N_a/∂X_J.
-                let mut fi = 0.0;
-                let mut dj = 0.0;
-                for jj in 0..3 {
-                    fi += p[(i, jj)] * ga[jj];
-                    dj += j * fit[(i, jj)] * ga[jj];
+                force[3 * an + i] += w * pa[i];
+                dv[3 * an + i] += w * j * q[an][i];
+                for (kl, mv) in m[an][i].iter_mut().enumerate() {
+                    *mv = ga[0] * a[(3 * i, kl)]
+                        + ga[1] * a[(3 * i + 1, kl)]
+                        + ga[2] * a[(3 * i + 2, kl)];
                 }
-                force[row] += w * fi;
-                dv[row] += w * dj;
-                for (bn, gb) in grads.iter().enumerate() {
+            }
+        }
+        for an in 0..8 {
+            for (bn, gb) in grads.iter().enumerate().skip(an) {
+                for i in 0..3 {
+                    let mi = &m[an][i];
                     for kk in 0..3 {
-                        let col = 3 * bn + kk;
-                        let mut s = 0.0;
-                        let mut h = 0.0;
-                        for jj in 0..3 {
-                            for l in 0..3 {
-                                s += ga[jj] * a[(3 * i + jj, 3 * kk + l)] * gb[l];
-                                // ∂²J/∂F_iJ∂F_kL = J (F⁻ᵀ_iJ F⁻ᵀ_kL - F⁻ᵀ_iL F⁻ᵀ_kJ)
-                                h += ga[jj]
-                                    * j
-                                    * (fit[(i, jj)] * fit[(kk, l)] - fit[(i, l)] * fit[(kk, jj)])
-                                    * gb[l];
-                            }
-                        }
-                        k[(row, col)] += w * s;
-                        hv[(row, col)] += w * h;
+                        let s =
+                            mi[3 * kk] * gb[0] + mi[3 * kk + 1] * gb[1] + mi[3 * kk + 2] * gb[2];
+                        let h = j * (q[an][i] * q[bn][kk] - q[bn][i] * q[an][kk]);
+                        k[(3 * an + i, 3 * bn + kk)] += w * s;
+                        hv[(3 * an + i, 3 * bn + kk)] += w * h;
                     }
+                }
+            }
+        }
+    }
+    // Mirror the upper block triangle (b > a) into the lower one: both are symmetric.
+    for an in 0..8 {
+        for bn in 0..an {
+            for i in 0..3 {
+                for kk in 0..3 {
+                    let (r, c) = (3 * an + i, 3 * bn + kk);
+                    k[(r, c)] = k[(c, r)];
+                    hv[(r, c)] = hv[(c, r)];
                 }
             }
         }

@@ -18,6 +18,7 @@
 
 pub mod actuator;
 pub mod hex;
+pub mod layer;
 pub mod material;
 pub mod output;
 pub mod pressure;
