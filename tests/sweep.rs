@@ -79,7 +79,14 @@ fn gnu_parallel_runs_the_emitted_jobs_and_collect_gives_simulate_numbers() {
     let out = tmp.path().join("sw");
     let r = Run::new(
         tmp.path(),
-        &["sweep", plan.to_str().unwrap(), "-o", "sw", "--emit", "parallel"],
+        &[
+            "sweep",
+            plan.to_str().unwrap(),
+            "-o",
+            "sw",
+            "--emit",
+            "parallel",
+        ],
     );
     assert_eq!(r.code, 0, "{r}");
     let jobs = std::fs::read_to_string(out.join("jobs.txt")).unwrap();
@@ -115,9 +122,15 @@ fn gnu_parallel_runs_the_emitted_jobs_and_collect_gives_simulate_numbers() {
     assert_eq!(rows.len(), 2);
     let ids: Vec<&str> = rows.iter().map(|r| r[0].as_str()).collect();
     assert_eq!(ids, ["p001", "p002"]);
-    let f: Vec<&str> = rows.iter().map(|r| r[col(&h, "geometry.f")].as_str()).collect();
+    let f: Vec<&str> = rows
+        .iter()
+        .map(|r| r[col(&h, "geometry.f")].as_str())
+        .collect();
     assert_eq!(f, ["5", "6.5"]);
-    let g: Vec<&str> = rows.iter().map(|r| r[col(&h, "load.gravity")].as_str()).collect();
+    let g: Vec<&str> = rows
+        .iter()
+        .map(|r| r[col(&h, "load.gravity")].as_str())
+        .collect();
     assert_eq!(g, ["false", "false"]);
     for r in &rows {
         assert_eq!(r[1], "ok");
@@ -130,7 +143,14 @@ fn gnu_parallel_runs_the_emitted_jobs_and_collect_gives_simulate_numbers() {
     let cfg = out.join("runs/p002/config.toml");
     let s = Run::new(
         tmp.path(),
-        &["simulate", "--config", cfg.to_str().unwrap(), "--no-vtu", "-o", "sim"],
+        &[
+            "simulate",
+            "--config",
+            cfg.to_str().unwrap(),
+            "--no-vtu",
+            "-o",
+            "sim",
+        ],
     );
     assert_eq!(s.code, 0, "{s}");
     for p in ["20", "40"] {
@@ -143,7 +163,9 @@ fn gnu_parallel_runs_the_emitted_jobs_and_collect_gives_simulate_numbers() {
     }
     // Bending grows with pressure; the thinner bottom bends more.
     let angle = |r: &Vec<String>, p: &str| -> f64 {
-        r[col(&h, &format!("bending_angle_deg@{p}"))].parse().unwrap()
+        r[col(&h, &format!("bending_angle_deg@{p}"))]
+            .parse()
+            .unwrap()
     };
     assert!(rows.iter().all(|r| angle(r, "40") > angle(r, "20")));
     assert!(angle(&rows[0], "40") > angle(&rows[1], "40"), "{rows:?}");
@@ -156,13 +178,20 @@ fn gnu_parallel_runs_the_emitted_jobs_and_collect_gives_simulate_numbers() {
 fn the_local_pool_records_a_failed_point_and_resume_skips_finished_points() {
     let tmp = tempfile::tempdir().unwrap();
     // e = 12 mm does not fit the 11.5 mm chambers: that point is invalid, the other runs.
-    let text = PLAN
-        .replace("levels = [5, 6.5]", "levels = [6.5]")
-        .replace("name = \"load.gravity\"\nlevels = [false]", "name = \"geometry.e\"\nlevels = [5, 12]");
+    let text = PLAN.replace("levels = [5, 6.5]", "levels = [6.5]").replace(
+        "name = \"load.gravity\"\nlevels = [false]",
+        "name = \"geometry.e\"\nlevels = [5, 12]",
+    );
     let plan = write_plan(tmp.path(), &text);
-    let r = Run::new(tmp.path(), &["sweep", plan.to_str().unwrap(), "-o", "sw", "--jobs", "2"]);
+    let r = Run::new(
+        tmp.path(),
+        &["sweep", plan.to_str().unwrap(), "-o", "sw", "--jobs", "2"],
+    );
     assert_eq!(r.code, 1, "partial: {r}");
-    assert!(r.stdout.contains("1 ok") && r.stdout.contains("1 failed"), "{r}");
+    assert!(
+        r.stdout.contains("1 ok") && r.stdout.contains("1 failed"),
+        "{r}"
+    );
     let out = tmp.path().join("sw");
     let (h, rows) = read_csv(&out.join("designs.csv"));
     assert_eq!(rows[0][1], "ok");
@@ -174,8 +203,17 @@ fn the_local_pool_records_a_failed_point_and_resume_skips_finished_points() {
     let (fh, frows) = read_csv(&out.join("failures.csv"));
     assert_eq!(frows.len(), 1);
     assert_eq!(frows[0][0], "p002");
-    assert!(frows[0][col(&fh, "reason")].contains("cavity length"), "{frows:?}");
-    for f in ["config.toml", "steps.csv", "summary.json", "log", "status.json"] {
+    assert!(
+        frows[0][col(&fh, "reason")].contains("cavity length"),
+        "{frows:?}"
+    );
+    for f in [
+        "config.toml",
+        "steps.csv",
+        "summary.json",
+        "log",
+        "status.json",
+    ] {
         assert!(out.join("runs/p001").join(f).exists(), "{f}");
     }
     // Resume: the finished point is not run again (its files stay as they were).
@@ -183,8 +221,14 @@ fn the_local_pool_records_a_failed_point_and_resume_skips_finished_points() {
     let before = std::fs::metadata(&status).unwrap().modified().unwrap();
     let r = Run::new(tmp.path(), &["sweep", plan.to_str().unwrap(), "-o", "sw"]);
     assert_eq!(r.code, 1, "{r}");
-    assert!(r.stderr.contains("0 to run, 1 finished earlier, 1 invalid"), "{r}");
-    assert_eq!(std::fs::metadata(&status).unwrap().modified().unwrap(), before);
+    assert!(
+        r.stderr.contains("0 to run, 1 finished earlier, 1 invalid"),
+        "{r}"
+    );
+    assert_eq!(
+        std::fs::metadata(&status).unwrap().modified().unwrap(),
+        before
+    );
     let (_, again) = read_csv(&out.join("designs.csv"));
     assert_eq!(again[0][3..], rows[0][3..], "same numbers after resume");
 }
@@ -195,7 +239,14 @@ fn slurm_script_is_a_job_array_with_the_plans_resources() {
     let plan = write_plan(tmp.path(), PLAN);
     let r = Run::new(
         tmp.path(),
-        &["sweep", plan.to_str().unwrap(), "-o", "sw", "--emit", "slurm"],
+        &[
+            "sweep",
+            plan.to_str().unwrap(),
+            "-o",
+            "sw",
+            "--emit",
+            "slurm",
+        ],
     );
     assert_eq!(r.code, 0, "{r}");
     let s = std::fs::read_to_string(tmp.path().join("sw/sweep.sbatch")).unwrap();
@@ -228,7 +279,15 @@ fn simulate_model_analytic_writes_the_ramp_instantly() {
     let tmp = tempfile::tempdir().unwrap();
     let r = Run::new(
         tmp.path(),
-        &["simulate", "--model", "analytic", "--pressures", "0:100:50", "-o", "an"],
+        &[
+            "simulate",
+            "--model",
+            "analytic",
+            "--pressures",
+            "0:100:50",
+            "-o",
+            "an",
+        ],
     );
     assert_eq!(r.code, 0, "{r}");
     assert!(r.stdout.contains(" ms"), "{r}");

@@ -119,7 +119,10 @@ pub fn run(args: &SweepArgs) -> Result<u8> {
     );
     if let Some(engine) = args.emit {
         if prepared.pending.is_empty() {
-            super::out!("nothing to run: every point is finished; bendscope sweep collect {}", prepared.dir.display());
+            super::out!(
+                "nothing to run: every point is finished; bendscope sweep collect {}",
+                prepared.dir.display()
+            );
             return Ok(EXIT_OK);
         }
         let (path, how) = match engine {
@@ -143,17 +146,29 @@ pub fn run(args: &SweepArgs) -> Result<u8> {
             .map(|c| point_memory_mb(&c))
             .fold(0.0, f64::max);
         let jobs = pool_size(args.jobs, prepared.pending.len(), point_mb);
-        if args.jobs.is_some_and(|j| j > jobs && j <= prepared.pending.len()) {
-            eprintln!("note: {jobs} point(s) at a time, not {}: each needs ~{point_mb:.0} MB", args.jobs.unwrap_or(0));
+        if args
+            .jobs
+            .is_some_and(|j| j > jobs && j <= prepared.pending.len())
+        {
+            eprintln!(
+                "note: {jobs} point(s) at a time, not {}: each needs ~{point_mb:.0} MB",
+                args.jobs.unwrap_or(0)
+            );
         }
         let bar = super::progress_bar(prepared.pending.len() as u64, "sweep");
-        run_pool(&prepared.dir, &prepared.pending, jobs, &exe, &mut |id, s| {
-            bar.set_message(format!("{id} {}", s.status.as_str()));
-            bar.inc(1);
-            if let Some(r) = s.reason.as_deref().filter(|_| s.status != PointState::Ok) {
-                bar.suspend(|| eprintln!("warning: point {id} {}: {r}", s.status.as_str()));
-            }
-        })?;
+        run_pool(
+            &prepared.dir,
+            &prepared.pending,
+            jobs,
+            &exe,
+            &mut |id, s| {
+                bar.set_message(format!("{id} {}", s.status.as_str()));
+                bar.inc(1);
+                if let Some(r) = s.reason.as_deref().filter(|_| s.status != PointState::Ok) {
+                    bar.suspend(|| eprintln!("warning: point {id} {}: {r}", s.status.as_str()));
+                }
+            },
+        )?;
         bar.finish_and_clear();
     }
     run_collect(&prepared.dir)

@@ -81,7 +81,9 @@ pub fn uniaxial_nominal_stress_mpa(m: &Yeoh, lambda: f64) -> f64 {
 pub fn uniaxial_stretch(m: &Yeoh, stress_mpa: f64) -> Result<f64, FemError> {
     if !(stress_mpa.is_finite() && stress_mpa >= 0.0) {
         return Err(FemError::Model {
-            why: format!("analytic model: wall stress {stress_mpa} MPa is not a non-negative number"),
+            why: format!(
+                "analytic model: wall stress {stress_mpa} MPa is not a non-negative number"
+            ),
         });
     }
     if stress_mpa == 0.0 {
@@ -191,7 +193,10 @@ mod tests {
         for (lambda, p) in [(1.1, 0.060635), (1.5, 0.375493), (2.0, 1.230124)] {
             let got = uniaxial_stretch(&m, p).unwrap();
             // The stresses have 6 significant digits: the stretch to ~1e-5.
-            assert!((got - lambda).abs() < 2e-5 * lambda, "{p} MPa: {got} vs {lambda}");
+            assert!(
+                (got - lambda).abs() < 2e-5 * lambda,
+                "{p} MPa: {got} vs {lambda}"
+            );
         }
         assert_eq!(uniaxial_stretch(&m, 0.0).unwrap(), 1.0);
         assert!(uniaxial_stretch(&m, 1e9).is_err());

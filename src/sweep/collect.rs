@@ -91,17 +91,24 @@ pub fn collect(dir: &Path) -> Result<Collected, SweepError> {
             PointState::Running | PointState::Pending => counts.unfinished += 1,
         }
         if state != PointState::Ok {
-            let reason = st.as_ref().and_then(|s| s.reason.clone()).unwrap_or_else(|| {
-                if state == PointState::Running {
-                    "started, not finished: still running, or killed (see its log)".into()
-                } else {
-                    "not run yet".into()
-                }
-            });
+            let reason = st
+                .as_ref()
+                .and_then(|s| s.reason.clone())
+                .unwrap_or_else(|| {
+                    if state == PointState::Running {
+                        "started, not finished: still running, or killed (see its log)".into()
+                    } else {
+                        "not run yet".into()
+                    }
+                });
             failures.push([p.id.clone(), state.as_str().into(), reason]);
         }
         status.push(state.as_str().to_string());
-        seconds.push(st.as_ref().filter(|s| s.status.finished() || s.status == PointState::Failed).map_or(f64::NAN, |s| s.seconds));
+        seconds.push(
+            st.as_ref()
+                .filter(|s| s.status.finished() || s.status == PointState::Failed)
+                .map_or(f64::NAN, |s| s.seconds),
+        );
         let cfg = read_point_config(&point).ok();
         height.push(cfg.as_ref().map_or(f64::NAN, |c| c.geometry.height()));
         let steps = state
@@ -112,11 +119,15 @@ pub fn collect(dir: &Path) -> Result<Collected, SweepError> {
             .then(|| Table::read(&point.join("force.csv")).ok())
             .flatten();
         for (k, p_kpa) in kpa.iter().enumerate() {
-            let row = steps.as_ref().and_then(|t| cells_at(t, &RESULT_COLUMNS, *p_kpa));
+            let row = steps
+                .as_ref()
+                .and_then(|t| cells_at(t, &RESULT_COLUMNS, *p_kpa));
             for (c, cells) in fem[k].iter_mut().take(RESULT_COLUMNS.len()).enumerate() {
                 cells.push(row.as_ref().map(|r| r[c].clone()).unwrap_or_default());
             }
-            let f = force.as_ref().and_then(|t| cells_at(t, &["force_n"], *p_kpa));
+            let f = force
+                .as_ref()
+                .and_then(|t| cells_at(t, &["force_n"], *p_kpa));
             fem[k][RESULT_COLUMNS.len()].push(f.map(|mut r| r.remove(0)).unwrap_or_default());
         }
         let model = cfg.as_ref().filter(|_| m.analytic).and_then(|c| {
@@ -135,7 +146,10 @@ pub fn collect(dir: &Path) -> Result<Collected, SweepError> {
         Column::num("seconds", 3, seconds),
     ];
     for (j, f) in m.factors.iter().enumerate() {
-        cols.push(Column::text(f, m.points.iter().map(|p| p.values[j].clone())));
+        cols.push(Column::text(
+            f,
+            m.points.iter().map(|p| p.values[j].clone()),
+        ));
     }
     for (k, p) in m.pressures.iter().enumerate() {
         let mut cells = std::mem::take(&mut fem[k]);
@@ -152,8 +166,16 @@ pub fn collect(dir: &Path) -> Result<Collected, SweepError> {
             let [angle, radius]: [Vec<f64>; 2] = std::mem::take(&mut analytic[k])
                 .try_into()
                 .unwrap_or_default();
-            cols.push(Column::num(format!("bending_angle_deg_analytic@{}", p.label), 4, angle));
-            cols.push(Column::num(format!("radius_mm_analytic@{}", p.label), 4, radius));
+            cols.push(Column::num(
+                format!("bending_angle_deg_analytic@{}", p.label),
+                4,
+                angle,
+            ));
+            cols.push(Column::num(
+                format!("radius_mm_analytic@{}", p.label),
+                4,
+                radius,
+            ));
         }
     }
     cols.push(Column::num("height_mm", 4, height));

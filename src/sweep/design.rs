@@ -55,13 +55,19 @@ pub struct Factor {
 
 /// The design's points: one value per factor each, in plan order (factorial: the first
 /// factor varies slowest).
-pub fn design_points(kind: DesignKind, factors: &[Factor]) -> Result<Vec<Vec<toml::Value>>, String> {
+pub fn design_points(
+    kind: DesignKind,
+    factors: &[Factor],
+) -> Result<Vec<Vec<toml::Value>>, String> {
     match kind {
         DesignKind::Factorial => {
             let mut points: Vec<Vec<toml::Value>> = vec![Vec::new()];
             for f in factors {
                 let FactorLevels::Levels(levels) = &f.levels else {
-                    return Err(format!("factor {}: a factorial design needs levels", f.name));
+                    return Err(format!(
+                        "factor {}: a factorial design needs levels",
+                        f.name
+                    ));
                 };
                 if points.len().saturating_mul(levels.len()) > MAX_POINTS {
                     return Err(format!("the factorial design has more than {MAX_POINTS} points: use fewer levels or a Latin hypercube"));
@@ -81,14 +87,19 @@ pub fn design_points(kind: DesignKind, factors: &[Factor]) -> Result<Vec<Vec<tom
         }
         DesignKind::Lhs { n, seed } => {
             if n == 0 || n > MAX_POINTS {
-                return Err(format!("a Latin hypercube needs 1..{MAX_POINTS} points, not {n}"));
+                return Err(format!(
+                    "a Latin hypercube needs 1..{MAX_POINTS} points, not {n}"
+                ));
             }
             let mut rng = SplitMix64::new(seed);
             let mut points = vec![Vec::with_capacity(factors.len()); n];
             let scale = 10f64.powi(LHS_DECIMALS);
             for f in factors {
                 let FactorLevels::Range { lo, hi, integer } = f.levels else {
-                    return Err(format!("factor {}: a Latin hypercube needs a range", f.name));
+                    return Err(format!(
+                        "factor {}: a Latin hypercube needs a range",
+                        f.name
+                    ));
                 };
                 let mut strata: Vec<usize> = (0..n).collect();
                 for i in (1..n).rev() {
@@ -133,7 +144,11 @@ mod tests {
             name: name.into(),
             levels: FactorLevels::Levels(l.iter().map(|v| toml::Value::Integer(*v)).collect()),
         };
-        let p = design_points(DesignKind::Factorial, &[f("a", &[1, 2]), f("b", &[7, 8, 9])]).unwrap();
+        let p = design_points(
+            DesignKind::Factorial,
+            &[f("a", &[1, 2]), f("b", &[7, 8, 9])],
+        )
+        .unwrap();
         let as_int: Vec<Vec<i64>> = p
             .iter()
             .map(|q| q.iter().map(|v| v.as_integer().unwrap()).collect())
@@ -148,22 +163,36 @@ mod tests {
         let p = design_points(DesignKind::Lhs { n, seed: 1 }, &factors).unwrap();
         assert_eq!(p.len(), n);
         for (k, f) in factors.iter().enumerate() {
-            let FactorLevels::Range { lo, hi, .. } = f.levels else { unreachable!() };
+            let FactorLevels::Range { lo, hi, .. } = f.levels else {
+                unreachable!()
+            };
             let mut strata: Vec<usize> = p
                 .iter()
                 .map(|q| {
                     let v = q[k].as_float().unwrap();
                     assert!((lo..=hi).contains(&v));
-                    (((v - lo) / (hi - lo)) * n as f64).floor().min(n as f64 - 1.0) as usize
+                    (((v - lo) / (hi - lo)) * n as f64)
+                        .floor()
+                        .min(n as f64 - 1.0) as usize
                 })
                 .collect();
             strata.sort();
             assert_eq!(strata, (0..n).collect::<Vec<_>>(), "factor {}", f.name);
         }
         // Seeded: the same plan gives the same points; another seed others.
-        assert_eq!(p, design_points(DesignKind::Lhs { n, seed: 1 }, &factors).unwrap());
-        assert_ne!(p, design_points(DesignKind::Lhs { n, seed: 2 }, &factors).unwrap());
-        let ints = design_points(DesignKind::Lhs { n: 7, seed: 3 }, &[range("c", 2.0, 8.0, true)]).unwrap();
+        assert_eq!(
+            p,
+            design_points(DesignKind::Lhs { n, seed: 1 }, &factors).unwrap()
+        );
+        assert_ne!(
+            p,
+            design_points(DesignKind::Lhs { n, seed: 2 }, &factors).unwrap()
+        );
+        let ints = design_points(
+            DesignKind::Lhs { n: 7, seed: 3 },
+            &[range("c", 2.0, 8.0, true)],
+        )
+        .unwrap();
         assert!(ints
             .iter()
             .all(|q| q[0].as_integer().is_some_and(|v| (2..=8).contains(&v))));

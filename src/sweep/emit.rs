@@ -51,7 +51,10 @@ pub fn write_slurm(prepared: &Prepared, exe: &Path) -> Result<PathBuf, SweepErro
     let mut s = String::from("#!/bin/bash\n");
     let _ = writeln!(s, "# bendscope sweep: {n} point(s) of {}", dir.display());
     let _ = writeln!(s, "#SBATCH --job-name={}", c.job_name);
-    let throttle = c.max_concurrent.map(|m| format!("%{m}")).unwrap_or_default();
+    let throttle = c
+        .max_concurrent
+        .map(|m| format!("%{m}"))
+        .unwrap_or_default();
     let _ = writeln!(s, "#SBATCH --array=0-{}{throttle}", n.saturating_sub(1));
     let _ = writeln!(s, "#SBATCH --ntasks=1");
     let _ = writeln!(s, "#SBATCH --cpus-per-task={}", c.cpus_per_task);
@@ -67,7 +70,10 @@ pub fn write_slurm(prepared: &Prepared, exe: &Path) -> Result<PathBuf, SweepErro
     let _ = writeln!(s, "set -eu");
     let ids: Vec<String> = prepared.pending.iter().map(|i| shell_quote(i)).collect();
     let _ = writeln!(s, "ids=({})", ids.join(" "));
-    let _ = writeln!(s, "export RAYON_NUM_THREADS=\"${{SLURM_CPUS_PER_TASK:-1}}\"");
+    let _ = writeln!(
+        s,
+        "export RAYON_NUM_THREADS=\"${{SLURM_CPUS_PER_TASK:-1}}\""
+    );
     let _ = writeln!(
         s,
         "exec {} sweep run-point {} \"${{ids[$SLURM_ARRAY_TASK_ID]}}\"",

@@ -164,7 +164,9 @@ pub fn config_with(
             .get_mut(*s)
             .and_then(|t| t.as_table_mut())
             .ok_or_else(|| {
-                format!("'{name}': no section '{s}' (sections: geometry, material, mesh, load, solver)")
+                format!(
+                    "'{name}': no section '{s}' (sections: geometry, material, mesh, load, solver)"
+                )
             })?;
     }
     let new = match (table.get(*field), value) {
@@ -204,7 +206,10 @@ impl Plan {
         let file: PlanFile = toml::from_str(text).map_err(|e| {
             plan_err(
                 path,
-                format!("{} (see examples/plans/two-factor.toml)", e.message().trim()),
+                format!(
+                    "{} (see examples/plans/two-factor.toml)",
+                    e.message().trim()
+                ),
             )
         })?;
         let mut base = match &file.base {
@@ -230,7 +235,10 @@ impl Plan {
             base.mesh.size_mm = h;
         }
         if file.pressures_kpa.is_empty() {
-            return Err(plan_err(path, "pressures_kpa is empty: list the pressures to keep, e.g. [50, 100]"));
+            return Err(plan_err(
+                path,
+                "pressures_kpa is empty: list the pressures to keep, e.g. [50, 100]",
+            ));
         }
         let mut pressures = Vec::new();
         for v in &file.pressures_kpa {
@@ -239,10 +247,16 @@ impl Plan {
                 .or_else(|| v.as_integer().map(|i| i as f64))
                 .filter(|p| p.is_finite() && *p >= 0.0)
                 .ok_or_else(|| {
-                    plan_err(path, format!("pressures_kpa: {v} is not a pressure >= 0 kPa"))
+                    plan_err(
+                        path,
+                        format!("pressures_kpa: {v} is not a pressure >= 0 kPa"),
+                    )
                 })?;
             if pressures.iter().any(|p: &KeptPressure| p.kpa == kpa) {
-                return Err(plan_err(path, format!("pressures_kpa: {kpa} is listed twice")));
+                return Err(plan_err(
+                    path,
+                    format!("pressures_kpa: {kpa} is listed twice"),
+                ));
             }
             pressures.push(KeptPressure {
                 label: value_text(v),
@@ -258,7 +272,10 @@ impl Plan {
                 {
                     return Err(plan_err(
                         path,
-                        format!("kept pressure {} kPa is not a step of ramp_kpa '{r}': add it", p.label),
+                        format!(
+                            "kept pressure {} kPa is not a step of ramp_kpa '{r}': add it",
+                            p.label
+                        ),
                     ));
                 }
                 r.clone()
@@ -266,15 +283,22 @@ impl Plan {
             None => {
                 let mut kpa: Vec<f64> = pressures.iter().map(|p| p.kpa).collect();
                 kpa.sort_by(f64::total_cmp);
-                kpa.iter().map(|p| format!("{p}")).collect::<Vec<_>>().join(",")
+                kpa.iter()
+                    .map(|p| format!("{p}"))
+                    .collect::<Vec<_>>()
+                    .join(",")
             }
         };
-        base.validate().map_err(|e| plan_err(path, format!("base config: {e}")))?;
+        base.validate()
+            .map_err(|e| plan_err(path, format!("base config: {e}")))?;
         let design = match file.design.kind.to_ascii_lowercase().as_str() {
             "factorial" => DesignKind::Factorial,
             "lhs" => DesignKind::Lhs {
                 n: file.design.n.filter(|n| *n > 0).ok_or_else(|| {
-                    plan_err(path, "design kind \"lhs\" needs n = <points> (a positive count)")
+                    plan_err(
+                        path,
+                        "design kind \"lhs\" needs n = <points> (a positive count)",
+                    )
                 })?,
                 seed: file.design.seed.unwrap_or(1),
             },
@@ -286,7 +310,10 @@ impl Plan {
             }
         };
         if file.factor.is_empty() {
-            return Err(plan_err(path, "no [[factor]]: name at least one config field to vary"));
+            return Err(plan_err(
+                path,
+                "no [[factor]]: name at least one config field to vary",
+            ));
         }
         let mut factors = Vec::new();
         for f in &file.factor {
@@ -300,13 +327,24 @@ impl Plan {
                     FactorLevels::Levels(l.clone())
                 }
                 (DesignKind::Factorial, _, _) => {
-                    return Err(plan_err(path, format!("factor {}: a factorial design needs levels = [...]", f.name)))
+                    return Err(plan_err(
+                        path,
+                        format!("factor {}: a factorial design needs levels = [...]", f.name),
+                    ))
                 }
-                (DesignKind::Lhs { .. }, _, Some([lo, hi])) if lo.is_finite() && hi.is_finite() && lo <= hi => {
+                (DesignKind::Lhs { .. }, _, Some([lo, hi]))
+                    if lo.is_finite() && hi.is_finite() && lo <= hi =>
+                {
                     FactorLevels::Range { lo, hi, integer }
                 }
                 (DesignKind::Lhs { .. }, _, _) => {
-                    return Err(plan_err(path, format!("factor {}: a Latin hypercube needs range = [low, high]", f.name)))
+                    return Err(plan_err(
+                        path,
+                        format!(
+                            "factor {}: a Latin hypercube needs range = [low, high]",
+                            f.name
+                        ),
+                    ))
                 }
             };
             // Every level (or both range ends) must make a config: a misspelt field or a
@@ -325,7 +363,8 @@ impl Plan {
                     .collect(),
             };
             for v in &probes {
-                config_with(&base, &f.name, v).map_err(|why| plan_err(path, format!("factor {why}")))?;
+                config_with(&base, &f.name, v)
+                    .map_err(|why| plan_err(path, format!("factor {why}")))?;
             }
             factors.push(Factor {
                 name: f.name.clone(),
@@ -334,7 +373,10 @@ impl Plan {
         }
         let c = &file.cluster;
         if c.cpus_per_task == 0 || c.memory_mb == 0 || c.time_limit.trim().is_empty() {
-            return Err(plan_err(path, "[cluster]: cpus_per_task and memory_mb must be positive and time_limit set"));
+            return Err(plan_err(
+                path,
+                "[cluster]: cpus_per_task and memory_mb must be positive and time_limit set",
+            ));
         }
         Ok(Plan {
             path: path.to_path_buf(),

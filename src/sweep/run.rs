@@ -182,7 +182,10 @@ pub fn prepare(plan: &Plan, dir: &Path) -> Result<Prepared, SweepError> {
     let mut prepared = Prepared {
         dir: dir.clone(),
         manifest: Manifest {
-            plan: plan.path.canonicalize().unwrap_or_else(|_| plan.path.clone()),
+            plan: plan
+                .path
+                .canonicalize()
+                .unwrap_or_else(|_| plan.path.clone()),
             factors: plan.factors.iter().map(|f| f.name.clone()).collect(),
             pressures: plan.pressures.clone(),
             blocked: plan.blocked,
@@ -309,7 +312,11 @@ pub fn run_point(dir: &Path, id: &str) -> Result<PointStatus, SweepError> {
         log,
         "point {id}: {} in {seconds:.1} s{}",
         status.status.as_str(),
-        status.reason.as_deref().map(|r| format!(": {r}")).unwrap_or_default()
+        status
+            .reason
+            .as_deref()
+            .map(|r| format!(": {r}"))
+            .unwrap_or_default()
     );
     write_status(&point, &status)?;
     Ok(status)
