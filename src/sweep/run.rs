@@ -30,10 +30,13 @@ pub const STATUS: &str = "status.json";
 /// A point's log.
 pub const LOG: &str = "log";
 
-/// Peak memory of a point's process besides its mesh, MB (measured: see README).
-pub const POINT_BASE_MB: f64 = 60.0;
-/// Peak memory per node of the half mesh, MB (measured on the default ramp: see README).
-pub const POINT_MB_PER_NODE: f64 = 0.012;
+/// Peak memory of a point's process besides its mesh, MB. Measured (peak RSS of
+/// one-pressure ramps, test profile): 6, 4 and 3 mm meshes, 1263, 1943 and 3425 nodes,
+/// 102, 118 and 163 MB: about 67 MB + 0.028 MB per node.
+pub const POINT_BASE_MB: f64 = 70.0;
+/// Peak memory per node of the half mesh, MB: the measured 0.028 (see [`POINT_BASE_MB`])
+/// with margin, since the sparse factor grows faster than the node count on fine meshes.
+pub const POINT_MB_PER_NODE: f64 = 0.05;
 /// Share of the available memory the local pool may plan for.
 const MEMORY_SHARE: f64 = 0.8;
 
