@@ -38,5 +38,6 @@ pub mod rgbd;
 pub mod scale;
 pub mod select;
 pub mod session;
+pub mod sweep;
 pub mod table;
 pub mod video;

@@ -57,6 +57,7 @@ pub fn run(args: &DemoArgs) -> Result<u8> {
             blocked: false,
             sweep: None,
             no_vtu: false,
+            model: simulate::Model::Fem,
             print_config: false,
         })?,
     )?;

@@ -18,6 +18,7 @@ pub mod process;
 pub mod render;
 pub mod scale;
 pub mod simulate;
+pub mod sweep;
 
 use clap::{Parser, Subcommand};
 
@@ -60,6 +61,8 @@ pub enum Command {
     Compare(compare::CompareArgs),
     /// Run the whole chain on a simulated actuator: simulate, render, calibrate, process, compare.
     Demo(demo::DemoArgs),
+    /// Run a multi-factor design of simulations (local pool, GNU parallel or Slurm) into designs.csv.
+    Sweep(sweep::SweepArgs),
 }
 
 /// A progress bar on stderr (drawn only when stderr is a terminal).

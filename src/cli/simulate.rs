@@ -4,6 +4,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, Context, Result};
 use bendscope::fem::actuator::{parse_range, ActuatorConfig};
+use bendscope::fem::analytic::analytic_to;
 use bendscope::fem::material::MaterialPreset;
 use bendscope::fem::output::{simulate_to, sweep_to, SimulateOptions, BOTTOM_ELONGATION_LIMIT_PCT};
 use bendscope::fem::FemError;
@@ -63,9 +64,21 @@ pub struct SimulateArgs {
     /// Skip the VTK files.
     #[arg(long)]
     pub no_vtu: bool,
+    /// Model: fem (finite elements) or analytic (the chamber model: steps.csv in milliseconds).
+    #[arg(long, value_name = "MODEL", default_value = "fem")]
+    pub model: Model,
     /// Print the resolved actuator config (TOML) and exit.
     #[arg(long)]
     pub print_config: bool,
+}
+
+/// The model `simulate` runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Model {
+    /// The finite-element model.
+    Fem,
+    /// The analytic chamber model (README: where it departs from the FEM).
+    Analytic,
 }
 
 /// The resolved configuration: file, then flags.
@@ -115,6 +128,9 @@ pub fn run(args: &SimulateArgs) -> Result<u8> {
     if args.print_config {
         super::out!("{}", toml::to_string_pretty(&cfg)?);
         return Ok(EXIT_OK);
+    }
+    if args.model == Model::Analytic {
+        return run_analytic(&cfg, &args.output);
     }
     if let Some(sweep) = &args.sweep {
         return run_sweep(&cfg, sweep, &args.output);
@@ -187,6 +203,33 @@ pub fn run(args: &SimulateArgs) -> Result<u8> {
             }
         }
     })
+}
+
+/// `--model analytic`: the chamber model over the ramp, timed.
+fn run_analytic(cfg: &ActuatorConfig, out: &Path) -> Result<u8> {
+    let started = std::time::Instant::now();
+    let steps = match analytic_to(out, cfg) {
+        Ok(s) => s,
+        Err(e @ (FemError::Parameter { .. } | FemError::Model { .. })) => {
+            eprintln!("error: {e}");
+            return Ok(EXIT_BAD_INPUT);
+        }
+        Err(e) => return Err(e.into()),
+    };
+    let ms = 1e3 * started.elapsed().as_secs_f64();
+    if let Some(last) = steps.last() {
+        super::out!(
+            "analytic model: {} steps in {ms:.2} ms; at {} kPa: wall stress {:.4} MPa, strain {:.4}, bending angle {:.1} deg, radius {:.2} mm -> {}",
+            steps.len(),
+            last.pressure_kpa,
+            last.axial_stress_mpa,
+            last.axial_strain,
+            last.bending_angle_deg,
+            last.radius_mm,
+            out.display()
+        );
+    }
+    Ok(EXIT_OK)
 }
 
 /// `--sweep NAME=RANGE`: one design per value, results at the top pressure.

@@ -17,6 +17,7 @@
 //! pressure; Cook's membrane against its reference tip displacement.
 
 pub mod actuator;
+pub mod analytic;
 pub mod hex;
 pub mod layer;
 pub mod material;
