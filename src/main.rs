@@ -16,6 +16,8 @@ fn main() -> ExitCode {
         cli::Command::Render(a) => cli::render::run(a),
         cli::Command::Compare(a) => cli::compare::run(a),
         cli::Command::Demo(a) => cli::demo::run(a),
+        cli::Command::Surrogate(a) => cli::surrogate::run(a),
+        cli::Command::Optimize(a) => cli::optimize::run(a),
     };
     match result {
         Ok(code) => ExitCode::from(code),

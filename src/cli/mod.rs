@@ -14,10 +14,12 @@ pub(crate) use out;
 pub mod calibrate;
 pub mod compare;
 pub mod demo;
+pub mod optimize;
 pub mod process;
 pub mod render;
 pub mod scale;
 pub mod simulate;
+pub mod surrogate;
 
 use clap::{Parser, Subcommand};
 
@@ -60,6 +62,10 @@ pub enum Command {
     Compare(compare::CompareArgs),
     /// Run the whole chain on a simulated actuator: simulate, render, calibrate, process, compare.
     Demo(demo::DemoArgs),
+    /// Fit a Gaussian-process surrogate of designs.csv, or predict with one.
+    Surrogate(surrogate::SurrogateArgs),
+    /// Optimize a design on surrogates of designs.csv; re-simulate the best with the FEM.
+    Optimize(optimize::OptimizeArgs),
 }
 
 /// A progress bar on stderr (drawn only when stderr is a terminal).
