@@ -11,6 +11,8 @@
 //! (the one CSV layer), [`rgbd`] (colour + depth) and [`io`] (atomic writes, content
 //! keys) serve them. Beside them: [`fem`] (the actuator model and its solver),
 //! [`render`] (synthetic camera images with known ground truth) and [`compare`].
+//! Design exploration: [`surrogate`] (Gaussian-process models of a design table) ->
+//! [`optimize`] (Bayesian optimization or a Pareto front on them, checked with the FEM).
 //!
 //! Measuring a session is one call, [`pipeline::measure_session`]; the `bendscope`
 //! binary only parses flags, calls it and prints.
@@ -31,6 +33,7 @@ pub mod detect;
 pub mod fem;
 pub mod fit;
 pub mod io;
+pub mod optimize;
 pub mod pipeline;
 pub mod render;
 pub mod report;
@@ -39,5 +42,6 @@ pub mod scale;
 pub mod select;
 pub mod session;
 pub mod sweep;
+pub mod surrogate;
 pub mod table;
 pub mod video;

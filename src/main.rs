@@ -17,6 +17,8 @@ fn main() -> ExitCode {
         cli::Command::Compare(a) => cli::compare::run(a),
         cli::Command::Demo(a) => cli::demo::run(a),
         cli::Command::Sweep(a) => cli::sweep::run(a),
+        cli::Command::Surrogate(a) => cli::surrogate::run(a),
+        cli::Command::Optimize(a) => cli::optimize::run(a),
     };
     match result {
         Ok(code) => ExitCode::from(code),

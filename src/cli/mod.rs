@@ -14,11 +14,13 @@ pub(crate) use out;
 pub mod calibrate;
 pub mod compare;
 pub mod demo;
+pub mod optimize;
 pub mod process;
 pub mod render;
 pub mod scale;
 pub mod simulate;
 pub mod sweep;
+pub mod surrogate;
 
 use clap::{Parser, Subcommand};
 
@@ -63,6 +65,10 @@ pub enum Command {
     Demo(demo::DemoArgs),
     /// Run a multi-factor design of simulations (local pool, GNU parallel or Slurm) into designs.csv.
     Sweep(sweep::SweepArgs),
+    /// Fit a Gaussian-process surrogate of designs.csv, or predict with one.
+    Surrogate(surrogate::SurrogateArgs),
+    /// Optimize a design on surrogates of designs.csv; re-simulate the best with the FEM.
+    Optimize(optimize::OptimizeArgs),
 }
 
 /// A progress bar on stderr (drawn only when stderr is a terminal).
