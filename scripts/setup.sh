@@ -9,6 +9,7 @@ PKGS=(
   libopencv-dev
   libavcodec-dev libavformat-dev libavutil-dev libswscale-dev libswresample-dev ffmpeg
   libfontconfig1-dev fonts-dejavu-core
+  socat
 )
 
 missing=()

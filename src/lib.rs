@@ -11,6 +11,8 @@
 //! (the one CSV layer), [`rgbd`] (colour + depth) and [`io`] (atomic writes, content
 //! keys) serve them. Beside them: [`fem`] (the actuator model and its solver),
 //! [`render`] (synthetic camera images with known ground truth) and [`compare`].
+//! Before them all, [`acquire`] records a session on the bench (pressure regulator on a
+//! serial line, GoPro or webcam) into the folder layout [`session`] reads.
 //!
 //! Measuring a session is one call, [`pipeline::measure_session`]; the `bendscope`
 //! binary only parses flags, calls it and prints.
@@ -25,6 +27,7 @@
 //! - Library code returns errors (one `thiserror` enum per module family); only the binary
 //!   uses `anyhow`.
 
+pub mod acquire;
 pub mod calib;
 pub mod compare;
 pub mod detect;

@@ -16,6 +16,7 @@ fn main() -> ExitCode {
         cli::Command::Render(a) => cli::render::run(a),
         cli::Command::Compare(a) => cli::compare::run(a),
         cli::Command::Demo(a) => cli::demo::run(a),
+        cli::Command::Acquire(a) => cli::acquire::run(a),
     };
     match result {
         Ok(code) => ExitCode::from(code),
