@@ -116,7 +116,11 @@ impl RegSim {
             assert!(t.elapsed() < Duration::from_secs(5), "socat made no ptys");
             thread::sleep(Duration::from_millis(10));
         }
-        let dev = fs::OpenOptions::new().read(true).write(true).open(&sim).unwrap();
+        let dev = fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .open(&sim)
+            .unwrap();
         let mut out = dev.try_clone().unwrap();
         let state = Arc::clone(state);
         thread::spawn(move || {
@@ -188,9 +192,11 @@ impl CamSim {
     fn start_with(mut state: CamState, regulator: Arc<Mutex<RegState>>) -> CamSim {
         state.next_number = 201;
         // An older video on the card: not part of any recording of the run.
-        state
-            .media
-            .push(("100GOPRO".into(), "GX010200.MP4".into(), Arc::new(vec![0; 10])));
+        state.media.push((
+            "100GOPRO".into(),
+            "GX010200.MP4".into(),
+            Arc::new(vec![0; 10]),
+        ));
         let listener = TcpListener::bind("127.0.0.1:0").unwrap();
         let url = format!("http://{}", listener.local_addr().unwrap());
         let state = Arc::new(Mutex::new(state));
@@ -199,7 +205,8 @@ impl CamSim {
         thread::spawn(move || {
             for stream in listener.incoming() {
                 let Ok(stream) = stream else { continue };
-                let (state, regulator, videos) = (Arc::clone(&shared), Arc::clone(&regulator), videos.clone());
+                let (state, regulator, videos) =
+                    (Arc::clone(&shared), Arc::clone(&regulator), videos.clone());
                 thread::spawn(move || serve(stream, &state, &regulator, &videos));
             }
         });
@@ -261,9 +268,17 @@ fn serve(
                     .unwrap();
                 let n = s.next_number;
                 s.next_number += 1;
-                s.media.push(("100GOPRO".into(), format!("GX01{n:04}.MP4"), Arc::clone(bytes)));
+                s.media.push((
+                    "100GOPRO".into(),
+                    format!("GX01{n:04}.MP4"),
+                    Arc::clone(bytes),
+                ));
                 if s.chapters.contains(&n) {
-                    s.media.push(("100GOPRO".into(), format!("GX02{n:04}.MP4"), Arc::clone(bytes)));
+                    s.media.push((
+                        "100GOPRO".into(),
+                        format!("GX02{n:04}.MP4"),
+                        Arc::clone(bytes),
+                    ));
                 }
                 s.recordings += 1;
             }
@@ -335,7 +350,12 @@ impl Bench {
     fn acquire(&self, protocol: &Path) -> Run {
         Run::new(
             self.path(),
-            &["acquire", protocol.to_str().unwrap(), "-o", self.session().to_str().unwrap()],
+            &[
+                "acquire",
+                protocol.to_str().unwrap(),
+                "-o",
+                self.session().to_str().unwrap(),
+            ],
         )
     }
 }
@@ -354,7 +374,12 @@ fn sets(reg: &Arc<Mutex<RegState>>) -> Vec<f64> {
 fn manifest(session: &Path) -> Vec<(String, f64)> {
     let (h, rows) = read_csv(&session.join("pressures.csv"));
     rows.iter()
-        .map(|r| (r[col(&h, "file")].clone(), r[col(&h, "pressure_kpa")].parse().unwrap()))
+        .map(|r| {
+            (
+                r[col(&h, "file")].clone(),
+                r[col(&h, "pressure_kpa")].parse().unwrap(),
+            )
+        })
         .collect()
 }
 
@@ -363,7 +388,11 @@ fn assert_videos_match_the_example(session: &Path) {
     let videos = example_videos();
     for (file, p) in manifest(session) {
         let (_, want) = videos.iter().find(|(q, _)| (q - p).abs() < 1e-9).unwrap();
-        assert_eq!(&fs::read(session.join(&file)).unwrap(), want.as_ref(), "{file} at {p} kPa");
+        assert_eq!(
+            &fs::read(session.join(&file)).unwrap(),
+            want.as_ref(),
+            "{file} at {p} kPa"
+        );
     }
 }
 
@@ -382,7 +411,13 @@ fn an_acquired_session_is_measured_by_process_with_the_known_radii() {
     let reg = RegState::new(RegMode::Normal);
     let sim = RegSim::start(b.path(), &reg);
     // The third recording comes as two chapters.
-    let cam = CamSim::films(CamState { chapters: vec![203], ..Default::default() }, &reg);
+    let cam = CamSim::films(
+        CamState {
+            chapters: vec![203],
+            ..Default::default()
+        },
+        &reg,
+    );
     let protocol = b.protocol(STEPS, &sim.port, &gopro(&cam.url));
     let run = b.acquire(&protocol);
     assert_eq!(run.code, 0, "{run}");
@@ -392,12 +427,20 @@ fn an_acquired_session_is_measured_by_process_with_the_known_radii() {
     let s = b.session();
     assert_eq!(
         manifest(&s),
-        (0..5).map(|i| (format!("GX01{:04}.MP4", 201 + i), EXAMPLE_KPA[i])).collect::<Vec<_>>()
+        (0..5)
+            .map(|i| (format!("GX01{:04}.MP4", 201 + i), EXAMPLE_KPA[i]))
+            .collect::<Vec<_>>()
     );
     assert!(s.join("GX020203.MP4").is_file(), "the chapter is fetched");
-    assert!(!s.join("GX010200.MP4").exists(), "an older video on the card is not");
+    assert!(
+        !s.join("GX010200.MP4").exists(),
+        "an older video on the card is not"
+    );
     assert_videos_match_the_example(&s);
-    assert_eq!(fs::read_to_string(s.join("protocol.toml")).unwrap(), fs::read_to_string(&protocol).unwrap());
+    assert_eq!(
+        fs::read_to_string(s.join("protocol.toml")).unwrap(),
+        fs::read_to_string(&protocol).unwrap()
+    );
     // The acquisition log: measured mean at the set point (tau = 20 ms, 150 ms to settle),
     // spread of a settled first-order response, ~10 readings per recording.
     let (h, rows) = read_csv(&s.join("acquisition_log.csv"));
@@ -419,7 +462,10 @@ fn an_acquired_session_is_measured_by_process_with_the_known_radii() {
     fs::copy(ex.join("scale.jpg"), s.join("scale.jpg")).unwrap();
     fs::copy(ex.join("bendscope.toml"), s.join("bendscope.toml")).unwrap();
     let out = b.path().join("out");
-    let run = Run::new(b.path(), &["process", s.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    let run = Run::new(
+        b.path(),
+        &["process", s.to_str().unwrap(), "-o", out.to_str().unwrap()],
+    );
     assert_eq!(run.code, 0, "{run}");
     let truth: SessionTruth =
         serde_json::from_str(&fs::read_to_string(ex.join("truth.json")).unwrap()).unwrap();
@@ -429,7 +475,11 @@ fn an_acquired_session_is_measured_by_process_with_the_known_radii() {
         let radius: f64 = r[col(&h, "radius_mm")].parse().unwrap();
         let p: f64 = r[col(&h, "pressure_kpa")].parse().unwrap();
         assert!((p - v.pressure_kpa).abs() < 1e-9);
-        assert!((radius / v.radius_mm - 1.0).abs() < RADIUS_TOLERANCE, "{p} kPa: {radius} vs {}", v.radius_mm);
+        assert!(
+            (radius / v.radius_mm - 1.0).abs() < RADIUS_TOLERANCE,
+            "{p} kPa: {radius} vs {}",
+            v.radius_mm
+        );
         assert_eq!(r[col(&h, "status")], "ok");
     }
     // The two-chapter recording is measured over both chapters.
@@ -446,8 +496,13 @@ fn ctrl_c_vents_keeps_the_recordings_and_a_rerun_resumes_at_the_next_pressure() 
     let cam = CamSim::films(CamState::default(), &reg);
     let protocol = b.protocol(STEPS, &sim.port, &gopro(&cam.url));
     let s = b.session();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_bendscope"))
-        .args(["acquire", protocol.to_str().unwrap(), "-o", s.to_str().unwrap()])
+    let child = Command::new(common::exe())
+        .args([
+            "acquire",
+            protocol.to_str().unwrap(),
+            "-o",
+            s.to_str().unwrap(),
+        ])
         .stderr(Stdio::piped())
         .stdout(Stdio::piped())
         .spawn()
@@ -457,12 +512,18 @@ fn ctrl_c_vents_keeps_the_recordings_and_a_rerun_resumes_at_the_next_pressure() 
         assert!(t.elapsed() < Duration::from_secs(20), "no two recordings");
         thread::sleep(Duration::from_millis(5));
     }
-    let kill = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
+    let kill = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
     assert!(kill.success());
     let out = child.wait_with_output().unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{stderr}");
-    assert!(stderr.contains("interrupted") && stderr.contains("vented to 0 kPa"), "{stderr}");
+    assert!(
+        stderr.contains("interrupted") && stderr.contains("vented to 0 kPa"),
+        "{stderr}"
+    );
     assert!(stderr.contains("run the same command again"), "{stderr}");
     let first = sets(&reg);
     assert_eq!(first.last(), Some(&0.0), "vented: {first:?}");
@@ -470,10 +531,23 @@ fn ctrl_c_vents_keeps_the_recordings_and_a_rerun_resumes_at_the_next_pressure() 
     assert!((2..=3).contains(&kept.len()), "{kept:?}");
     assert_videos_match_the_example(&s);
     // The plan says what is done and what is left, touching no device.
-    let dry = Run::new(b.path(), &["acquire", protocol.to_str().unwrap(), "-o", s.to_str().unwrap(), "--dry-run"]);
+    let dry = Run::new(
+        b.path(),
+        &[
+            "acquire",
+            protocol.to_str().unwrap(),
+            "-o",
+            s.to_str().unwrap(),
+            "--dry-run",
+        ],
+    );
     assert_eq!(dry.code, 0, "{dry}");
     assert_eq!(dry.stdout.matches(" done").count(), kept.len(), "{dry}");
-    assert_eq!(dry.stdout.matches("to record").count(), 5 - kept.len(), "{dry}");
+    assert_eq!(
+        dry.stdout.matches("to record").count(),
+        5 - kept.len(),
+        "{dry}"
+    );
     assert_eq!(sets(&reg), first, "a dry run sends nothing");
     // The rerun resumes at the next pressure (a new pty: the port was closed).
     drop(sim);
@@ -498,8 +572,15 @@ fn a_regulator_error_vents_and_keeps_what_was_recorded() {
     let cam = CamSim::films(CamState::default(), &reg);
     let run = b.acquire(&b.protocol(STEPS, &sim.port, &gopro(&cam.url)));
     assert_eq!(run.code, 1, "{run}");
-    assert!(run.stderr.contains("refused `SET 65.00`: ERR over limit 60.00 kPa"), "{run}");
-    assert!(run.stderr.contains("vented to 0 kPa; 3 of 5 recordings"), "{run}");
+    assert!(
+        run.stderr
+            .contains("refused `SET 65.00`: ERR over limit 60.00 kPa"),
+        "{run}"
+    );
+    assert!(
+        run.stderr.contains("vented to 0 kPa; 3 of 5 recordings"),
+        "{run}"
+    );
     assert_eq!(sets(&reg), [20.0, 35.0, 50.0, 65.0, 0.0]);
     assert_eq!(manifest(&b.session()).len(), 3);
     assert_videos_match_the_example(&b.session());
@@ -510,11 +591,20 @@ fn a_cut_download_stays_on_the_camera_and_the_rerun_fetches_it_without_recording
     let b = Bench::new();
     let reg = RegState::new(RegMode::Normal);
     let sim = RegSim::start(b.path(), &reg);
-    let cam = CamSim::films(CamState { cut: vec!["GX010202.MP4".into()], ..Default::default() }, &reg);
+    let cam = CamSim::films(
+        CamState {
+            cut: vec!["GX010202.MP4".into()],
+            ..Default::default()
+        },
+        &reg,
+    );
     let protocol = b.protocol(STEPS, &sim.port, &gopro(&cam.url));
     let run = b.acquire(&protocol);
     assert_eq!(run.code, 1, "{run}");
-    assert!(run.stderr.contains("download of GX010202.MP4 failed"), "{run}");
+    assert!(
+        run.stderr.contains("download of GX010202.MP4 failed"),
+        "{run}"
+    );
     assert!(run.stderr.contains("cut after"), "{run}");
     assert!(run.stderr.contains("stays on the camera's card"), "{run}");
     assert_eq!(sets(&reg), [20.0, 35.0, 0.0]);
@@ -523,7 +613,10 @@ fn a_cut_download_stays_on_the_camera_and_the_rerun_fetches_it_without_recording
     assert!(!s.join("GX010202.MP4").exists(), "no partial video");
     assert_no_temporaries(&s);
     let (h, rows) = read_csv(&s.join("acquisition_log.csv"));
-    assert!(rows[1][col(&h, "status")].starts_with("not downloaded"), "{rows:?}");
+    assert!(
+        rows[1][col(&h, "status")].starts_with("not downloaded"),
+        "{rows:?}"
+    );
     // The link is repaired; the rerun fetches step 2 and goes on at step 3.
     cam.state.lock().unwrap().cut.clear();
     drop(sim);
@@ -541,7 +634,11 @@ fn missing_or_wrong_devices_are_refused_with_what_to_check() {
     let cam = CamSim::start(CamState::default());
     // No device at the port.
     let run = b.acquire(&b.protocol(STEPS, Path::new("/dev/ttyACM-none"), &gopro(&cam.url)));
-    run.assert_bad_input(&["regulator on /dev/ttyACM-none", "no such serial port", "ls /dev/ttyACM*"]);
+    run.assert_bad_input(&[
+        "regulator on /dev/ttyACM-none",
+        "no such serial port",
+        "ls /dev/ttyACM*",
+    ]);
     // Garbage (a wrong baud rate) and silence.
     for (mode, needle) in [
         (RegMode::Garbage, "baud rate is probably wrong"),
@@ -553,7 +650,10 @@ fn missing_or_wrong_devices_are_refused_with_what_to_check() {
         run.assert_bad_input(&[needle]);
     }
     // No camera at the url: the regulator is vented before giving up.
-    let free = TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap();
+    let free = TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap();
     let reg = RegState::new(RegMode::Normal);
     let sim = RegSim::start(b.path(), &reg);
     let run = b.acquire(&b.protocol(STEPS, &sim.port, &gopro(&format!("http://{free}"))));
@@ -567,10 +667,20 @@ fn a_busy_or_lost_camera_stops_the_run_vented_with_the_recordings_kept() {
     let b = Bench::new();
     let reg = RegState::new(RegMode::Normal);
     let sim = RegSim::start(b.path(), &reg);
-    let cam = CamSim::films(CamState { busy: true, ..Default::default() }, &reg);
+    let cam = CamSim::films(
+        CamState {
+            busy: true,
+            ..Default::default()
+        },
+        &reg,
+    );
     let run = b.acquire(&b.protocol(STEPS, &sim.port, &gopro(&cam.url)));
     assert_eq!(run.code, 1, "{run}");
-    assert!(run.stderr.contains("is busy (HTTP 409 to /gopro/camera/shutter/start)"), "{run}");
+    assert!(
+        run.stderr
+            .contains("is busy (HTTP 409 to /gopro/camera/shutter/start)"),
+        "{run}"
+    );
     assert!(run.stderr.contains("0 of 5"), "{run}");
     assert_eq!(sets(&reg), [20.0, 0.0]);
     drop(sim);
@@ -578,10 +688,19 @@ fn a_busy_or_lost_camera_stops_the_run_vented_with_the_recordings_kept() {
     let b = Bench::new();
     let reg = RegState::new(RegMode::Normal);
     let sim = RegSim::start(b.path(), &reg);
-    let cam = CamSim::films(CamState { lost_after: Some(2), ..Default::default() }, &reg);
+    let cam = CamSim::films(
+        CamState {
+            lost_after: Some(2),
+            ..Default::default()
+        },
+        &reg,
+    );
     let run = b.acquire(&b.protocol(STEPS, &sim.port, &gopro(&cam.url)));
     assert_eq!(run.code, 1, "{run}");
-    assert!(run.stderr.contains("the camera was lost") || run.stderr.contains("is the camera on"), "{run}");
+    assert!(
+        run.stderr.contains("the camera was lost") || run.stderr.contains("is the camera on"),
+        "{run}"
+    );
     assert!(run.stderr.contains("vented to 0 kPa; 1 of 5"), "{run}");
     assert_eq!(*sets(&reg).last().unwrap(), 0.0);
     assert_eq!(manifest(&b.session()).len(), 1);
@@ -606,14 +725,25 @@ fn a_ramp_writes_one_video_and_its_pressure_log() {
     // interval T between readings (1.27 kPa at T = 20 ms), a bound kept by induction.
     let n = log.times_s.len();
     assert!((12..=18).contains(&n), "{n} readings");
-    let t_max = log.times_s.windows(2).map(|w| w[1] - w[0]).fold(0.0, f64::max);
+    let t_max = log
+        .times_s
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .fold(0.0, f64::max);
     let lag_max = 40.0 * t_max / (1.0 - (-t_max / TAU_S).exp()) + 0.01;
     let (_, rows) = read_csv(&s.join("pressure_log.csv"));
     for (r, p) in rows.iter().zip(&log.pressures_kpa) {
         let set: f64 = r[2].parse().unwrap();
-        assert!((set - p) > -0.01 && (set - p) < lag_max, "set {set}, measured {p}, bound {lag_max}");
+        assert!(
+            (set - p) > -0.01 && (set - p) < lag_max,
+            "set {set}, measured {p}, bound {lag_max}"
+        );
     }
-    assert!(log.pressures_kpa.windows(2).all(|w| w[1] >= w[0] - 1e-3), "{:?}", log.pressures_kpa);
+    assert!(
+        log.pressures_kpa.windows(2).all(|w| w[1] >= w[0] - 1e-3),
+        "{:?}",
+        log.pressures_kpa
+    );
     assert_eq!(*sets(&reg).last().unwrap(), 0.0);
     let top = sets(&reg)[sets(&reg).len() - 2];
     assert_eq!(top, 12.0);
@@ -625,18 +755,38 @@ fn a_webcam_is_recorded_through_ffmpeg() {
     let reg = RegState::new(RegMode::Normal);
     let sim = RegSim::start(b.path(), &reg);
     let plan = "[steps]\npressures_kpa = [10, 20]\nstabilize_s = 0.05\nrecord_s = 1.0";
-    let camera = "kind = \"webcam\"\nformat = \"lavfi\"\ndevice = \"testsrc=size=160x120:rate=10,realtime\"";
+    let camera =
+        "kind = \"webcam\"\nformat = \"lavfi\"\ndevice = \"testsrc=size=160x120:rate=10,realtime\"";
     let run = b.acquire(&b.protocol(plan, &sim.port, camera));
     assert_eq!(run.code, 0, "{run}");
     let s = b.session();
-    assert_eq!(manifest(&s), [("webcam_001.mp4".to_string(), 10.0), ("webcam_002.mp4".to_string(), 20.0)]);
+    assert_eq!(
+        manifest(&s),
+        [
+            ("webcam_001.mp4".to_string(), 10.0),
+            ("webcam_002.mp4".to_string(), 20.0)
+        ]
+    );
     for f in ["webcam_001.mp4", "webcam_002.mp4"] {
         let probe = Command::new("ffprobe")
-            .args(["-v", "error", "-count_frames", "-select_streams", "v:0", "-show_entries", "stream=nb_read_frames", "-of", "csv=p=0"])
+            .args([
+                "-v",
+                "error",
+                "-count_frames",
+                "-select_streams",
+                "v:0",
+                "-show_entries",
+                "stream=nb_read_frames",
+                "-of",
+                "csv=p=0",
+            ])
             .arg(s.join(f))
             .output()
             .unwrap();
-        let frames: u32 = String::from_utf8_lossy(&probe.stdout).trim().parse().unwrap();
+        let frames: u32 = String::from_utf8_lossy(&probe.stdout)
+            .trim()
+            .parse()
+            .unwrap();
         // 1 s at 10 fps, give or take ffmpeg's start-up and the stop request.
         assert!((8..=20).contains(&frames), "{f}: {frames} frames");
     }

@@ -185,13 +185,20 @@ pub fn parse_media_list(text: &str) -> Result<Vec<CameraFile>, String> {
         let Some(d) = dir.get("d").and_then(|d| d.as_str()) else {
             continue;
         };
-        for f in dir.get("fs").and_then(|f| f.as_array()).into_iter().flatten() {
+        for f in dir
+            .get("fs")
+            .and_then(|f| f.as_array())
+            .into_iter()
+            .flatten()
+        {
             let Some(n) = f.get("n").and_then(|n| n.as_str()) else {
                 continue;
             };
             let is_video = Path::new(n)
                 .extension()
-                .map(|e| VIDEO_EXTENSIONS.contains(&e.to_string_lossy().to_ascii_lowercase().as_str()))
+                .map(|e| {
+                    VIDEO_EXTENSIONS.contains(&e.to_string_lossy().to_ascii_lowercase().as_str())
+                })
                 .unwrap_or(false);
             if !is_video || n.contains(['/', '\\']) || d.contains(['/', '\\']) {
                 continue;
@@ -384,8 +391,19 @@ impl Webcam {
         }
         a.extend(["-i".into(), self.cfg.device.clone()]);
         for s in [
-            "-an", "-c:v", "libx264", "-preset", "veryfast", "-crf", "18", "-pix_fmt", "yuv420p",
-            "-movflags", "+faststart", "-f", "mp4",
+            "-an",
+            "-c:v",
+            "libx264",
+            "-preset",
+            "veryfast",
+            "-crf",
+            "18",
+            "-pix_fmt",
+            "yuv420p",
+            "-movflags",
+            "+faststart",
+            "-f",
+            "mp4",
         ] {
             a.push(s.into());
         }
@@ -465,7 +483,10 @@ impl Camera for Webcam {
     fn keep_alive(&mut self) -> Result<(), AcquireError> {
         if let Some((child, _, log)) = &mut self.child {
             if let Ok(Some(status)) = child.try_wait() {
-                let why = format!("ffmpeg stopped while recording ({status}): {}", last_line(log.path()));
+                let why = format!(
+                    "ffmpeg stopped while recording ({status}): {}",
+                    last_line(log.path())
+                );
                 self.child = None;
                 return Err(self.error(why));
             }
@@ -573,7 +594,9 @@ mod tests {
         let a = w.ffmpeg_args(Path::new("s/x"));
         let s = a.join(" ");
         assert!(
-            s.contains("-f v4l2 -input_format mjpeg -video_size 1280x720 -framerate 30 -i /dev/video2"),
+            s.contains(
+                "-f v4l2 -input_format mjpeg -video_size 1280x720 -framerate 30 -i /dev/video2"
+            ),
             "{s}"
         );
         assert_eq!(a.last().map(String::as_str), Some("s/x"));

@@ -238,11 +238,14 @@ pub fn acquire(
     })?;
     let rows = session::prepare(session, &protocol, &text)?;
     let mut regulator = SerialRegulator::open(&protocol.regulator)?;
-    note(NoteKind::Progress, &format!(
-        "regulator on {}: {:.2} kPa",
-        protocol.regulator.port,
-        regulator.get_kpa()?
-    ));
+    note(
+        NoteKind::Progress,
+        &format!(
+            "regulator on {}: {:.2} kPa",
+            protocol.regulator.port,
+            regulator.get_kpa()?
+        ),
+    );
     let mut camera: Box<dyn Camera> = match &protocol.camera {
         CameraConfig::GoPro { url, timeout_s } => Box::new(GoPro::new(url, *timeout_s)),
         CameraConfig::Webcam(w) => Box::new(Webcam::new(w, session)),
@@ -251,7 +254,10 @@ pub fn acquire(
         let _ = regulator.set_kpa(0.0);
         return Err(e);
     }
-    note(NoteKind::Progress, &format!("camera: {}", camera.describe()));
+    note(
+        NoteKind::Progress,
+        &format!("camera: {}", camera.describe()),
+    );
     let mut run = Run {
         session,
         plan: &protocol.plan,
@@ -399,10 +405,13 @@ impl Run<'_> {
     fn fetch_pending(&mut self) -> Result<(), AcquireError> {
         for i in 0..self.rows.len() {
             if !self.rows[i].is_ok() {
-                (self.note)(NoteKind::Progress, &format!(
-                    "step {}: fetching the recording an earlier run left on the camera",
-                    self.rows[i].step
-                ));
+                (self.note)(
+                    NoteKind::Progress,
+                    &format!(
+                        "step {}: fetching the recording an earlier run left on the camera",
+                        self.rows[i].step
+                    ),
+                );
                 self.fetch(i)?;
             }
         }
@@ -418,17 +427,20 @@ impl Run<'_> {
             .collect();
         let total = plan.set_points().len();
         if todo.len() < total {
-            (self.note)(NoteKind::Progress, &format!(
-                "resuming: {} of {total} recordings already in the session",
-                total - todo.len()
-            ));
+            (self.note)(
+                NoteKind::Progress,
+                &format!(
+                    "resuming: {} of {total} recordings already in the session",
+                    total - todo.len()
+                ),
+            );
         }
         for sp in todo {
             self.check_stop()?;
-            (self.note)(NoteKind::Progress, &format!(
-                "step {}/{total}: {:.2} kPa",
-                sp.step, sp.pressure_kpa
-            ));
+            (self.note)(
+                NoteKind::Progress,
+                &format!("step {}/{total}: {:.2} kPa", sp.step, sp.pressure_kpa),
+            );
             self.regulator.set_kpa(sp.pressure_kpa)?;
             let settle = Instant::now() + Duration::from_secs_f64(plan.stabilize_s);
             self.wait_until(settle)?;
@@ -483,10 +495,13 @@ impl Run<'_> {
             }
             return self.fetch_pending();
         }
-        (self.note)(NoteKind::Progress, &format!(
-            "ramp {:.2} -> {:.2} kPa at {} kPa/s",
-            plan.start_kpa, plan.top_kpa, plan.rate_kpa_s
-        ));
+        (self.note)(
+            NoteKind::Progress,
+            &format!(
+                "ramp {:.2} -> {:.2} kPa at {} kPa/s",
+                plan.start_kpa, plan.top_kpa, plan.rate_kpa_s
+            ),
+        );
         self.regulator.set_kpa(plan.start_kpa)?;
         self.wait_until(Instant::now() + Duration::from_secs_f64(plan.stabilize_s))?;
         self.camera.start("webcam_ramp.mp4")?;
@@ -523,7 +538,9 @@ impl Run<'_> {
             let _ = self.regulator.set_kpa(0.0);
         }
         let files = self.camera.stop()?;
-        let measured = PressureStats::from_readings(&samples.iter().map(|s| s.pressure_kpa).collect::<Vec<_>>());
+        let measured = PressureStats::from_readings(
+            &samples.iter().map(|s| s.pressure_kpa).collect::<Vec<_>>(),
+        );
         session::write_pressure_log(self.session, &samples)?;
         let top = samples.last().map(|s| s.set_kpa).unwrap_or(plan.start_kpa);
         self.rows.push(LogRow {

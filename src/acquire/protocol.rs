@@ -279,7 +279,12 @@ impl Protocol {
         let raw: RawProtocol = toml::from_str(text).map_err(|e| {
             let at = e
                 .span()
-                .map(|s| format!(" (line {})", text[..s.start.min(text.len())].lines().count().max(1)))
+                .map(|s| {
+                    format!(
+                        " (line {})",
+                        text[..s.start.min(text.len())].lines().count().max(1)
+                    )
+                })
                 .unwrap_or_default();
             bad(format!("{}{at}", e.message().trim()))
         })?;
@@ -291,12 +296,10 @@ impl Protocol {
                     "both [steps] and [ramp]: keep the one this session records".into(),
                 ))
             }
-            (None, None) => {
-                return Err(bad(
-                    "no [steps] or [ramp] section: say what to record (see bendscope acquire --help)"
-                        .into(),
-                ))
-            }
+            (None, None) => return Err(bad(
+                "no [steps] or [ramp] section: say what to record (see bendscope acquire --help)"
+                    .into(),
+            )),
         };
         let regulator = regulator_config(raw.regulator).map_err(bad)?;
         let camera = camera_config(raw.camera).map_err(bad)?;
@@ -347,9 +350,7 @@ fn steps_plan(s: RawSteps) -> Result<StepPlan, String> {
     let pressures_kpa = match (s.pressures_kpa, s.pressures) {
         (Some(p), None) => {
             if s.unit.is_some() {
-                return Err(
-                    "unit goes with `pressures`; `pressures_kpa` is in kPa already".into(),
-                );
+                return Err("unit goes with `pressures`; `pressures_kpa` is in kPa already".into());
             }
             p
         }
@@ -362,9 +363,7 @@ fn steps_plan(s: RawSteps) -> Result<StepPlan, String> {
             };
             let values = match p {
                 RawPressures::List(v) => v,
-                RawPressures::Text(t) => {
-                    parse_range(&t, "pressures").map_err(|e| e.to_string())?
-                }
+                RawPressures::Text(t) => parse_range(&t, "pressures").map_err(|e| e.to_string())?,
             };
             values.into_iter().map(|v| v * to_kpa).collect()
         }
@@ -422,7 +421,9 @@ fn ramp_plan(r: RawRamp) -> Result<RampPlan, String> {
 
 fn regulator_config(r: RawRegulator) -> Result<RegulatorConfig, String> {
     if r.port.trim().is_empty() {
-        return Err("[regulator] port is empty: give the serial port, e.g. \"/dev/ttyACM0\"".into());
+        return Err(
+            "[regulator] port is empty: give the serial port, e.g. \"/dev/ttyACM0\"".into(),
+        );
     }
     let baud = r.baud.unwrap_or(DEFAULT_BAUD);
     if baud == 0 {
@@ -465,7 +466,9 @@ fn camera_config(c: RawCamera) -> Result<CameraConfig, String> {
                 ("ffmpeg", c.ffmpeg.is_some()),
             ] {
                 if set {
-                    return Err(format!("[camera] {key} is for kind = \"webcam\", not a GoPro"));
+                    return Err(format!(
+                        "[camera] {key} is for kind = \"webcam\", not a GoPro"
+                    ));
                 }
             }
             Ok(CameraConfig::GoPro {
@@ -478,7 +481,10 @@ fn camera_config(c: RawCamera) -> Result<CameraConfig, String> {
         }
         "webcam" => {
             if c.url.is_some() {
-                return Err("[camera] url is for kind = \"gopro\"; a webcam has device = \"/dev/video0\"".into());
+                return Err(
+                    "[camera] url is for kind = \"gopro\"; a webcam has device = \"/dev/video0\""
+                        .into(),
+                );
             }
             if let Some(size) = &c.size {
                 let ok = size
@@ -540,7 +546,9 @@ mod tests {
                 timeout_s: DEFAULT_CAMERA_TIMEOUT_S
             }
         );
-        let psi = parse("[steps]\npressures = [1, 2]\nunit = \"psi\"\nstabilize_s = 0\nrecord_s = 1").unwrap();
+        let psi =
+            parse("[steps]\npressures = [1, 2]\nunit = \"psi\"\nstabilize_s = 0\nrecord_s = 1")
+                .unwrap();
         let Plan::Steps(s) = &psi.plan else { panic!() };
         assert!((s.pressures_kpa[1] - 2.0 * KPA_PER_PSI).abs() < 1e-12);
     }
@@ -548,14 +556,29 @@ mod tests {
     #[test]
     fn bad_protocols_say_what_to_fix() {
         let cases = [
-            ("[steps]\npressures_kpa = [40]\nstabilize_s = 1\nrecord_s = 0", "record_s = 0"),
-            ("[steps]\npressures_kpa = [-5]\nstabilize_s = 1\nrecord_s = 1", ">= 0"),
-            ("[steps]\npressures = \"40:10:5\"\nstabilize_s = 1\nrecord_s = 1", "start <= stop"),
-            ("[steps]\npressures = [1]\nunit = \"mmHg\"\nstabilize_s = 1\nrecord_s = 1", "\"kPa\", \"bar\" or \"psi\""),
+            (
+                "[steps]\npressures_kpa = [40]\nstabilize_s = 1\nrecord_s = 0",
+                "record_s = 0",
+            ),
+            (
+                "[steps]\npressures_kpa = [-5]\nstabilize_s = 1\nrecord_s = 1",
+                ">= 0",
+            ),
+            (
+                "[steps]\npressures = \"40:10:5\"\nstabilize_s = 1\nrecord_s = 1",
+                "start <= stop",
+            ),
+            (
+                "[steps]\npressures = [1]\nunit = \"mmHg\"\nstabilize_s = 1\nrecord_s = 1",
+                "\"kPa\", \"bar\" or \"psi\"",
+            ),
             ("[steps]\nstabilize_s = 1\nrecord_s = 1", "pressures_kpa"),
             ("[ramp]\nrate_kpa_s = 0.5\ntop_kpa = 0", "top_kpa"),
             ("", "no [steps] or [ramp]"),
-            ("[steps]\npressures_kpa = [40]\nstabilize_s = 1\nrecord_s = 1\nrecrod_s = 2", "recrod_s"),
+            (
+                "[steps]\npressures_kpa = [40]\nstabilize_s = 1\nrecord_s = 1\nrecrod_s = 2",
+                "recrod_s",
+            ),
         ];
         for (text, needle) in cases {
             let e = parse(text).unwrap_err().to_string();
@@ -587,7 +610,12 @@ mod tests {
         .unwrap();
         let Plan::Ramp(r) = &p.plan else { panic!() };
         assert!((r.duration_s() - 60.0).abs() < 1e-12);
-        let CameraConfig::Webcam(w) = &p.camera else { panic!() };
-        assert_eq!((w.device.as_str(), w.format.as_str()), ("/dev/video0", "v4l2"));
+        let CameraConfig::Webcam(w) = &p.camera else {
+            panic!()
+        };
+        assert_eq!(
+            (w.device.as_str(), w.format.as_str()),
+            ("/dev/video0", "v4l2")
+        );
     }
 }

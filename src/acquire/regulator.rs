@@ -220,7 +220,11 @@ impl<P: Read + Write> Regulator<P> {
             match self.port.read(&mut buf) {
                 Ok(0) => std::thread::sleep(READ_SLICE),
                 Ok(n) => self.pending.extend_from_slice(&buf[..n]),
-                Err(e) if matches!(e.kind(), ErrorKind::TimedOut | ErrorKind::WouldBlock | ErrorKind::Interrupted) => {}
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        ErrorKind::TimedOut | ErrorKind::WouldBlock | ErrorKind::Interrupted
+                    ) => {}
                 Err(e) => {
                     return Err(AcquireError::Regulator {
                         port: self.name.clone(),
@@ -307,7 +311,8 @@ mod tests {
 
     impl Write for Script {
         fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
-            self.sent.push(String::from_utf8_lossy(buf).trim().to_string());
+            self.sent
+                .push(String::from_utf8_lossy(buf).trim().to_string());
             if let Some(a) = self.answers.pop_front() {
                 self.out.extend_from_slice(a.as_bytes());
             }
@@ -340,7 +345,12 @@ mod tests {
     #[test]
     fn a_lost_answer_is_asked_again_and_err_is_final() {
         // First SET unanswered, second answered after a banner line.
-        let mut r = regulator(&["", "READY\r\nOK 40.00\r\n", "P 39.5\n", "ERR sensor fault\n"]);
+        let mut r = regulator(&[
+            "",
+            "READY\r\nOK 40.00\r\n",
+            "P 39.5\n",
+            "ERR sensor fault\n",
+        ]);
         assert_eq!(r.set_kpa(40.0).unwrap(), 40.0);
         assert_eq!(r.port.sent, ["SET 40.00", "SET 40.00"]);
         assert_eq!(r.get_kpa().unwrap(), 39.5);

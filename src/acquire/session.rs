@@ -104,7 +104,11 @@ impl LogRow {
 /// Checks `session` for an acquisition with `protocol` (text `text`): a new or empty
 /// folder, or one this protocol's earlier run left (resumed). Writes the protocol copy
 /// and returns the acquisition log so far.
-pub fn prepare(session: &Path, protocol: &Protocol, text: &str) -> Result<Vec<LogRow>, AcquireError> {
+pub fn prepare(
+    session: &Path,
+    protocol: &Protocol,
+    text: &str,
+) -> Result<Vec<LogRow>, AcquireError> {
     let bad = |why: String| AcquireError::Session {
         path: session.to_path_buf(),
         why,
@@ -115,7 +119,8 @@ pub fn prepare(session: &Path, protocol: &Protocol, text: &str) -> Result<Vec<Lo
     let copy = session.join(PROTOCOL_COPY);
     let log = session.join(ACQUISITION_LOG);
     if session.is_dir() {
-        if !log.exists() && (session.join(MANIFEST).exists() || session.join(PRESSURE_LOG).exists()) {
+        if !log.exists() && (session.join(MANIFEST).exists() || session.join(PRESSURE_LOG).exists())
+        {
             return Err(bad(format!(
                 "holds a {MANIFEST} or {PRESSURE_LOG} that acquire did not write: choose a new folder"
             )));
@@ -129,7 +134,11 @@ pub fn prepare(session: &Path, protocol: &Protocol, text: &str) -> Result<Vec<Lo
             }
         }
     }
-    let rows = if log.exists() { read_log(&log)? } else { vec![] };
+    let rows = if log.exists() {
+        read_log(&log)?
+    } else {
+        vec![]
+    };
     crate::io::write_atomic(&copy, text.as_bytes())
         .map_err(|e| bad(format!("cannot write {PROTOCOL_COPY}: {e}")))?;
     crate::io::remove_stale_temporaries(&[session.to_path_buf()]);
@@ -183,7 +192,9 @@ pub fn read_log(path: &Path) -> Result<Vec<LogRow>, AcquireError> {
             },
             record_s: num(r, c_rec)?,
             status: t.cell(r, c_status).trim().to_string(),
-            note: c_note.map(|c| t.cell(r, c).trim().to_string()).unwrap_or_default(),
+            note: c_note
+                .map(|c| t.cell(r, c).trim().to_string())
+                .unwrap_or_default(),
         });
     }
     Ok(rows)
@@ -200,7 +211,10 @@ pub fn write_log(session: &Path, rows: &[LogRow], plan: &Plan) -> Result<(), Acq
             Column::int("repeat", rows.iter().map(|r| r.repeat as u64)),
             Column::num("set_kpa", 3, num(|r| r.set_kpa)),
             Column::text("files", text(|r| r.files.join(FILE_SEPARATOR))),
-            Column::text("camera_files", text(|r| r.camera_files.join(FILE_SEPARATOR))),
+            Column::text(
+                "camera_files",
+                text(|r| r.camera_files.join(FILE_SEPARATOR)),
+            ),
             Column::num("measured_mean_kpa", 3, num(|r| r.measured.mean_kpa)),
             Column::num("measured_std_kpa", 3, num(|r| r.measured.std_kpa)),
             Column::num("measured_min_kpa", 3, num(|r| r.measured.min_kpa)),
@@ -212,7 +226,10 @@ pub fn write_log(session: &Path, rows: &[LogRow], plan: &Plan) -> Result<(), Acq
         ],
     )?;
     if let Plan::Steps(_) = plan {
-        let ok: Vec<&LogRow> = rows.iter().filter(|r| r.is_ok() && !r.files.is_empty()).collect();
+        let ok: Vec<&LogRow> = rows
+            .iter()
+            .filter(|r| r.is_ok() && !r.files.is_empty())
+            .collect();
         write_csv(
             &session.join(MANIFEST),
             &[
@@ -257,14 +274,20 @@ mod tests {
     fn the_log_reads_back_and_the_manifest_lists_the_fetched_recordings() {
         let d = tempfile::tempdir().unwrap();
         let stats = PressureStats::from_readings(&[39.0, 40.0, 41.0]);
-        assert_eq!((stats.mean_kpa, stats.std_kpa, stats.min_kpa, stats.max_kpa), (40.0, 1.0, 39.0, 41.0));
+        assert_eq!(
+            (stats.mean_kpa, stats.std_kpa, stats.min_kpa, stats.max_kpa),
+            (40.0, 1.0, 39.0, 41.0)
+        );
         let rows = vec![
             LogRow {
                 step: 1,
                 repeat: 1,
                 set_kpa: 40.0,
                 files: vec!["GX010101.MP4".into(), "GX020101.MP4".into()],
-                camera_files: vec!["100GOPRO/GX010101.MP4".into(), "100GOPRO/GX020101.MP4".into()],
+                camera_files: vec![
+                    "100GOPRO/GX010101.MP4".into(),
+                    "100GOPRO/GX020101.MP4".into(),
+                ],
                 measured: stats,
                 record_s: 5.0,
                 status: STATUS_OK.into(),
@@ -298,7 +321,11 @@ mod tests {
         assert!(back[1].measured.mean_kpa.is_nan());
         let m = crate::session::read_manifest(d.path()).unwrap();
         // Only the fetched recording; its chapter is not a row of its own.
-        assert_eq!(m.entries.len(), 0, "the videos are not in the folder: {m:?}");
+        assert_eq!(
+            m.entries.len(),
+            0,
+            "the videos are not in the folder: {m:?}"
+        );
         assert_eq!(
             std::fs::read_to_string(d.path().join(MANIFEST)).unwrap(),
             "file,pressure_kpa\nGX010101.MP4,40.000\n"

@@ -55,7 +55,9 @@ pub fn run(args: &AcquireArgs) -> Result<u8> {
     let outcome = match acquire(&args.protocol, &args.output, &stop, &mut note) {
         Ok(o) => o,
         Err(e) => {
-            eprintln!("error: {e} (nothing recorded; the regulator was vented when it could be reached)");
+            eprintln!(
+                "error: {e} (nothing recorded; the regulator was vented when it could be reached)"
+            );
             return Ok(EXIT_BAD_INPUT);
         }
     };
