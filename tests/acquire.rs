@@ -549,6 +549,21 @@ fn ctrl_c_vents_keeps_the_recordings_and_a_rerun_resumes_at_the_next_pressure() 
         "{dry}"
     );
     assert_eq!(sets(&reg), first, "a dry run sends nothing");
+    // Another plan into this session is refused before any device is opened.
+    let other = b.path().join("other.toml");
+    let text = fs::read_to_string(&protocol).unwrap();
+    fs::write(&other, text.replace("[20, 35, 50, 65, 80]", "[20, 40]")).unwrap();
+    let run = Run::new(
+        b.path(),
+        &[
+            "acquire",
+            other.to_str().unwrap(),
+            "-o",
+            s.to_str().unwrap(),
+        ],
+    );
+    run.assert_bad_input(&["another plan", "protocol.toml"]);
+    assert_eq!(sets(&reg), first);
     // The rerun resumes at the next pressure (a new pty: the port was closed).
     drop(sim);
     let sim = RegSim::start(b.path(), &reg);

@@ -125,7 +125,8 @@ pub fn prepare(
                 "holds a {MANIFEST} or {PRESSURE_LOG} that acquire did not write: choose a new folder"
             )));
         }
-        if copy.exists() {
+        // A changed plan is refused only once something was recorded with the old one.
+        if copy.exists() && log.exists() {
             let earlier = Protocol::read(&copy)?;
             if earlier.plan != protocol.plan {
                 return Err(bad(format!(

@@ -8,7 +8,7 @@ use std::sync::Arc;
 
 use anyhow::Result;
 use bendscope::acquire::protocol::{CameraConfig, Plan};
-use bendscope::acquire::{acquire, dry_run, NoteKind};
+use bendscope::acquire::{acquire, dry_run, AcquireError, NoteKind};
 use clap::Args;
 
 use super::{EXIT_BAD_INPUT, EXIT_OK, EXIT_PARTIAL};
@@ -54,10 +54,12 @@ pub fn run(args: &AcquireArgs) -> Result<u8> {
     };
     let outcome = match acquire(&args.protocol, &args.output, &stop, &mut note) {
         Ok(o) => o,
+        Err(e @ (AcquireError::Protocol { .. } | AcquireError::Session { .. })) => {
+            eprintln!("error: {e}");
+            return Ok(EXIT_BAD_INPUT);
+        }
         Err(e) => {
-            eprintln!(
-                "error: {e} (nothing recorded; the regulator was vented when it could be reached)"
-            );
+            eprintln!("error: {e} (nothing recorded; the regulator was vented if it answered)");
             return Ok(EXIT_BAD_INPUT);
         }
     };
