@@ -16,7 +16,7 @@
 //! url = "http://172.2X.1YZ.51:8080"
 //! ```
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use serde::Deserialize;
 
@@ -510,11 +510,6 @@ fn camera_config(c: RawCamera) -> Result<CameraConfig, String> {
             "[camera] kind = \"{other}\": use \"gopro\" or \"webcam\""
         )),
     }
-}
-
-/// Where a protocol's copy lives in a session folder.
-pub fn protocol_copy(session: &Path) -> PathBuf {
-    session.join(super::PROTOCOL_COPY)
 }
 
 #[cfg(test)]
