@@ -10,6 +10,7 @@ PKGS=(
   libavcodec-dev libavformat-dev libavutil-dev libswscale-dev libswresample-dev ffmpeg
   libfontconfig1-dev fonts-dejavu-core
   parallel
+  socat
 )
 
 missing=()

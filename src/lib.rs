@@ -13,6 +13,8 @@
 //! [`render`] (synthetic camera images with known ground truth) and [`compare`].
 //! Design exploration: [`surrogate`] (Gaussian-process models of a design table) ->
 //! [`optimize`] (Bayesian optimization or a Pareto front on them, checked with the FEM).
+//! Before them all, [`acquire`] records a session on the bench (pressure regulator on a
+//! serial line, GoPro or webcam) into the folder layout [`session`] reads.
 //!
 //! Measuring a session is one call, [`pipeline::measure_session`]; the `bendscope`
 //! binary only parses flags, calls it and prints.
@@ -27,6 +29,7 @@
 //! - Library code returns errors (one `thiserror` enum per module family); only the binary
 //!   uses `anyhow`.
 
+pub mod acquire;
 pub mod calib;
 pub mod compare;
 pub mod detect;

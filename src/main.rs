@@ -19,6 +19,7 @@ fn main() -> ExitCode {
         cli::Command::Sweep(a) => cli::sweep::run(a),
         cli::Command::Surrogate(a) => cli::surrogate::run(a),
         cli::Command::Optimize(a) => cli::optimize::run(a),
+        cli::Command::Acquire(a) => cli::acquire::run(a),
     };
     match result {
         Ok(code) => ExitCode::from(code),

@@ -11,6 +11,7 @@ macro_rules! out {
 }
 pub(crate) use out;
 
+pub mod acquire;
 pub mod calibrate;
 pub mod compare;
 pub mod demo;
@@ -61,6 +62,8 @@ pub enum Command {
     Render(render::RenderArgs),
     /// Compare measured bending (process output) with the simulation (simulate output).
     Compare(compare::CompareArgs),
+    /// Drive the pressure regulator and the camera through a protocol: record a session.
+    Acquire(acquire::AcquireArgs),
     /// Run the whole chain on a simulated actuator: simulate, render, calibrate, process, compare.
     Demo(demo::DemoArgs),
     /// Run a multi-factor design of simulations (local pool, GNU parallel or Slurm) into designs.csv.

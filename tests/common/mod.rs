@@ -16,9 +16,18 @@ pub fn fixture(rel: &str) -> PathBuf {
     root().join("fixtures").join(rel)
 }
 
+/// The `bendscope` binary under test: `$BENDSCOPE_BIN` when set (several worktrees
+/// sharing one target dir overwrite each other's `target/debug/bendscope`; point it at
+/// this tree's `target/debug/deps/bendscope-<hash>`), else cargo's.
+pub fn exe() -> PathBuf {
+    std::env::var_os("BENDSCOPE_BIN")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_BIN_EXE_bendscope")))
+}
+
 /// Runs `bendscope` with `args` in `cwd`.
 pub fn bendscope(cwd: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_bendscope"))
+    Command::new(exe())
         .args(args)
         .current_dir(cwd)
         .output()

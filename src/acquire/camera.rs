@@ -1,0 +1,604 @@
+//! The cameras: a GoPro driven through the Open GoPro HTTP API over USB, or a UVC (V4L2)
+//! webcam recorded by the `ffmpeg` program. Both sit behind [`Camera`]: start a
+//! recording, keep the camera awake, stop, then fetch the files of that recording into
+//! the session folder.
+//!
+//! # GoPro (Open GoPro HTTP API 2.0, wired USB)
+//!
+//! The camera appears as a USB network interface; its API listens on
+//! `http://172.2X.1YZ.51:8080`, where X, Y and Z are the last three digits of its serial
+//! number. Requests used: `GET /gopro/camera/control/wired_usb?p=1` (take control),
+//! `/gopro/camera/keep_alive` (every few seconds), `/gopro/camera/shutter/start` and
+//! `/stop`, `/gopro/media/list` (`{"media": [{"d": "100GOPRO", "fs": [{"n":
+//! "GX010001.MP4", "s": "1234"}]}]}`) and `GET /videos/DCIM/<d>/<n>` to download. The
+//! files of a recording are the videos that appear in the media list between before the
+//! start and after the stop (a long recording comes as chapters GX01xxxx, GX02xxxx ...,
+//! all of them fetched). A camera that answers 409 or 503 is busy (encoding, a menu
+//! open): asked again until the request timeout, then refused with what to check. HTTP
+//! is `ureq` (plain http, no TLS: the camera's USB API is not encrypted).
+//!
+//! # Webcam
+//!
+//! `ffmpeg -f v4l2 [-input_format F] [-video_size WxH] [-framerate R] -i DEVICE` encodes
+//! H.264 (MP4) into a temporary file of the session folder while recording; stopping
+//! sends `q` on its standard input (ffmpeg then finishes the file), and fetching renames
+//! the file. `format` may name another FFmpeg input (`lavfi` for a test pattern).
+
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use super::protocol::WebcamConfig;
+use super::AcquireError;
+use crate::session::{gopro_parts, VIDEO_EXTENSIONS};
+
+/// Interval between keep-alive requests while waiting, s.
+pub const KEEP_ALIVE_S: f64 = 3.0;
+/// Interval between requests to a busy camera, or between media-list polls.
+const POLL: Duration = Duration::from_millis(200);
+/// Wait for the files of a stopped recording to appear in the media list, s.
+const MEDIA_WAIT_S: f64 = 10.0;
+/// Download attempts per file (a cut connection is tried again).
+const DOWNLOAD_ATTEMPTS: u32 = 3;
+/// Read size of a download, bytes.
+const DOWNLOAD_BUFFER_BYTES: usize = 1 << 20;
+/// Wait for ffmpeg to finish its file after `q`, s.
+const FFMPEG_STOP_WAIT_S: f64 = 10.0;
+/// Time ffmpeg is given to fail on a missing device before recording counts as started.
+const FFMPEG_START_CHECK: Duration = Duration::from_millis(300);
+
+/// A file of a finished recording, still on the camera (or in a temporary file).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct CameraFile {
+    /// Where the camera keeps it: `100GOPRO/GX010001.MP4`, or a temporary file's path.
+    pub source: String,
+    /// Its name in the session folder (the camera's name).
+    pub name: String,
+    /// Size in bytes, when the camera says.
+    pub size: Option<u64>,
+}
+
+/// A camera that records on command.
+pub trait Camera {
+    /// What it is, for messages (`GoPro at http://...`).
+    fn describe(&self) -> String;
+    /// Takes control of the camera and checks it answers.
+    fn connect(&mut self) -> Result<(), AcquireError>;
+    /// Starts a recording; `name` is the file name to use when the camera names none.
+    fn start(&mut self, name: &str) -> Result<(), AcquireError>;
+    /// Keeps the camera awake during long waits.
+    fn keep_alive(&mut self) -> Result<(), AcquireError>;
+    /// Stops the recording; returns its files, in order (chapters in order).
+    fn stop(&mut self) -> Result<Vec<CameraFile>, AcquireError>;
+    /// Copies one file of a recording to `dest` (atomically); returns its size in bytes.
+    fn fetch(&mut self, file: &CameraFile, dest: &Path) -> Result<u64, AcquireError>;
+    /// Stops a recording after a failure, ignoring errors.
+    fn abort(&mut self);
+}
+
+/// A GoPro on its USB network link.
+pub struct GoPro {
+    url: String,
+    timeout: Duration,
+    agent: ureq::Agent,
+    download_agent: ureq::Agent,
+    before: Option<Vec<CameraFile>>,
+}
+
+impl GoPro {
+    /// A GoPro at `url` (`http://172.2X.1YZ.51:8080`); `timeout_s` per request.
+    pub fn new(url: &str, timeout_s: f64) -> GoPro {
+        let timeout = Duration::from_secs_f64(timeout_s);
+        let agent: ureq::Agent = ureq::Agent::config_builder()
+            .proxy(None)
+            .http_status_as_error(false)
+            .timeout_global(Some(timeout))
+            .build()
+            .into();
+        // Downloads take as long as they take; a stalled one times out per read.
+        let download_agent: ureq::Agent = ureq::Agent::config_builder()
+            .proxy(None)
+            .http_status_as_error(false)
+            .timeout_connect(Some(timeout))
+            .timeout_recv_response(Some(timeout))
+            .timeout_per_read(Some(timeout))
+            .build()
+            .into();
+        GoPro {
+            url: url.trim_end_matches('/').to_string(),
+            timeout,
+            agent,
+            download_agent,
+            before: None,
+        }
+    }
+
+    fn camera_error(&self, why: String) -> AcquireError {
+        AcquireError::Camera {
+            camera: self.describe(),
+            why,
+        }
+    }
+
+    /// GET `path`; a busy camera (409, 503) is asked again until the timeout.
+    fn get(&self, path: &str) -> Result<String, AcquireError> {
+        let deadline = Instant::now() + self.timeout;
+        loop {
+            let mut resp = self
+                .agent
+                .get(format!("{}{path}", self.url))
+                .call()
+                .map_err(|e| self.camera_error(transport_error(&e, path)))?;
+            let status = resp.status().as_u16();
+            let body = resp.body_mut().read_to_string().unwrap_or_default();
+            match status {
+                200..=299 => return Ok(body),
+                409 | 503 if Instant::now() < deadline => std::thread::sleep(POLL),
+                409 | 503 => {
+                    return Err(AcquireError::CameraBusy {
+                        camera: self.describe(),
+                        request: path.to_string(),
+                        status,
+                    })
+                }
+                _ => {
+                    return Err(self.camera_error(format!(
+                        "{path} answered HTTP {status} {}: check the camera's mode (video) and firmware (Open GoPro 2.0)",
+                        body.trim().chars().take(120).collect::<String>()
+                    )))
+                }
+            }
+        }
+    }
+
+    /// The videos on the camera's card.
+    fn media(&self) -> Result<Vec<CameraFile>, AcquireError> {
+        let text = self.get("/gopro/media/list")?;
+        parse_media_list(&text).map_err(|why| self.camera_error(why))
+    }
+}
+
+/// What a transport error means for the user.
+fn transport_error(e: &ureq::Error, path: &str) -> String {
+    match e {
+        ureq::Error::ConnectionFailed | ureq::Error::HostNotFound => format!(
+            "no answer to {path} ({e}): is the camera on, connected by USB, and the url its USB address (http://172.2X.1YZ.51:8080)?"
+        ),
+        ureq::Error::Io(io) if io.kind() == std::io::ErrorKind::ConnectionRefused => format!(
+            "connection refused on {path}: is the camera on, connected by USB, and the url its USB address (http://172.2X.1YZ.51:8080)?"
+        ),
+        ureq::Error::Timeout(_) => format!("{path} timed out: the camera stopped answering (battery, cable?)"),
+        _ => format!("{path} failed: {e} (the camera was lost: battery, cable?)"),
+    }
+}
+
+/// The videos of an Open GoPro media list, in list order.
+pub fn parse_media_list(text: &str) -> Result<Vec<CameraFile>, String> {
+    let v: serde_json::Value = serde_json::from_str(text)
+        .map_err(|e| format!("the media list is not JSON ({e}): is the url a GoPro's?"))?;
+    let Some(dirs) = v.get("media").and_then(|m| m.as_array()) else {
+        return Err("the media list has no \"media\" array: is the url a GoPro's?".into());
+    };
+    let mut out = Vec::new();
+    for dir in dirs {
+        let Some(d) = dir.get("d").and_then(|d| d.as_str()) else {
+            continue;
+        };
+        for f in dir
+            .get("fs")
+            .and_then(|f| f.as_array())
+            .into_iter()
+            .flatten()
+        {
+            let Some(n) = f.get("n").and_then(|n| n.as_str()) else {
+                continue;
+            };
+            let is_video = Path::new(n)
+                .extension()
+                .map(|e| {
+                    VIDEO_EXTENSIONS.contains(&e.to_string_lossy().to_ascii_lowercase().as_str())
+                })
+                .unwrap_or(false);
+            if !is_video || n.contains(['/', '\\']) || d.contains(['/', '\\']) {
+                continue;
+            }
+            let size = match f.get("s") {
+                Some(serde_json::Value::String(s)) => s.parse().ok(),
+                Some(serde_json::Value::Number(n)) => n.as_u64(),
+                _ => None,
+            };
+            out.push(CameraFile {
+                source: format!("{d}/{n}"),
+                name: n.to_string(),
+                size,
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// The files in `after` that are not in `before`, ordered by recording then chapter.
+pub fn new_files(before: &[CameraFile], after: &[CameraFile]) -> Vec<CameraFile> {
+    let mut new: Vec<CameraFile> = after
+        .iter()
+        .filter(|f| !before.iter().any(|b| b.source == f.source))
+        .cloned()
+        .collect();
+    let key = |f: &CameraFile| match gopro_parts(&f.name) {
+        Some((prefix, chapter, rec)) => (rec, prefix, chapter, f.name.clone()),
+        None => (f.name.clone(), String::new(), 0, f.name.clone()),
+    };
+    new.sort_by_key(key);
+    new
+}
+
+impl Camera for GoPro {
+    fn describe(&self) -> String {
+        format!("GoPro at {}", self.url)
+    }
+
+    fn connect(&mut self) -> Result<(), AcquireError> {
+        self.get("/gopro/camera/control/wired_usb?p=1")?;
+        self.get("/gopro/camera/keep_alive")?;
+        self.media()?;
+        Ok(())
+    }
+
+    fn start(&mut self, _name: &str) -> Result<(), AcquireError> {
+        self.before = Some(self.media()?);
+        self.get("/gopro/camera/shutter/start")?;
+        Ok(())
+    }
+
+    fn keep_alive(&mut self) -> Result<(), AcquireError> {
+        self.get("/gopro/camera/keep_alive").map(|_| ())
+    }
+
+    fn stop(&mut self) -> Result<Vec<CameraFile>, AcquireError> {
+        self.get("/gopro/camera/shutter/stop")?;
+        let before = self.before.take().unwrap_or_default();
+        let deadline = Instant::now() + Duration::from_secs_f64(MEDIA_WAIT_S);
+        loop {
+            let new = new_files(&before, &self.media()?);
+            if !new.is_empty() {
+                // Chapters of a long recording may be listed a moment apart.
+                std::thread::sleep(POLL);
+                return Ok(new_files(&before, &self.media()?));
+            }
+            if Instant::now() >= deadline {
+                return Err(self.camera_error(format!(
+                    "no new video in the media list {MEDIA_WAIT_S} s after the recording stopped: is the camera in video mode with a card in?"
+                )));
+            }
+            std::thread::sleep(POLL);
+        }
+    }
+
+    fn fetch(&mut self, file: &CameraFile, dest: &Path) -> Result<u64, AcquireError> {
+        let path = format!("/videos/DCIM/{}", file.source);
+        let mut last = String::new();
+        for _ in 0..DOWNLOAD_ATTEMPTS {
+            match self.download_once(&path, file, dest) {
+                Ok(n) => return Ok(n),
+                Err(why) => last = why,
+            }
+        }
+        Err(AcquireError::Download {
+            file: file.name.clone(),
+            why: format!(
+                "{last} ({DOWNLOAD_ATTEMPTS} attempts; the recording stays on the camera's card: run acquire again to fetch it)"
+            ),
+        })
+    }
+
+    fn abort(&mut self) {
+        let _ = self.get("/gopro/camera/shutter/stop");
+        self.before = None;
+    }
+}
+
+impl GoPro {
+    /// One download attempt; the reason when it fails (the partial file is removed).
+    fn download_once(&self, path: &str, file: &CameraFile, dest: &Path) -> Result<u64, String> {
+        let mut resp = self
+            .download_agent
+            .get(format!("{}{path}", self.url))
+            .call()
+            .map_err(|e| transport_error(&e, path))?;
+        let status = resp.status().as_u16();
+        if !(200..=299).contains(&status) {
+            return Err(format!("{path} answered HTTP {status}"));
+        }
+        let announced: Option<u64> = resp
+            .headers()
+            .get("content-length")
+            .and_then(|v| v.to_str().ok())
+            .and_then(|v| v.trim().parse().ok());
+        let expected = announced.or(file.size);
+        let mut reader = resp.body_mut().with_config().limit(u64::MAX).reader();
+        let mut copied = 0u64;
+        let of = expected.map(|n| format!(" of {n}")).unwrap_or_default();
+        crate::io::write_atomic_with(dest, |f| {
+            let mut buf = vec![0u8; DOWNLOAD_BUFFER_BYTES];
+            loop {
+                let n = match reader.read(&mut buf) {
+                    Ok(0) => break,
+                    Ok(n) => n,
+                    Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+                    Err(e) => {
+                        return Err(std::io::Error::new(
+                            e.kind(),
+                            format!("the download was cut after {copied}{of} bytes ({e})"),
+                        ))
+                    }
+                };
+                f.write_all(&buf[..n])?;
+                copied += n as u64;
+            }
+            match expected {
+                Some(n) if n != copied => Err(std::io::Error::new(
+                    std::io::ErrorKind::UnexpectedEof,
+                    format!("the download was cut after {copied}{of} bytes"),
+                )),
+                _ => Ok(()),
+            }
+        })
+        .map_err(|e| format!("{path}: {e}"))?;
+        Ok(copied)
+    }
+}
+
+/// A webcam recorded through ffmpeg.
+pub struct Webcam {
+    cfg: WebcamConfig,
+    session: PathBuf,
+    child: Option<(Child, CameraFile, tempfile::NamedTempFile)>,
+}
+
+impl Webcam {
+    /// A webcam whose recordings go to `session`.
+    pub fn new(cfg: &WebcamConfig, session: &Path) -> Webcam {
+        Webcam {
+            cfg: cfg.clone(),
+            session: session.to_path_buf(),
+            child: None,
+        }
+    }
+
+    fn error(&self, why: String) -> AcquireError {
+        AcquireError::Camera {
+            camera: self.describe(),
+            why,
+        }
+    }
+
+    /// The ffmpeg arguments that record into `out`.
+    pub fn ffmpeg_args(&self, out: &Path) -> Vec<String> {
+        let mut a: Vec<String> = ["-hide_banner", "-loglevel", "error", "-y", "-f"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        a.push(self.cfg.format.clone());
+        if let Some(f) = &self.cfg.input_format {
+            a.extend(["-input_format".into(), f.clone()]);
+        }
+        if let Some(s) = &self.cfg.size {
+            a.extend(["-video_size".into(), s.clone()]);
+        }
+        if let Some(r) = self.cfg.fps {
+            a.extend(["-framerate".into(), format!("{r}")]);
+        }
+        a.extend(["-i".into(), self.cfg.device.clone()]);
+        for s in [
+            "-an",
+            "-c:v",
+            "libx264",
+            "-preset",
+            "veryfast",
+            "-crf",
+            "18",
+            "-pix_fmt",
+            "yuv420p",
+            "-movflags",
+            "+faststart",
+            "-f",
+            "mp4",
+        ] {
+            a.push(s.into());
+        }
+        a.push(out.to_string_lossy().into_owned());
+        a
+    }
+}
+
+fn last_line(log: &Path) -> String {
+    std::fs::read_to_string(log)
+        .unwrap_or_default()
+        .lines()
+        .rev()
+        .find(|l| !l.trim().is_empty())
+        .unwrap_or("no message")
+        .trim()
+        .to_string()
+}
+
+impl Camera for Webcam {
+    fn describe(&self) -> String {
+        format!("webcam {}", self.cfg.device)
+    }
+
+    fn connect(&mut self) -> Result<(), AcquireError> {
+        let ok = Command::new(&self.cfg.ffmpeg)
+            .arg("-version")
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .status()
+            .map(|s| s.success())
+            .unwrap_or(false);
+        if !ok {
+            return Err(self.error(format!(
+                "cannot run `{}`: install FFmpeg (apt-get install ffmpeg) or set [camera] ffmpeg",
+                self.cfg.ffmpeg
+            )));
+        }
+        if self.cfg.format == "v4l2" && !Path::new(&self.cfg.device).exists() {
+            return Err(self.error(
+                "no such device: plug the webcam in and check its name (ls /dev/video*)".into(),
+            ));
+        }
+        Ok(())
+    }
+
+    fn start(&mut self, name: &str) -> Result<(), AcquireError> {
+        let tmp = self.session.join(format!(".{name}.recording"));
+        let log = tempfile::NamedTempFile::new()
+            .map_err(|e| self.error(format!("cannot make a log file: {e}")))?;
+        let stderr = log
+            .reopen()
+            .map_err(|e| self.error(format!("cannot make a log file: {e}")))?;
+        let mut child = Command::new(&self.cfg.ffmpeg)
+            .args(self.ffmpeg_args(&tmp))
+            .stdin(Stdio::piped())
+            .stdout(Stdio::null())
+            .stderr(stderr)
+            .spawn()
+            .map_err(|e| self.error(format!("cannot run `{}`: {e}", self.cfg.ffmpeg)))?;
+        std::thread::sleep(FFMPEG_START_CHECK);
+        if let Ok(Some(status)) = child.try_wait() {
+            return Err(self.error(format!(
+                "ffmpeg stopped at once ({status}): {}",
+                last_line(log.path())
+            )));
+        }
+        let file = CameraFile {
+            source: tmp.to_string_lossy().into_owned(),
+            name: name.to_string(),
+            size: None,
+        };
+        self.child = Some((child, file, log));
+        Ok(())
+    }
+
+    fn keep_alive(&mut self) -> Result<(), AcquireError> {
+        if let Some((child, _, log)) = &mut self.child {
+            if let Ok(Some(status)) = child.try_wait() {
+                let why = format!(
+                    "ffmpeg stopped while recording ({status}): {}",
+                    last_line(log.path())
+                );
+                self.child = None;
+                return Err(self.error(why));
+            }
+        }
+        Ok(())
+    }
+
+    fn stop(&mut self) -> Result<Vec<CameraFile>, AcquireError> {
+        let Some((mut child, file, log)) = self.child.take() else {
+            return Err(self.error("stop without a recording".into()));
+        };
+        if let Some(mut stdin) = child.stdin.take() {
+            let _ = stdin.write_all(b"q");
+        }
+        let deadline = Instant::now() + Duration::from_secs_f64(FFMPEG_STOP_WAIT_S);
+        let status = loop {
+            match child.try_wait() {
+                Ok(Some(s)) => break Some(s),
+                Ok(None) if Instant::now() < deadline => std::thread::sleep(POLL),
+                _ => {
+                    let _ = child.kill();
+                    let _ = child.wait();
+                    break None;
+                }
+            }
+        };
+        let tmp = PathBuf::from(&file.source);
+        let size = std::fs::metadata(&tmp).map(|m| m.len()).unwrap_or(0);
+        match status {
+            Some(s) if s.success() && size > 0 => Ok(vec![CameraFile {
+                size: Some(size),
+                ..file
+            }]),
+            _ => {
+                let _ = std::fs::remove_file(&tmp);
+                Err(self.error(format!(
+                    "ffmpeg did not finish the recording: {}",
+                    last_line(log.path())
+                )))
+            }
+        }
+    }
+
+    fn fetch(&mut self, file: &CameraFile, dest: &Path) -> Result<u64, AcquireError> {
+        let size = std::fs::metadata(&file.source).map(|m| m.len());
+        std::fs::rename(&file.source, dest)
+            .and(size)
+            .map_err(|e| AcquireError::Download {
+                file: file.name.clone(),
+                why: format!("cannot move the recording into the session: {e}"),
+            })
+    }
+
+    fn abort(&mut self) {
+        if let Some((mut child, file, _)) = self.child.take() {
+            let _ = child.kill();
+            let _ = child.wait();
+            let _ = std::fs::remove_file(&file.source);
+        }
+    }
+}
+
+impl Drop for Webcam {
+    fn drop(&mut self) {
+        self.abort();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_media_list_diff_finds_a_recording_and_its_chapters_in_order() {
+        let before = parse_media_list(
+            r#"{"id":"1","media":[{"d":"100GOPRO","fs":[{"n":"GX010041.MP4","s":"10"},{"n":"GOPR0040.JPG","s":"5"}]}]}"#,
+        )
+        .unwrap();
+        let after = parse_media_list(
+            r#"{"id":"1","media":[{"d":"100GOPRO","fs":[{"n":"GX010041.MP4","s":"10"},{"n":"GOPR0040.JPG","s":"5"},
+              {"n":"GX020042.MP4","s":"7"},{"n":"GX010042.MP4","s":8},{"n":"GL010042.LRV","s":"1"}]}]}"#,
+        )
+        .unwrap();
+        assert_eq!(before.len(), 1, "photos are not videos");
+        let new = new_files(&before, &after);
+        let names: Vec<&str> = new.iter().map(|f| f.name.as_str()).collect();
+        assert_eq!(names, ["GX010042.MP4", "GX020042.MP4"]);
+        assert_eq!(new[0].source, "100GOPRO/GX010042.MP4");
+        assert_eq!((new[0].size, new[1].size), (Some(8), Some(7)));
+        assert!(parse_media_list("{}").unwrap_err().contains("media"));
+        assert!(parse_media_list("<html>").unwrap_err().contains("not JSON"));
+    }
+
+    #[test]
+    fn webcam_arguments_name_the_device_and_format() {
+        let cfg = WebcamConfig {
+            device: "/dev/video2".into(),
+            format: "v4l2".into(),
+            size: Some("1280x720".into()),
+            fps: Some(30.0),
+            input_format: Some("mjpeg".into()),
+            ffmpeg: "ffmpeg".into(),
+        };
+        let w = Webcam::new(&cfg, Path::new("s"));
+        let a = w.ffmpeg_args(Path::new("s/x"));
+        let s = a.join(" ");
+        assert!(
+            s.contains(
+                "-f v4l2 -input_format mjpeg -video_size 1280x720 -framerate 30 -i /dev/video2"
+            ),
+            "{s}"
+        );
+        assert_eq!(a.last().map(String::as_str), Some("s/x"));
+    }
+}

@@ -1,0 +1,808 @@
+//! `bendscope acquire` against device simulators that speak the real protocols: a
+//! pressure regulator on a pseudo-terminal pair made by socat (first-order pressure
+//! response, the serial line protocol of hardware/regulator/regulator.ino), and an Open
+//! GoPro HTTP server on 127.0.0.1 that "films" the example session's videos: each
+//! recording is the example video whose pressure is nearest the simulated regulator's at
+//! the shutter, so `process` on the acquired session must give the example's radii.
+
+mod common;
+
+use std::fs;
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::{TcpListener, TcpStream};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::{Arc, Mutex};
+use std::thread;
+use std::time::{Duration, Instant};
+
+use bendscope::render::session::SessionTruth;
+use common::{col, copy_dir, fixture, read_csv, Run};
+
+/// Time constant of the simulated regulator's first-order response, s.
+const TAU_S: f64 = 0.02;
+/// The example session's pressures, kPa (one video each).
+const EXAMPLE_KPA: [f64; 5] = [20.0, 35.0, 50.0, 65.0, 80.0];
+/// Accuracy `process` reaches on the example session (tests/process.rs).
+const RADIUS_TOLERANCE: f64 = 0.005;
+
+// ---------------------------------------------------------------- regulator simulator
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum RegMode {
+    /// Speaks the protocol.
+    Normal,
+    /// Answers `ERR over limit` to set points above this, kPa.
+    ErrAbove(f64),
+    /// Never answers (no sketch, or a dead board).
+    Silent,
+    /// Answers bytes that are no protocol (what a wrong baud rate gives).
+    Garbage,
+}
+
+/// The simulated pneumatics: p(t) = target + (p0 - target) exp(-(t - t0) / tau).
+#[derive(Debug)]
+struct RegState {
+    target_kpa: f64,
+    p0_kpa: f64,
+    t0: Instant,
+    /// Every `SET` received, in order (refused ones too).
+    sets: Vec<f64>,
+    mode: RegMode,
+}
+
+impl RegState {
+    fn new(mode: RegMode) -> Arc<Mutex<RegState>> {
+        Arc::new(Mutex::new(RegState {
+            target_kpa: 0.0,
+            p0_kpa: 0.0,
+            t0: Instant::now(),
+            sets: vec![],
+            mode,
+        }))
+    }
+    fn pressure_kpa(&self) -> f64 {
+        let t = self.t0.elapsed().as_secs_f64();
+        self.target_kpa + (self.p0_kpa - self.target_kpa) * (-t / TAU_S).exp()
+    }
+    /// The answer to one line.
+    fn answer(&mut self, line: &str) -> Option<Vec<u8>> {
+        match self.mode {
+            RegMode::Silent => return None,
+            RegMode::Garbage => return Some(b"\xf0\x8f\xaa\x13x\xfe\n".to_vec()),
+            _ => {}
+        }
+        let text = if let Some(v) = line.strip_prefix("SET ") {
+            let v: f64 = v.trim().parse().ok()?;
+            self.sets.push(v);
+            match self.mode {
+                RegMode::ErrAbove(limit) if v > limit => format!("ERR over limit {limit:.2} kPa"),
+                _ => {
+                    self.p0_kpa = self.pressure_kpa();
+                    self.t0 = Instant::now();
+                    self.target_kpa = v;
+                    format!("OK {v:.2}")
+                }
+            }
+        } else if line == "GET" {
+            format!("P {:.3}", self.pressure_kpa())
+        } else {
+            "ERR unknown command".into()
+        };
+        Some(format!("{text}\r\n").into_bytes())
+    }
+}
+
+/// A regulator on one end of a socat pty pair; bendscope opens `port`, the other end.
+struct RegSim {
+    socat: Child,
+    port: PathBuf,
+}
+
+impl RegSim {
+    fn start(dir: &Path, state: &Arc<Mutex<RegState>>) -> RegSim {
+        let (port, sim) = (dir.join("ttyREG"), dir.join("ttySIM"));
+        let _ = fs::remove_file(&port);
+        let _ = fs::remove_file(&sim);
+        let socat = Command::new("socat")
+            .arg(format!("pty,rawer,link={}", port.display()))
+            .arg(format!("pty,rawer,link={}", sim.display()))
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("socat runs (apt-get install socat)");
+        let t = Instant::now();
+        while !(port.exists() && sim.exists()) {
+            assert!(t.elapsed() < Duration::from_secs(5), "socat made no ptys");
+            thread::sleep(Duration::from_millis(10));
+        }
+        let dev = fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .open(&sim)
+            .unwrap();
+        let mut out = dev.try_clone().unwrap();
+        let state = Arc::clone(state);
+        thread::spawn(move || {
+            for line in BufReader::new(dev).split(b'\n') {
+                let Ok(line) = line else { return };
+                let line = String::from_utf8_lossy(&line).trim().to_string();
+                let answer = state.lock().unwrap().answer(&line);
+                if let Some(a) = answer {
+                    if out.write_all(&a).is_err() {
+                        return;
+                    }
+                }
+            }
+        });
+        RegSim { socat, port }
+    }
+}
+
+impl Drop for RegSim {
+    fn drop(&mut self) {
+        let _ = self.socat.kill();
+        let _ = self.socat.wait();
+    }
+}
+
+// ---------------------------------------------------------------- GoPro simulator
+
+#[derive(Default)]
+struct CamState {
+    /// The card: (folder, name, bytes).
+    media: Vec<(String, String, Arc<Vec<u8>>)>,
+    /// Pressure at the shutter of the recording in progress.
+    recording_kpa: Option<f64>,
+    next_number: u32,
+    /// Recording numbers that come as two chapters.
+    chapters: Vec<u32>,
+    /// Shutter start answers 409.
+    busy: bool,
+    /// File names whose download is cut halfway.
+    cut: Vec<String>,
+    /// After this many recordings the camera stops answering.
+    lost_after: Option<usize>,
+    recordings: usize,
+    downloads: usize,
+}
+
+struct CamSim {
+    url: String,
+    state: Arc<Mutex<CamState>>,
+}
+
+fn example_videos() -> Vec<(f64, Arc<Vec<u8>>)> {
+    let ex = fixture("sessions/example");
+    EXAMPLE_KPA
+        .iter()
+        .enumerate()
+        .map(|(i, &p)| {
+            let bytes = fs::read(ex.join(format!("GX01010{}.MP4", i + 1))).unwrap();
+            (p, Arc::new(bytes))
+        })
+        .collect()
+}
+
+impl CamSim {
+    fn start(state: CamState) -> CamSim {
+        CamSim::start_with(state, RegState::new(RegMode::Normal))
+    }
+
+    fn start_with(mut state: CamState, regulator: Arc<Mutex<RegState>>) -> CamSim {
+        state.next_number = 201;
+        // An older video on the card: not part of any recording of the run.
+        state.media.push((
+            "100GOPRO".into(),
+            "GX010200.MP4".into(),
+            Arc::new(vec![0; 10]),
+        ));
+        let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+        let url = format!("http://{}", listener.local_addr().unwrap());
+        let state = Arc::new(Mutex::new(state));
+        let shared = Arc::clone(&state);
+        let videos = example_videos();
+        thread::spawn(move || {
+            for stream in listener.incoming() {
+                let Ok(stream) = stream else { continue };
+                let (state, regulator, videos) =
+                    (Arc::clone(&shared), Arc::clone(&regulator), videos.clone());
+                thread::spawn(move || serve(stream, &state, &regulator, &videos));
+            }
+        });
+        CamSim { url, state }
+    }
+
+    /// Attach the regulator whose pressure the camera films.
+    fn films(state: CamState, regulator: &Arc<Mutex<RegState>>) -> CamSim {
+        CamSim::start_with(state, Arc::clone(regulator))
+    }
+}
+
+fn respond(stream: &mut TcpStream, status: &str, body: &[u8], cut: bool) {
+    let head = format!(
+        "HTTP/1.1 {status}\r\nContent-Type: application/json\r\nContent-Length: {}\r\nConnection: close\r\n\r\n",
+        body.len()
+    );
+    let _ = stream.write_all(head.as_bytes());
+    let n = if cut { body.len() / 2 } else { body.len() };
+    let _ = stream.write_all(&body[..n]);
+    let _ = stream.flush();
+}
+
+fn serve(
+    mut stream: TcpStream,
+    state: &Mutex<CamState>,
+    regulator: &Mutex<RegState>,
+    videos: &[(f64, Arc<Vec<u8>>)],
+) {
+    let mut head = Vec::new();
+    let mut byte = [0u8; 1];
+    while !head.ends_with(b"\r\n\r\n") {
+        match stream.read(&mut byte) {
+            Ok(1) => head.push(byte[0]),
+            _ => return,
+        }
+    }
+    let head = String::from_utf8_lossy(&head).into_owned();
+    let path = head.split_whitespace().nth(1).unwrap_or("").to_string();
+    let mut s = state.lock().unwrap();
+    if s.lost_after.is_some_and(|n| s.recordings >= n) {
+        return; // dropped: the camera is gone
+    }
+    let ok = |stream: &mut TcpStream| respond(stream, "200 OK", b"{}", false);
+    match path.as_str() {
+        "/gopro/camera/control/wired_usb?p=1" | "/gopro/camera/keep_alive" => ok(&mut stream),
+        "/gopro/camera/shutter/start" if s.busy => {
+            respond(&mut stream, "409 Conflict", b"{}", false)
+        }
+        "/gopro/camera/shutter/start" => {
+            s.recording_kpa = Some(regulator.lock().unwrap().pressure_kpa());
+            ok(&mut stream)
+        }
+        "/gopro/camera/shutter/stop" => {
+            if let Some(p) = s.recording_kpa.take() {
+                let (_, bytes) = videos
+                    .iter()
+                    .min_by(|a, b| (a.0 - p).abs().total_cmp(&(b.0 - p).abs()))
+                    .unwrap();
+                let n = s.next_number;
+                s.next_number += 1;
+                s.media.push((
+                    "100GOPRO".into(),
+                    format!("GX01{n:04}.MP4"),
+                    Arc::clone(bytes),
+                ));
+                if s.chapters.contains(&n) {
+                    s.media.push((
+                        "100GOPRO".into(),
+                        format!("GX02{n:04}.MP4"),
+                        Arc::clone(bytes),
+                    ));
+                }
+                s.recordings += 1;
+            }
+            ok(&mut stream)
+        }
+        "/gopro/media/list" => {
+            let fs: Vec<serde_json::Value> = s
+                .media
+                .iter()
+                .map(|(_, n, b)| serde_json::json!({"n": n, "s": b.len().to_string(), "mod": "1700000000"}))
+                .collect();
+            let body = serde_json::json!({"id": "1", "media": [{"d": "100GOPRO", "fs": fs}]});
+            respond(&mut stream, "200 OK", body.to_string().as_bytes(), false)
+        }
+        p if p.starts_with("/videos/DCIM/") => {
+            let rest = &p["/videos/DCIM/".len()..];
+            let found = s
+                .media
+                .iter()
+                .find(|(d, n, _)| format!("{d}/{n}") == rest)
+                .map(|(_, n, b)| (n.clone(), Arc::clone(b)));
+            match found {
+                Some((name, bytes)) => {
+                    let cut = s.cut.contains(&name);
+                    if !cut {
+                        s.downloads += 1;
+                    }
+                    drop(s);
+                    respond(&mut stream, "200 OK", &bytes, cut)
+                }
+                None => respond(&mut stream, "404 Not Found", b"{}", false),
+            }
+        }
+        _ => respond(&mut stream, "404 Not Found", b"{}", false),
+    }
+}
+
+// ---------------------------------------------------------------- helpers
+
+struct Bench {
+    dir: tempfile::TempDir,
+}
+
+impl Bench {
+    fn new() -> Bench {
+        Bench {
+            dir: tempfile::tempdir().unwrap(),
+        }
+    }
+    fn path(&self) -> &Path {
+        self.dir.path()
+    }
+    fn session(&self) -> PathBuf {
+        self.path().join("session")
+    }
+    /// Writes a protocol with `plan` (a [steps] or [ramp] section) and returns its path.
+    fn protocol(&self, plan: &str, port: &Path, camera: &str) -> PathBuf {
+        let p = self.path().join("protocol.toml");
+        fs::write(
+            &p,
+            format!(
+                "{plan}\n[regulator]\nport = \"{}\"\nbaud = 115200\ntimeout_s = 0.1\nretries = 1\nboot_s = 0.3\n[camera]\n{camera}\n",
+                port.display()
+            ),
+        )
+        .unwrap();
+        p
+    }
+    fn acquire(&self, protocol: &Path) -> Run {
+        Run::new(
+            self.path(),
+            &[
+                "acquire",
+                protocol.to_str().unwrap(),
+                "-o",
+                self.session().to_str().unwrap(),
+            ],
+        )
+    }
+}
+
+fn gopro(url: &str) -> String {
+    format!("kind = \"gopro\"\nurl = \"{url}\"\ntimeout_s = 0.5")
+}
+
+const STEPS: &str = "[steps]\npressures_kpa = [20, 35, 50, 65, 80]\nstabilize_s = 0.15\nrecord_s = 0.2\nsample_hz = 50";
+
+fn sets(reg: &Arc<Mutex<RegState>>) -> Vec<f64> {
+    reg.lock().unwrap().sets.clone()
+}
+
+/// The manifest's (file, pressure) rows.
+fn manifest(session: &Path) -> Vec<(String, f64)> {
+    let (h, rows) = read_csv(&session.join("pressures.csv"));
+    rows.iter()
+        .map(|r| {
+            (
+                r[col(&h, "file")].clone(),
+                r[col(&h, "pressure_kpa")].parse().unwrap(),
+            )
+        })
+        .collect()
+}
+
+/// Every manifest row names a video byte-identical to the example's at its pressure.
+fn assert_videos_match_the_example(session: &Path) {
+    let videos = example_videos();
+    for (file, p) in manifest(session) {
+        let (_, want) = videos.iter().find(|(q, _)| (q - p).abs() < 1e-9).unwrap();
+        assert_eq!(
+            &fs::read(session.join(&file)).unwrap(),
+            want.as_ref(),
+            "{file} at {p} kPa"
+        );
+    }
+}
+
+fn assert_no_temporaries(session: &Path) {
+    for e in fs::read_dir(session).unwrap() {
+        let name = e.unwrap().file_name().to_string_lossy().into_owned();
+        assert!(!name.starts_with(".bendscope-"), "temporary {name} left");
+    }
+}
+
+// ---------------------------------------------------------------- tests
+
+#[test]
+fn an_acquired_session_is_measured_by_process_with_the_known_radii() {
+    let b = Bench::new();
+    let reg = RegState::new(RegMode::Normal);
+    let sim = RegSim::start(b.path(), &reg);
+    // The third recording comes as two chapters.
+    let cam = CamSim::films(
+        CamState {
+            chapters: vec![203],
+            ..Default::default()
+        },
+        &reg,
+    );
+    let protocol = b.protocol(STEPS, &sim.port, &gopro(&cam.url));
+    let run = b.acquire(&protocol);
+    assert_eq!(run.code, 0, "{run}");
+    assert!(run.stdout.contains("5 recorded, 5 of 5"), "{run}");
+    // Set points in order, then vented.
+    assert_eq!(sets(&reg), [20.0, 35.0, 50.0, 65.0, 80.0, 0.0]);
+    let s = b.session();
+    assert_eq!(
+        manifest(&s),
+        (0..5)
+            .map(|i| (format!("GX01{:04}.MP4", 201 + i), EXAMPLE_KPA[i]))
+            .collect::<Vec<_>>()
+    );
+    assert!(s.join("GX020203.MP4").is_file(), "the chapter is fetched");
+    assert!(
+        !s.join("GX010200.MP4").exists(),
+        "an older video on the card is not"
+    );
+    assert_videos_match_the_example(&s);
+    assert_eq!(
+        fs::read_to_string(s.join("protocol.toml")).unwrap(),
+        fs::read_to_string(&protocol).unwrap()
+    );
+    // The acquisition log: measured mean at the set point (tau = 20 ms, 150 ms to settle),
+    // spread of a settled first-order response, ~10 readings per recording.
+    let (h, rows) = read_csv(&s.join("acquisition_log.csv"));
+    assert_eq!(rows.len(), 5);
+    for (r, p) in rows.iter().zip(EXAMPLE_KPA) {
+        let mean: f64 = r[col(&h, "measured_mean_kpa")].parse().unwrap();
+        let std: f64 = r[col(&h, "measured_std_kpa")].parse().unwrap();
+        let n: u32 = r[col(&h, "samples")].parse().unwrap();
+        assert!((mean - p).abs() < 0.01, "{p} kPa: mean {mean}");
+        assert!(std < 0.01, "{p} kPa: spread {std}");
+        assert!((5..=12).contains(&n), "{n} readings in 0.2 s at 50 Hz");
+        assert_eq!(r[col(&h, "status")], "ok");
+    }
+    assert_eq!(rows[2][col(&h, "files")], "GX010203.MP4;GX020203.MP4");
+    assert_no_temporaries(&s);
+    // The session is measured: add the scale photo, calibration photos and settings.
+    let ex = fixture("sessions/example");
+    copy_dir(&ex.join("calib"), &s.join("calib"));
+    fs::copy(ex.join("scale.jpg"), s.join("scale.jpg")).unwrap();
+    fs::copy(ex.join("bendscope.toml"), s.join("bendscope.toml")).unwrap();
+    let out = b.path().join("out");
+    let run = Run::new(
+        b.path(),
+        &["process", s.to_str().unwrap(), "-o", out.to_str().unwrap()],
+    );
+    assert_eq!(run.code, 0, "{run}");
+    let truth: SessionTruth =
+        serde_json::from_str(&fs::read_to_string(ex.join("truth.json")).unwrap()).unwrap();
+    let (h, rows) = read_csv(&out.join("per_video.csv"));
+    assert_eq!(rows.len(), 5);
+    for (r, v) in rows.iter().zip(&truth.videos) {
+        let radius: f64 = r[col(&h, "radius_mm")].parse().unwrap();
+        let p: f64 = r[col(&h, "pressure_kpa")].parse().unwrap();
+        assert!((p - v.pressure_kpa).abs() < 1e-9);
+        assert!(
+            (radius / v.radius_mm - 1.0).abs() < RADIUS_TOLERANCE,
+            "{p} kPa: {radius} vs {}",
+            v.radius_mm
+        );
+        assert_eq!(r[col(&h, "status")], "ok");
+    }
+    // The two-chapter recording is measured over both chapters.
+    let (fh, frames) = read_csv(&out.join("per_frame.csv"));
+    let n = |f: &str| frames.iter().filter(|r| r[col(&fh, "file")] == f).count();
+    assert_eq!((n("GX010203.MP4"), n("GX010201.MP4")), (16, 8));
+}
+
+#[test]
+fn ctrl_c_vents_keeps_the_recordings_and_a_rerun_resumes_at_the_next_pressure() {
+    let b = Bench::new();
+    let reg = RegState::new(RegMode::Normal);
+    let sim = RegSim::start(b.path(), &reg);
+    let cam = CamSim::films(CamState::default(), &reg);
+    let protocol = b.protocol(STEPS, &sim.port, &gopro(&cam.url));
+    let s = b.session();
+    let child = Command::new(common::exe())
+        .args([
+            "acquire",
+            protocol.to_str().unwrap(),
+            "-o",
+            s.to_str().unwrap(),
+        ])
+        .stderr(Stdio::piped())
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let t = Instant::now();
+    while cam.state.lock().unwrap().downloads < 2 {
+        assert!(t.elapsed() < Duration::from_secs(20), "no two recordings");
+        thread::sleep(Duration::from_millis(5));
+    }
+    let kill = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("interrupted") && stderr.contains("vented to 0 kPa"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("run the same command again"), "{stderr}");
+    let first = sets(&reg);
+    assert_eq!(first.last(), Some(&0.0), "vented: {first:?}");
+    let kept = manifest(&s);
+    assert!((2..=3).contains(&kept.len()), "{kept:?}");
+    assert_videos_match_the_example(&s);
+    // The plan says what is done and what is left, touching no device.
+    let dry = Run::new(
+        b.path(),
+        &[
+            "acquire",
+            protocol.to_str().unwrap(),
+            "-o",
+            s.to_str().unwrap(),
+            "--dry-run",
+        ],
+    );
+    assert_eq!(dry.code, 0, "{dry}");
+    assert_eq!(dry.stdout.matches(" done").count(), kept.len(), "{dry}");
+    assert_eq!(
+        dry.stdout.matches("to record").count(),
+        5 - kept.len(),
+        "{dry}"
+    );
+    assert_eq!(sets(&reg), first, "a dry run sends nothing");
+    // Another plan into this session is refused before any device is opened.
+    let other = b.path().join("other.toml");
+    let text = fs::read_to_string(&protocol).unwrap();
+    fs::write(&other, text.replace("[20, 35, 50, 65, 80]", "[20, 40]")).unwrap();
+    let run = Run::new(
+        b.path(),
+        &[
+            "acquire",
+            other.to_str().unwrap(),
+            "-o",
+            s.to_str().unwrap(),
+        ],
+    );
+    run.assert_bad_input(&["another plan", "protocol.toml"]);
+    assert_eq!(sets(&reg), first);
+    // The rerun resumes at the next pressure (a new pty: the port was closed).
+    drop(sim);
+    let sim = RegSim::start(b.path(), &reg);
+    assert_eq!(sim.port, b.path().join("ttyREG"));
+    let run = b.acquire(&protocol);
+    assert_eq!(run.code, 0, "{run}");
+    let second: Vec<f64> = sets(&reg)[first.len()..].to_vec();
+    let mut expected: Vec<f64> = EXAMPLE_KPA[kept.len()..].to_vec();
+    expected.push(0.0);
+    assert_eq!(second, expected);
+    assert_eq!(manifest(&s).len(), 5);
+    assert_eq!(&manifest(&s)[..kept.len()], &kept[..]);
+    assert_videos_match_the_example(&s);
+}
+
+#[test]
+fn a_regulator_error_vents_and_keeps_what_was_recorded() {
+    let b = Bench::new();
+    let reg = RegState::new(RegMode::ErrAbove(60.0));
+    let sim = RegSim::start(b.path(), &reg);
+    let cam = CamSim::films(CamState::default(), &reg);
+    let run = b.acquire(&b.protocol(STEPS, &sim.port, &gopro(&cam.url)));
+    assert_eq!(run.code, 1, "{run}");
+    assert!(
+        run.stderr
+            .contains("refused `SET 65.00`: ERR over limit 60.00 kPa"),
+        "{run}"
+    );
+    assert!(
+        run.stderr.contains("vented to 0 kPa; 3 of 5 recordings"),
+        "{run}"
+    );
+    assert_eq!(sets(&reg), [20.0, 35.0, 50.0, 65.0, 0.0]);
+    assert_eq!(manifest(&b.session()).len(), 3);
+    assert_videos_match_the_example(&b.session());
+}
+
+#[test]
+fn a_cut_download_stays_on_the_camera_and_the_rerun_fetches_it_without_recording_again() {
+    let b = Bench::new();
+    let reg = RegState::new(RegMode::Normal);
+    let sim = RegSim::start(b.path(), &reg);
+    let cam = CamSim::films(
+        CamState {
+            cut: vec!["GX010202.MP4".into()],
+            ..Default::default()
+        },
+        &reg,
+    );
+    let protocol = b.protocol(STEPS, &sim.port, &gopro(&cam.url));
+    let run = b.acquire(&protocol);
+    assert_eq!(run.code, 1, "{run}");
+    assert!(
+        run.stderr.contains("download of GX010202.MP4 failed"),
+        "{run}"
+    );
+    assert!(run.stderr.contains("cut after"), "{run}");
+    assert!(run.stderr.contains("stays on the camera's card"), "{run}");
+    assert_eq!(sets(&reg), [20.0, 35.0, 0.0]);
+    let s = b.session();
+    assert_eq!(manifest(&s), [("GX010201.MP4".to_string(), 20.0)]);
+    assert!(!s.join("GX010202.MP4").exists(), "no partial video");
+    assert_no_temporaries(&s);
+    let (h, rows) = read_csv(&s.join("acquisition_log.csv"));
+    assert!(
+        rows[1][col(&h, "status")].starts_with("not downloaded"),
+        "{rows:?}"
+    );
+    // The link is repaired; the rerun fetches step 2 and goes on at step 3.
+    cam.state.lock().unwrap().cut.clear();
+    drop(sim);
+    let _sim = RegSim::start(b.path(), &reg);
+    let run = b.acquire(&protocol);
+    assert_eq!(run.code, 0, "{run}");
+    assert_eq!(sets(&reg)[3..], [50.0, 65.0, 80.0, 0.0]);
+    assert_eq!(manifest(&s).len(), 5);
+    assert_videos_match_the_example(&s);
+}
+
+#[test]
+fn missing_or_wrong_devices_are_refused_with_what_to_check() {
+    let b = Bench::new();
+    let cam = CamSim::start(CamState::default());
+    // No device at the port.
+    let run = b.acquire(&b.protocol(STEPS, Path::new("/dev/ttyACM-none"), &gopro(&cam.url)));
+    run.assert_bad_input(&[
+        "regulator on /dev/ttyACM-none",
+        "no such serial port",
+        "ls /dev/ttyACM*",
+    ]);
+    // Garbage (a wrong baud rate) and silence.
+    for (mode, needle) in [
+        (RegMode::Garbage, "baud rate is probably wrong"),
+        (RegMode::Silent, "no answer to `GET`"),
+    ] {
+        let reg = RegState::new(mode);
+        let sim = RegSim::start(b.path(), &reg);
+        let run = b.acquire(&b.protocol(STEPS, &sim.port, &gopro(&cam.url)));
+        run.assert_bad_input(&[needle]);
+    }
+    // No camera at the url: the regulator is vented before giving up.
+    let free = TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap();
+    let reg = RegState::new(RegMode::Normal);
+    let sim = RegSim::start(b.path(), &reg);
+    let run = b.acquire(&b.protocol(STEPS, &sim.port, &gopro(&format!("http://{free}"))));
+    run.assert_bad_input(&["GoPro at http://", "is the camera on", "USB address"]);
+    assert_eq!(sets(&reg), [0.0]);
+    assert!(!b.session().join("pressures.csv").exists());
+}
+
+#[test]
+fn a_busy_or_lost_camera_stops_the_run_vented_with_the_recordings_kept() {
+    let b = Bench::new();
+    let reg = RegState::new(RegMode::Normal);
+    let sim = RegSim::start(b.path(), &reg);
+    let cam = CamSim::films(
+        CamState {
+            busy: true,
+            ..Default::default()
+        },
+        &reg,
+    );
+    let run = b.acquire(&b.protocol(STEPS, &sim.port, &gopro(&cam.url)));
+    assert_eq!(run.code, 1, "{run}");
+    assert!(
+        run.stderr
+            .contains("is busy (HTTP 409 to /gopro/camera/shutter/start)"),
+        "{run}"
+    );
+    assert!(run.stderr.contains("0 of 5"), "{run}");
+    assert_eq!(sets(&reg), [20.0, 0.0]);
+    drop(sim);
+    // Lost after two recordings.
+    let b = Bench::new();
+    let reg = RegState::new(RegMode::Normal);
+    let sim = RegSim::start(b.path(), &reg);
+    let cam = CamSim::films(
+        CamState {
+            lost_after: Some(2),
+            ..Default::default()
+        },
+        &reg,
+    );
+    let run = b.acquire(&b.protocol(STEPS, &sim.port, &gopro(&cam.url)));
+    assert_eq!(run.code, 1, "{run}");
+    assert!(
+        run.stderr.contains("the camera was lost") || run.stderr.contains("is the camera on"),
+        "{run}"
+    );
+    assert!(run.stderr.contains("vented to 0 kPa; 1 of 5"), "{run}");
+    assert_eq!(*sets(&reg).last().unwrap(), 0.0);
+    assert_eq!(manifest(&b.session()).len(), 1);
+    assert_videos_match_the_example(&b.session());
+}
+
+#[test]
+fn a_ramp_writes_one_video_and_its_pressure_log() {
+    let b = Bench::new();
+    let reg = RegState::new(RegMode::Normal);
+    let sim = RegSim::start(b.path(), &reg);
+    let cam = CamSim::films(CamState::default(), &reg);
+    let ramp = "[ramp]\nrate_kpa_s = 40\ntop_kpa = 12\nlog_hz = 50\nstabilize_s = 0.05";
+    let run = b.acquire(&b.protocol(ramp, &sim.port, &gopro(&cam.url)));
+    assert_eq!(run.code, 0, "{run}");
+    let s = b.session();
+    assert_eq!(bendscope::session::session_videos(&s), ["GX010201.MP4"]);
+    assert!(!s.join("pressures.csv").exists());
+    let log = bendscope::session::read_pressure_log(&s.join("pressure_log.csv")).unwrap();
+    // 0.3 s of rise at 50 Hz. Read right after each set point step (rate x T), the
+    // first-order pressure lags by at most rate T / (1 - exp(-T / tau)) for the longest
+    // interval T between readings (1.27 kPa at T = 20 ms), a bound kept by induction.
+    let n = log.times_s.len();
+    assert!((12..=18).contains(&n), "{n} readings");
+    let t_max = log
+        .times_s
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .fold(0.0, f64::max);
+    let lag_max = 40.0 * t_max / (1.0 - (-t_max / TAU_S).exp()) + 0.01;
+    let (_, rows) = read_csv(&s.join("pressure_log.csv"));
+    for (r, p) in rows.iter().zip(&log.pressures_kpa) {
+        let set: f64 = r[2].parse().unwrap();
+        assert!(
+            (set - p) > -0.01 && (set - p) < lag_max,
+            "set {set}, measured {p}, bound {lag_max}"
+        );
+    }
+    assert!(
+        log.pressures_kpa.windows(2).all(|w| w[1] >= w[0] - 1e-3),
+        "{:?}",
+        log.pressures_kpa
+    );
+    assert_eq!(*sets(&reg).last().unwrap(), 0.0);
+    let top = sets(&reg)[sets(&reg).len() - 2];
+    assert_eq!(top, 12.0);
+}
+
+#[test]
+fn a_webcam_is_recorded_through_ffmpeg() {
+    let b = Bench::new();
+    let reg = RegState::new(RegMode::Normal);
+    let sim = RegSim::start(b.path(), &reg);
+    let plan = "[steps]\npressures_kpa = [10, 20]\nstabilize_s = 0.05\nrecord_s = 1.0";
+    let camera =
+        "kind = \"webcam\"\nformat = \"lavfi\"\ndevice = \"testsrc=size=160x120:rate=10,realtime\"";
+    let run = b.acquire(&b.protocol(plan, &sim.port, camera));
+    assert_eq!(run.code, 0, "{run}");
+    let s = b.session();
+    assert_eq!(
+        manifest(&s),
+        [
+            ("webcam_001.mp4".to_string(), 10.0),
+            ("webcam_002.mp4".to_string(), 20.0)
+        ]
+    );
+    for f in ["webcam_001.mp4", "webcam_002.mp4"] {
+        let probe = Command::new("ffprobe")
+            .args([
+                "-v",
+                "error",
+                "-count_frames",
+                "-select_streams",
+                "v:0",
+                "-show_entries",
+                "stream=nb_read_frames",
+                "-of",
+                "csv=p=0",
+            ])
+            .arg(s.join(f))
+            .output()
+            .unwrap();
+        let frames: u32 = String::from_utf8_lossy(&probe.stdout)
+            .trim()
+            .parse()
+            .unwrap();
+        // 1 s at 10 fps, give or take ffmpeg's start-up and the stop request.
+        assert!((8..=20).contains(&frames), "{f}: {frames} frames");
+    }
+}
