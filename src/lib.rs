@@ -27,6 +27,7 @@
 
 pub mod calib;
 pub mod compare;
+pub mod control;
 pub mod detect;
 pub mod fem;
 pub mod fit;

@@ -13,6 +13,7 @@ pub(crate) use out;
 
 pub mod calibrate;
 pub mod compare;
+pub mod control;
 pub mod demo;
 pub mod process;
 pub mod render;
@@ -58,6 +59,8 @@ pub enum Command {
     Render(render::RenderArgs),
     /// Compare measured bending (process output) with the simulation (simulate output).
     Compare(compare::CompareArgs),
+    /// Close the loop: a PID bends the simulated actuator to a reference angle.
+    Control(control::ControlArgs),
     /// Run the whole chain on a simulated actuator: simulate, render, calibrate, process, compare.
     Demo(demo::DemoArgs),
 }
