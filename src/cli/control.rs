@@ -70,7 +70,7 @@ pub struct ControlArgs {
     /// Tune the gains (the default without --kp): SIMC on an identified FOPDT model.
     #[arg(long)]
     pub tune: bool,
-    /// SIMC closed-loop time constant τc, s [default: the identified dead time].
+    /// SIMC closed-loop time constant τc, s [default: 1.5 x the identified dead time + half a sample].
     #[arg(long, value_name = "S", conflicts_with = "kp")]
     pub tau_c_s: Option<f64>,
     /// Length of the run, s [default: step 5, ramp and CSV their length + 1, sine 2 periods].

@@ -33,7 +33,7 @@ use metrics::{step_metrics, tracking_metrics, StepMetrics, TrackingMetrics};
 use pid::{Pid, PidGains, PidSettings, DEFAULT_DERIVATIVE_FILTER_N};
 use plant::{AngleModel, PneumaticLine, PneumaticSettings, QuasiStaticMap};
 use reference::Reference;
-use tune::{identify_fopdt, simc_gains, Fopdt};
+use tune::{effective_dead_time_s, identify_fopdt, simc_gains, Fopdt, DEFAULT_TAU_C_PER_DEAD_TIME};
 
 /// Default sample time of the controller, s (100 Hz, a typical embedded loop).
 pub const DEFAULT_SAMPLE_S: f64 = 0.01;
@@ -92,7 +92,7 @@ pub enum GainChoice {
     /// Given by the user.
     Given(PidGains),
     /// SIMC on an FOPDT model identified from an open-loop step (closed-loop time
-    /// constant τc, None: the dead time).
+    /// constant τc, None: 1.5 effective dead times, see [`tune`]).
     Tune {
         /// τc, s.
         tau_c_s: Option<f64>,
@@ -247,7 +247,8 @@ pub fn tune_on_map(
             from_kpa: from,
             to_kpa: to,
             model,
-            tau_c_s: tau_c_s.unwrap_or(model.dead_time_s + 0.5 * sample_s),
+            tau_c_s: tau_c_s
+                .unwrap_or(DEFAULT_TAU_C_PER_DEAD_TIME * effective_dead_time_s(&model, sample_s)),
         },
     ))
 }
