@@ -153,8 +153,12 @@ impl Pid {
         self.previous_deg = Some(measured_deg);
         let v = p + self.integral_kpa + self.derivative_kpa;
         let u = v.clamp(s.min_kpa, s.max_kpa);
-        self.integral_kpa +=
-            g.ki_kpa_per_deg_s * h * (reference_deg - measured_deg) + h / self.tracking_s * (u - v);
+        // Without integral action there is nothing to wind up: the integral only holds
+        // the starting output (bias).
+        if g.ki_kpa_per_deg_s > 0.0 {
+            self.integral_kpa += g.ki_kpa_per_deg_s * h * (reference_deg - measured_deg)
+                + h / self.tracking_s * (u - v);
+        }
         (u, u != v)
     }
 }

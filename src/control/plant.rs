@@ -382,7 +382,7 @@ impl PneumaticSettings {
                 format!("{}: give a resolution >= 0", self.resolution_kpa),
             );
         }
-        if !(self.rate_limit_kpa_s > 0.0) {
+        if self.rate_limit_kpa_s.is_nan() || self.rate_limit_kpa_s <= 0.0 {
             return bad(
                 "rate-limit-kpa-s",
                 format!("{}: give a rate > 0 (inf for none)", self.rate_limit_kpa_s),

@@ -133,7 +133,7 @@ pub fn identify_fopdt(t_s: &[f64], dy_deg: &[f64], du_kpa: f64) -> Result<Fopdt,
     }
     let tail = &dy_deg[dy_deg.len() - dy_deg.len() / 10..];
     let total = tail.iter().sum::<f64>() / tail.len() as f64;
-    if !(total.abs() > 1e-9) {
+    if total.is_nan() || total.abs() <= 1e-9 {
         return Err(fail(
             "the open-loop step did not move the angle: check the map and the regulator range"
                 .into(),
