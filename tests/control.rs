@@ -11,7 +11,8 @@ use std::sync::OnceLock;
 use common::{col, Run};
 
 /// The reference actuator simulated once per test run on a coarse mesh (4 mm) from 0 to
-/// 115 kPa: the plant of the tests.
+/// 100 kPa in 10 kPa steps: the plant of the tests (11 steps, the costliest part of the
+/// run).
 fn reference_plant() -> &'static Path {
     static D: OnceLock<PathBuf> = OnceLock::new();
     D.get_or_init(|| {
@@ -25,7 +26,7 @@ fn reference_plant() -> &'static Path {
                 "--mesh-size",
                 "4",
                 "--pressures",
-                "0:115:5",
+                "0:100:10",
                 "--no-vtu",
                 "-o",
                 "fem",
@@ -189,7 +190,8 @@ fn tuned_step_to_90_degrees_settles_without_much_overshoot() {
         col(&h, name);
     }
     let p = column(&csv, "pressure_kpa");
-    assert!(p.iter().all(|p| (0.0..=115.0).contains(p)));
+    assert!(p.iter().all(|p| (0.0..=100.0).contains(p)));
+    eprintln!("tuned 90-degree step: {m}");
     for plot in ["angle.png", "angle.svg", "pressure.png", "pressure.svg"] {
         assert!(out.join("plots").join(plot).is_file(), "{plot}");
     }
@@ -258,9 +260,9 @@ fn a_target_beyond_reach_warns_and_keeps_the_pressure_bounded() {
 fn fem_in_the_loop_agrees_with_the_map_on_a_slow_ramp() {
     let plant = reference_plant();
     let dir = tempfile::tempdir().unwrap();
-    // From 5 to 35 degrees above rest in 2 s, sampled at 50 Hz: 121 FEM solves.
+    // From 5 to 35 degrees above rest in 1.5 s, sampled at 20 Hz: 37 FEM solves.
     let rest = resting_deg(plant);
-    let ramp = format!("{}:{}:2", rest + 5.0, rest + 35.0);
+    let ramp = format!("{}:{}:1.5", rest + 5.0, rest + 35.0);
     let run = Run::new(
         dir.path(),
         &[
@@ -270,9 +272,9 @@ fn fem_in_the_loop_agrees_with_the_map_on_a_slow_ramp() {
             "--ramp",
             &ramp,
             "--duration-s",
-            "2.4",
+            "1.8",
             "--sample-time-s",
-            "0.02",
+            "0.05",
             "--fem-in-loop",
             "-o",
             "out",
@@ -284,7 +286,8 @@ fn fem_in_the_loop_agrees_with_the_map_on_a_slow_ramp() {
     let fem = &m["fem_in_loop"];
     let diff = fem["max_abs_difference_deg"].as_f64().unwrap();
     assert!(diff < 1.0, "FEM vs map {diff} deg: {m}");
-    assert!(fem["solves"].as_u64().unwrap() > 50, "{fem}");
+    assert!(fem["solves"].as_u64().unwrap() > 30, "{fem}");
+    eprintln!("FEM in the loop: {fem}");
     let a = column(&out.join("control.csv"), "angle_deg");
     let b = column(&out.join("control_map.csv"), "angle_deg");
     assert_eq!(a.len(), b.len());
