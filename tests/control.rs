@@ -239,13 +239,13 @@ fn a_target_beyond_reach_warns_and_keeps_the_pressure_bounded() {
     let p = column(&csv, "pressure_kpa");
     let y = column(&csv, "angle_deg");
     assert!(
-        cmd.iter().all(|c| (0.0..=115.0).contains(c)),
+        cmd.iter().all(|c| (0.0..=100.0).contains(c)),
         "command out of range"
     );
-    assert!(p.iter().all(|c| (0.0..=115.0 + 1e-9).contains(c)));
+    assert!(p.iter().all(|c| (0.0..=100.0 + 1e-9).contains(c)));
     // Saturated at the top during the first phase.
     let at = |s: f64| t.iter().position(|v| *v >= s).unwrap();
-    assert!((cmd[at(2.5)] - 115.0).abs() < 1e-9, "{}", cmd[at(2.5)]);
+    assert!((cmd[at(2.5)] - 100.0).abs() < 1e-9, "{}", cmd[at(2.5)]);
     // Back within 2 degrees within 1.5 s of the switch.
     assert!(
         y[at(4.5)..].iter().all(|v| (v - low).abs() < 2.0),
