@@ -442,7 +442,9 @@ impl PneumaticLine {
     }
 
     /// The regulator's set-point for a command: clamped to the range and rounded to the
-    /// resolution (then clamped again, the range ends need not be multiples of it).
+    /// resolution; a rounded value beyond the range is clamped back into it (so a range
+    /// end that is not a multiple of the resolution gives the nearest step: 100.0 for a
+    /// 100.2 kPa top with 0.5 kPa steps).
     pub fn setpoint_kpa(&self, command_kpa: f64) -> f64 {
         let s = &self.settings;
         let c = command_kpa.clamp(s.min_kpa, s.max_kpa);
@@ -627,7 +629,9 @@ mod tests {
         );
         assert_eq!(line.setpoint_kpa(-3.0), 0.0);
         assert_eq!(line.setpoint_kpa(12.26), 12.5);
-        assert_eq!(line.setpoint_kpa(500.0), 100.2);
+        // The top of the range is not a multiple of the resolution: the regulator gives
+        // the highest step within the range.
+        assert_eq!(line.setpoint_kpa(500.0), 100.0);
     }
 
     #[test]
