@@ -441,10 +441,9 @@ impl PneumaticLine {
         self.pressure_kpa
     }
 
-    /// The regulator's set-point for a command: clamped to the range and rounded to the
-    /// resolution; a rounded value beyond the range is clamped back into it (so a range
-    /// end that is not a multiple of the resolution gives the nearest step: 100.0 for a
-    /// 100.2 kPa top with 0.5 kPa steps).
+    /// The regulator's set-point for a command: clamped to the range, rounded to the
+    /// nearest step of the resolution, and a rounded value beyond an end of the range
+    /// clamped to that end.
     pub fn setpoint_kpa(&self, command_kpa: f64) -> f64 {
         let s = &self.settings;
         let c = command_kpa.clamp(s.min_kpa, s.max_kpa);
