@@ -32,6 +32,7 @@
 pub mod acquire;
 pub mod calib;
 pub mod compare;
+pub mod control;
 pub mod detect;
 pub mod fem;
 pub mod fit;

@@ -14,6 +14,7 @@ pub(crate) use out;
 pub mod acquire;
 pub mod calibrate;
 pub mod compare;
+pub mod control;
 pub mod demo;
 pub mod optimize;
 pub mod process;
@@ -64,6 +65,8 @@ pub enum Command {
     Compare(compare::CompareArgs),
     /// Drive the pressure regulator and the camera through a protocol: record a session.
     Acquire(acquire::AcquireArgs),
+    /// Close the loop: a PID bends the simulated actuator to a reference angle.
+    Control(control::ControlArgs),
     /// Run the whole chain on a simulated actuator: simulate, render, calibrate, process, compare.
     Demo(demo::DemoArgs),
     /// Run a multi-factor design of simulations (local pool, GNU parallel or Slurm) into designs.csv.

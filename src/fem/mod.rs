@@ -25,6 +25,7 @@ pub mod output;
 pub mod pressure;
 pub mod simulate;
 pub mod solve;
+pub mod stepper;
 pub mod vtu;
 
 /// Errors of the finite-element model.
