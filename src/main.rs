@@ -16,6 +16,8 @@ fn main() -> ExitCode {
         cli::Command::Render(a) => cli::render::run(a),
         cli::Command::Compare(a) => cli::compare::run(a),
         cli::Command::Demo(a) => cli::demo::run(a),
+        cli::Command::Material(a) => cli::material::run(a),
+        cli::Command::FitModel(a) => cli::fit_model::run(a),
     };
     match result {
         Ok(code) => ExitCode::from(code),

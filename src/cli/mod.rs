@@ -14,6 +14,8 @@ pub(crate) use out;
 pub mod calibrate;
 pub mod compare;
 pub mod demo;
+pub mod fit_model;
+pub mod material;
 pub mod process;
 pub mod render;
 pub mod scale;
@@ -60,6 +62,10 @@ pub enum Command {
     Compare(compare::CompareArgs),
     /// Run the whole chain on a simulated actuator: simulate, render, calibrate, process, compare.
     Demo(demo::DemoArgs),
+    /// Fit a hyperelastic model to uniaxial tensile data; list the material presets.
+    Material(material::MaterialArgs),
+    /// Fit model parameters (geometry, material) to a measurement (process output).
+    FitModel(fit_model::FitModelArgs),
 }
 
 /// A progress bar on stderr (drawn only when stderr is a terminal).
