@@ -14,6 +14,24 @@ use std::path::Path;
 use bendscope::render::rng::SplitMix64;
 use common::{read_csv, col, Run};
 
+/// Runs the binary: the one cargo built for this test, or `BENDSCOPE_BIN` when set (a
+/// target folder shared by several checkouts may hold another checkout's binary).
+fn exec(cwd: &Path, args: &[&str]) -> Run {
+    let Some(bin) = std::env::var_os("BENDSCOPE_BIN") else {
+        return Run::new(cwd, args);
+    };
+    let o = std::process::Command::new(bin)
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .expect("the bendscope binary runs");
+    Run {
+        code: o.status.code().unwrap_or(-1),
+        stdout: String::from_utf8_lossy(&o.stdout).into_owned(),
+        stderr: String::from_utf8_lossy(&o.stderr).into_owned(),
+    }
+}
+
 fn json(path: &Path) -> serde_json::Value {
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     serde_json::from_str(&text).unwrap()
@@ -66,7 +84,7 @@ fn material_fit_gives_back_exact_yeoh_and_writes_a_block_simulate_reads() {
         let pts: Vec<(f64, f64)> = stretches(1.0, 3.5, 26).iter().map(|l| (*l, yeoh(&c, *l))).collect();
         tensile_csv(&d.join("t.csv"), &pts);
         let out = d.join(model);
-        let run = Run::new(d, &["material", "fit", "t.csv", "--model", model, "-o", out.to_str().unwrap()]);
+        let run = exec(d, &["material", "fit", "t.csv", "--model", model, "-o", out.to_str().unwrap()]);
         assert_eq!(run.code, 0, "{run}");
         let j = json(&out.join("material_fit.json"));
         for (name, want) in ["C10_mpa", "C20_mpa", "C30_mpa"].iter().zip(&c) {
@@ -76,7 +94,7 @@ fn material_fit_gives_back_exact_yeoh_and_writes_a_block_simulate_reads() {
         assert!(j["fit"]["r_squared"].as_f64().unwrap() > 1.0 - 1e-9);
         assert_eq!(j["fit"]["stability"]["stable"], true);
         // The block is a config simulate reads, with the coefficients.
-        let cfg = Run::new(d, &["simulate", "--config", out.join("material.toml").to_str().unwrap(), "--print-config"]);
+        let cfg = exec(d, &["simulate", "--config", out.join("material.toml").to_str().unwrap(), "--print-config"]);
         assert_eq!(cfg.code, 0, "{cfg}");
         let printed: toml::Table = toml::from_str(&cfg.stdout).unwrap();
         let c1 = printed["material"]["c1"].as_float().unwrap();
@@ -96,7 +114,7 @@ fn material_fit_of_noisy_ogden_data_follows_the_curve_and_flags_instability() {
         .map(|l| (*l, ogden(&TRELOAR_OGDEN, *l) * (1.0 + 0.01 * rng.normal())))
         .collect();
     tensile_csv(&d.join("treloar.csv"), &pts);
-    let run = Run::new(d, &["material", "fit", "treloar.csv", "--model", "yeoh3", "-o", "y3"]);
+    let run = exec(d, &["material", "fit", "treloar.csv", "--model", "yeoh3", "-o", "y3"]);
     assert!(run.code == 0 || run.code == 1, "{run}");
     let j = json(&d.join("y3/material_fit.json"));
     let r2 = j["fit"]["r_squared"].as_f64().unwrap();
@@ -118,7 +136,7 @@ fn material_fit_of_noisy_ogden_data_follows_the_curve_and_flags_instability() {
         .map(|l| (*l, ogden(&[(0.05, 1.2)], *l) * (1.0 + 0.005 * rng.normal())))
         .collect();
     tensile_csv(&d.join("soft.csv"), &soft);
-    let run = Run::new(d, &["material", "fit", "soft.csv", "--model", "yeoh2", "-o", "soft"]);
+    let run = exec(d, &["material", "fit", "soft.csv", "--model", "yeoh2", "-o", "soft"]);
     assert_eq!(run.code, 1, "{run}");
     assert!(run.stderr.contains("unstable (Drucker) in uniaxial tension"), "{run}");
     assert!(run.stderr.contains("--nonnegative"), "{run}");
@@ -127,7 +145,7 @@ fn material_fit_of_noisy_ogden_data_follows_the_curve_and_flags_instability() {
     assert!(j["parameters"]["C20_mpa"].as_f64().unwrap() < 0.0);
     assert_eq!(j["fit"]["stability"]["stable"], false);
     // Held non-negative: C20 = 0, stable, a block.
-    let run = Run::new(d, &["material", "fit", "soft.csv", "--model", "yeoh2", "--nonnegative", "-o", "soft"]);
+    let run = exec(d, &["material", "fit", "soft.csv", "--model", "yeoh2", "--nonnegative", "-o", "soft"]);
     assert_eq!(run.code, 0, "{run}");
     assert!(d.join("soft/material.toml").exists());
     let j = json(&d.join("soft/material_fit.json"));
@@ -145,7 +163,7 @@ fn mooney_rivlin_is_fitted_but_gives_no_block_and_bad_files_are_refused() {
         s.push_str(&format!("{l},{}\n", 2.0 * (l - l.powi(-2)) * (c10 + c01 / l)));
     }
     write(&d.join("mr.csv"), &s);
-    let run = Run::new(d, &["material", "fit", "mr.csv", "--model", "mooney-rivlin2", "-o", "mr"]);
+    let run = exec(d, &["material", "fit", "mr.csv", "--model", "mooney-rivlin2", "-o", "mr"]);
     assert_eq!(run.code, 1, "{run}");
     assert!(run.stderr.contains("Yeoh only"), "{run}");
     assert!(!d.join("mr/material.toml").exists());
@@ -154,10 +172,10 @@ fn mooney_rivlin_is_fitted_but_gives_no_block_and_bad_files_are_refused() {
     assert!((got.0 / c10 - 1.0).abs() < 0.01 && (got.1 / c01 - 1.0).abs() < 0.01, "{got:?}");
 
     write(&d.join("bad.csv"), "strain_pct,force_n\n10,1\n20,2\n");
-    Run::new(d, &["material", "fit", "bad.csv"]).assert_bad_input(&["bad.csv", "no stress column", "stress_kpa"]);
+    exec(d, &["material", "fit", "bad.csv"]).assert_bad_input(&["bad.csv", "no stress column", "stress_kpa"]);
     write(&d.join("bad2.csv"), "strain_pct,stress_kpa\n10,1\n20,x\n");
-    Run::new(d, &["material", "fit", "bad2.csv"]).assert_bad_input(&["line 3", "stress_kpa", "not a number"]);
-    Run::new(d, &["material", "fit", "mr.csv", "--model", "ogden9"]).assert_bad_input(&["ogden9"]);
+    exec(d, &["material", "fit", "bad2.csv"]).assert_bad_input(&["line 3", "stress_kpa", "not a number"]);
+    exec(d, &["material", "fit", "mr.csv", "--model", "ogden9"]).assert_bad_input(&["ogden9"]);
 }
 
 /// A process-shaped per_video.csv from a simulation's steps.csv.
@@ -183,11 +201,11 @@ fn fit_model_finds_the_material_scale_and_the_bottom_thickness() {
         &d.join("truth.toml"),
         &format!("{base}[geometry]\nf = 5.0\n[material]\nscale = 0.7\n"),
     );
-    let sim = Run::new(d, &["simulate", "--config", "truth.toml", "--no-vtu", "-o", "truth"]);
+    let sim = exec(d, &["simulate", "--config", "truth.toml", "--no-vtu", "-o", "truth"]);
     assert_eq!(sim.code, 0, "{sim}");
     per_video_from_steps(&d.join("truth/steps.csv"), &d.join("measured"));
 
-    let run = Run::new(
+    let run = exec(
         d,
         &["fit-model", "--measured", "measured", "--config", "base.toml", "--free", "material.scale,geometry.f", "-o", "fit"],
     );
@@ -209,7 +227,7 @@ fn fit_model_finds_the_material_scale_and_the_bottom_thickness() {
         j["simulations"]["cold_steps"]
     );
     // fitted.toml is a config simulate accepts, with the fitted values.
-    let cfg = Run::new(d, &["simulate", "--config", "fit/fitted.toml", "--print-config"]);
+    let cfg = exec(d, &["simulate", "--config", "fit/fitted.toml", "--print-config"]);
     assert_eq!(cfg.code, 0, "{cfg}");
     let printed: toml::Table = toml::from_str(&cfg.stdout).unwrap();
     assert!((printed["material"]["scale"].as_float().unwrap() - scale).abs() < 1e-9);
@@ -219,8 +237,8 @@ fn fit_model_finds_the_material_scale_and_the_bottom_thickness() {
     assert!(rows.iter().all(|r| r[col(&h, "radius_dev_pct")].parse::<f64>().unwrap().abs() < 0.5));
 
     // Bad requests: one line, exit 2, before any simulation.
-    Run::new(d, &["fit-model", "--measured", "measured", "--config", "base.toml", "--free", "geometry.zz", "-o", "x"])
+    exec(d, &["fit-model", "--measured", "measured", "--config", "base.toml", "--free", "geometry.zz", "-o", "x"])
         .assert_bad_input(&["geometry.zz", "no such field"]);
-    Run::new(d, &["fit-model", "--measured", "nowhere", "--free", "f", "-o", "x"])
+    exec(d, &["fit-model", "--measured", "nowhere", "--free", "f", "-o", "x"])
         .assert_bad_input(&["per_video.csv"]);
 }
