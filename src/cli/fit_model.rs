@@ -117,12 +117,14 @@ pub fn run(args: &FitModelArgs) -> Result<u8> {
     for n in &fit.notes {
         eprintln!("warning: {n}");
     }
-    Ok(if fit.termination.contains("Converged")
-        || fit.termination.contains("Orthogonal")
-        || fit.termination.contains("ResidualsZero")
-    {
-        EXIT_OK
-    } else {
-        EXIT_PARTIAL
-    })
+    Ok(
+        if fit.termination.contains("Converged")
+            || fit.termination.contains("Orthogonal")
+            || fit.termination.contains("ResidualsZero")
+        {
+            EXIT_OK
+        } else {
+            EXIT_PARTIAL
+        },
+    )
 }

@@ -103,7 +103,11 @@ fn run_fit(args: &FitArgs) -> Result<u8> {
         fit.rmse_mpa * 1e3,
         fit.initial_shear_modulus_mpa
     );
-    for ((n, c), e) in names.iter().zip(&fit.model.coefficients).zip(&fit.std_errors) {
+    for ((n, c), e) in names
+        .iter()
+        .zip(&fit.model.coefficients)
+        .zip(&fit.std_errors)
+    {
         super::out!("  {n} = {c:.6e} MPa  (+/- {e:.2e})");
     }
     let s = &fit.stability;

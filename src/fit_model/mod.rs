@@ -181,7 +181,11 @@ fn to_q(f: &FreeParameter, p: f64) -> f64 {
 
 impl Problem<'_> {
     fn values(&self, q: &DVector<f64>) -> Vec<f64> {
-        self.free.iter().zip(q.iter()).map(|(f, q)| to_p(f, *q)).collect()
+        self.free
+            .iter()
+            .zip(q.iter())
+            .map(|(f, q)| to_p(f, *q))
+            .collect()
     }
 
     fn curve(&self, p: &[f64]) -> Option<ModelCurve> {
@@ -210,12 +214,15 @@ impl Problem<'_> {
     fn residuals_of(&self, c: &ModelCurve) -> DVector<f64> {
         DVector::from_iterator(
             self.row_index.len(),
-            self.row_index.iter().enumerate().map(|(row, k)| match self.quantity {
-                Quantity::Radius => c.radius_mm[*k] / self.measured.radius_mm[row] - 1.0,
-                Quantity::Curvature => {
-                    c.curvature_per_m[*k] / self.measured.curvature_per_m[row] - 1.0
-                }
-            }),
+            self.row_index
+                .iter()
+                .enumerate()
+                .map(|(row, k)| match self.quantity {
+                    Quantity::Radius => c.radius_mm[*k] / self.measured.radius_mm[row] - 1.0,
+                    Quantity::Curvature => {
+                        c.curvature_per_m[*k] / self.measured.curvature_per_m[row] - 1.0
+                    }
+                }),
         )
     }
 
@@ -326,10 +333,7 @@ pub fn fit_model(
         evaluations: 1,
         rms_rel_pct: None,
     });
-    let q0 = DVector::from_iterator(
-        free.len(),
-        free.iter().map(|f| to_q(f, f.initial)),
-    );
+    let q0 = DVector::from_iterator(free.len(), free.iter().map(|f| to_q(f, f.initial)));
     let problem = Problem {
         base,
         free,
@@ -360,7 +364,11 @@ pub fn fit_model(
         .jacobian_in_p(&p)
         .and_then(|j| (j.transpose() * &j).try_inverse())
         .filter(|_| m > k)
-        .map(|cov| (0..k).map(|i| (cov[(i, i)] * sse / (m - k) as f64).sqrt()).collect())
+        .map(|cov| {
+            (0..k)
+                .map(|i| (cov[(i, i)] * sse / (m - k) as f64).sqrt())
+                .collect()
+        })
         .unwrap_or_else(|| vec![f64::NAN; k]);
     let config = with_values(base, free, &p)?;
     let mut notes = Vec::new();
@@ -397,7 +405,11 @@ pub fn fit_model(
         .sqrt();
     let rms = |r: &DVector<f64>| 100.0 * (r.norm_squared() / r.len() as f64).sqrt();
     Ok(ModelFit {
-        parameters: free.iter().map(|f| f.name.clone()).zip(p.iter().copied()).collect(),
+        parameters: free
+            .iter()
+            .map(|f| f.name.clone())
+            .zip(p.iter().copied())
+            .collect(),
         std_errors: free.iter().map(|f| f.name.clone()).zip(std).collect(),
         free: free.to_vec(),
         config,

@@ -42,7 +42,11 @@ pub fn report_json(fit: &ModelFit, measured: &Measured) -> Value {
 }
 
 /// Writes every output of a fit into `out`.
-pub fn write_fit_model(out: &Path, fit: &ModelFit, measured: &Measured) -> Result<(), FitModelError> {
+pub fn write_fit_model(
+    out: &Path,
+    fit: &ModelFit,
+    measured: &Measured,
+) -> Result<(), FitModelError> {
     std::fs::create_dir_all(out.join("plots")).map_err(output)?;
     let text = toml::to_string_pretty(&fit.config).map_err(output)?;
     let header = format!(
@@ -54,7 +58,11 @@ pub fn write_fit_model(out: &Path, fit: &ModelFit, measured: &Measured) -> Resul
             .collect::<Vec<_>>()
             .join(", ")
     );
-    write_atomic(&out.join("fitted.toml"), format!("{header}{text}").as_bytes()).map_err(output)?;
+    write_atomic(
+        &out.join("fitted.toml"),
+        format!("{header}{text}").as_bytes(),
+    )
+    .map_err(output)?;
     write_json(&out.join("fit_model.json"), &report_json(fit, measured)).map_err(output)?;
     let at = |c: &super::ModelCurve, q: Quantity, p: f64| -> f64 {
         let k = c
@@ -68,7 +76,11 @@ pub fn write_fit_model(out: &Path, fit: &ModelFit, measured: &Measured) -> Resul
         }
     };
     let rows = &measured.pressure_kpa;
-    let r = |c: &super::ModelCurve| rows.iter().map(|p| at(c, Quantity::Radius, *p)).collect::<Vec<_>>();
+    let r = |c: &super::ModelCurve| {
+        rows.iter()
+            .map(|p| at(c, Quantity::Radius, *p))
+            .collect::<Vec<_>>()
+    };
     let fitted_r = r(&fit.fitted);
     write_csv(
         &out.join("fit_model.csv"),
@@ -85,17 +97,26 @@ pub fn write_fit_model(out: &Path, fit: &ModelFit, measured: &Measured) -> Resul
                     .zip(&measured.radius_mm)
                     .map(|(f, m)| 100.0 * (f / m - 1.0)),
             ),
-            Column::num("measured_curvature_per_m", 4, measured.curvature_per_m.iter().copied()),
+            Column::num(
+                "measured_curvature_per_m",
+                4,
+                measured.curvature_per_m.iter().copied(),
+            ),
             Column::num(
                 "fitted_curvature_per_m",
                 4,
-                rows.iter().map(|p| at(&fit.fitted, Quantity::Curvature, *p)),
+                rows.iter()
+                    .map(|p| at(&fit.fitted, Quantity::Curvature, *p)),
             ),
         ],
     )
     .map_err(output)?;
     let (y_label, title, meas): (&str, &str, &[f64]) = match fit.quantity {
-        Quantity::Radius => ("radius (mm)", "Radius vs pressure: measured and model", &measured.radius_mm),
+        Quantity::Radius => (
+            "radius (mm)",
+            "Radius vs pressure: measured and model",
+            &measured.radius_mm,
+        ),
         Quantity::Curvature => (
             "curvature (1/m)",
             "Curvature vs pressure: measured and model",

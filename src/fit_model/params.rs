@@ -83,7 +83,10 @@ pub fn parse_free(spec: &str, cfg: &ActuatorConfig) -> Result<Vec<FreeParameter>
         let initial = match table.get(&field) {
             Some(toml::Value::Float(v)) => *v,
             Some(toml::Value::Integer(_)) => {
-                return Err(bad(&full, "a whole number cannot be fitted (it is not continuous)"))
+                return Err(bad(
+                    &full,
+                    "a whole number cannot be fitted (it is not continuous)",
+                ))
             }
             Some(_) => return Err(bad(&full, "not a number")),
             None if section == "material" && field == "c1" => material.c1 / s,
@@ -92,7 +95,12 @@ pub fn parse_free(spec: &str, cfg: &ActuatorConfig) -> Result<Vec<FreeParameter>
             None if section == "material" && field == "bulk_modulus_mpa" => {
                 material.bulk_modulus / s
             }
-            None => return Err(bad(&full, format!("no such field in [{section}] (see bendscope simulate --print-config)"))),
+            None => {
+                return Err(bad(
+                    &full,
+                    format!("no such field in [{section}] (see bendscope simulate --print-config)"),
+                ))
+            }
         };
         let (lower, upper) = match bounds {
             Some(b) => {
@@ -108,7 +116,10 @@ pub fn parse_free(spec: &str, cfg: &ActuatorConfig) -> Result<Vec<FreeParameter>
                 };
                 (num(lo)?, num(hi)?)
             }
-            None if initial > 0.0 => (initial / DEFAULT_BOUND_FACTOR, initial * DEFAULT_BOUND_FACTOR),
+            None if initial > 0.0 => (
+                initial / DEFAULT_BOUND_FACTOR,
+                initial * DEFAULT_BOUND_FACTOR,
+            ),
             None => {
                 return Err(bad(
                     &full,
@@ -138,7 +149,10 @@ pub fn parse_free(spec: &str, cfg: &ActuatorConfig) -> Result<Vec<FreeParameter>
         });
     }
     if out.is_empty() {
-        return Err(bad("--free", "no parameter named: e.g. --free material.scale,geometry.f"));
+        return Err(bad(
+            "--free",
+            "no parameter named: e.g. --free material.scale,geometry.f",
+        ));
     }
     Ok(out)
 }

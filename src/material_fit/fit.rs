@@ -358,10 +358,7 @@ mod tests {
             for nonneg in [false, true] {
                 let fit = fit_material(&exact(kind, &c, &l), kind, nonneg).unwrap();
                 for (got, want) in fit.model.coefficients.iter().zip(&c) {
-                    assert!(
-                        (got / want - 1.0).abs() < 0.01,
-                        "{kind:?}: {got} vs {want}"
-                    );
+                    assert!((got / want - 1.0).abs() < 0.01, "{kind:?}: {got} vs {want}");
                 }
                 assert!(fit.r_squared > 1.0 - 1e-9, "{}", fit.r_squared);
                 assert!(fit.stability.stable);

@@ -29,7 +29,9 @@ pub enum MaterialFitError {
         why: String,
     },
     /// A result file could not be written.
-    #[error("cannot write the material fit: {why}: check the output folder's space and permissions")]
+    #[error(
+        "cannot write the material fit: {why}: check the output folder's space and permissions"
+    )]
     Output {
         /// What failed.
         why: String,

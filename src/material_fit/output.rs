@@ -49,9 +49,12 @@ pub fn material_block(fit: &MaterialFit) -> MaterialBlock {
             "C10 = {c1:.4e} MPa is not positive: the data give no usable stiffness; check the stress column and its unit"
         ));
     }
-    if let Some((name, v)) = [("C20", c2), ("C30", c3)].into_iter().find(|(_, v)| *v < 0.0) {
+    if let Some((name, v)) = [("C20", c2), ("C30", c3)]
+        .into_iter()
+        .find(|(_, v)| *v < 0.0)
+    {
         return MaterialBlock::Refused(format!(
-            "{name} = {v:.4e} MPa is negative, which the FEM's Yeoh material refuses (and which turns unstable at large strain): no [material] block written; refit with --nonnegative"
+            "{name} = {v:.4e} MPa is negative, which the FEM's Yeoh material refuses: no [material] block written; refit with --nonnegative"
         ));
     }
     MaterialBlock::Yeoh { c1, c2, c3 }
@@ -112,10 +115,11 @@ pub fn write_material_fit(
     let block = material_block(fit);
     let toml_path = out.join("material.toml");
     match &block {
-        MaterialBlock::Yeoh { c1, c2, c3 } => {
-            write_atomic(&toml_path, material_toml(fit, data_path, (*c1, *c2, *c3)).as_bytes())
-                .map_err(output)?
-        }
+        MaterialBlock::Yeoh { c1, c2, c3 } => write_atomic(
+            &toml_path,
+            material_toml(fit, data_path, (*c1, *c2, *c3)).as_bytes(),
+        )
+        .map_err(output)?,
         MaterialBlock::Refused(_) => match std::fs::remove_file(&toml_path) {
             Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(output(e)),
             _ => {}
@@ -132,7 +136,11 @@ pub fn write_material_fit(
         &out.join("material_fit.csv"),
         &[
             Column::num("stretch", 6, data.stretch.iter().copied()),
-            Column::num(format!("stress_{}", unit.name()), 6, in_unit(&data.stress_mpa)),
+            Column::num(
+                format!("stress_{}", unit.name()),
+                6,
+                in_unit(&data.stress_mpa),
+            ),
             Column::num(format!("fitted_{}", unit.name()), 6, in_unit(&fitted)),
         ],
     )
@@ -148,7 +156,11 @@ pub fn write_material_fit(
     let label = format!("{} fit", fit.model.kind.name());
     plot_xy(
         &out.join("plots").join("material_fit"),
-        &format!("Uniaxial nominal stress, {} (R² {:.4})", fit.model.kind.name(), fit.r_squared),
+        &format!(
+            "Uniaxial nominal stress, {} (R² {:.4})",
+            fit.model.kind.name(),
+            fit.r_squared
+        ),
         "stretch",
         &format!("nominal stress ({})", unit.name()),
         &[
@@ -218,6 +230,8 @@ mod tests {
         assert!((y.c1 / 0.0127 - 1.0).abs() < 1e-6 && (y.c2 / 4.23e-4 - 1.0).abs() < 1e-6);
         assert_eq!(y.c3, 0.0);
         let mr = fit_material(&data, ModelKind::MooneyRivlin2, false).unwrap();
-        assert!(matches!(material_block(&mr), MaterialBlock::Refused(w) if w.contains("Yeoh only")));
+        assert!(
+            matches!(material_block(&mr), MaterialBlock::Refused(w) if w.contains("Yeoh only"))
+        );
     }
 }
