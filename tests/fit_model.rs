@@ -275,7 +275,13 @@ fn mooney_rivlin_is_fitted_but_gives_no_block_and_bad_files_are_refused() {
         "stress_kpa",
         "not a number",
     ]);
-    exec(d, &["material", "fit", "mr.csv", "--model", "ogden9"]).assert_bad_input(&["ogden9"]);
+    // An unknown model is clap's usage error: exit 2, the model named.
+    let bad_model = exec(d, &["material", "fit", "mr.csv", "--model", "ogden9"]);
+    assert_eq!(bad_model.code, 2, "{bad_model}");
+    assert!(
+        bad_model.stderr.contains("unknown model 'ogden9'"),
+        "{bad_model}"
+    );
 }
 
 /// A process-shaped per_video.csv from a simulation's steps.csv.
