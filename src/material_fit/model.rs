@@ -347,7 +347,13 @@ mod tests {
     #[test]
     fn drucker_tangent_is_the_hessian_of_the_energy_in_log_strains() {
         for m in models() {
-            for (l1, l2) in [(1.0, 1.0), (1.7, 0.8), (0.6, 1.4), (2.5, 2.5), (3.0, 1.0)] {
+            for (l1, l2) in [
+                (1.0f64, 1.0f64),
+                (1.7, 0.8),
+                (0.6, 1.4),
+                (2.5, 2.5),
+                (3.0, 1.0),
+            ] {
                 let w = |e1: f64, e2: f64| {
                     let (i1, i2) = invariants(e1.exp(), e2.exp());
                     m.energy(i1, i2)
