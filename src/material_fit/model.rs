@@ -393,11 +393,14 @@ mod tests {
             .iter()
             .find(|u| u.mode == Mode::Uniaxial && u.side == "tension")
             .expect("uniaxial tension unstable");
-        // Drucker asks more than dP/dλ > 0 along the path: it fails there or earlier.
+        // Along the uniaxial path dτ : dε = dε1² d(λP)/d(ln λ) (true stress τ = λP), so
+        // Drucker fails there or earlier: where the true stress stops rising with the log
+        // strain (not the nominal stress with the stretch: that turns first).
         let p = |l: f64| models()[1].uniaxial_nominal_stress(l);
+        let tau = |l: f64| l * p(l);
         let turn = (1..1000)
             .map(|k| 1.0 + 2.0 * k as f64 / 1000.0)
-            .find(|l| p(l + 1e-4) <= p(*l))
+            .find(|l| tau(l * 1.0001) <= tau(*l))
             .unwrap_or(3.0);
         assert!(turn < 2.35, "{turn}");
         assert!(uni.first_stretch <= turn + 0.01, "{uni:?} vs turn {turn}");
