@@ -21,6 +21,8 @@ fn main() -> ExitCode {
         cli::Command::Surrogate(a) => cli::surrogate::run(a),
         cli::Command::Optimize(a) => cli::optimize::run(a),
         cli::Command::Acquire(a) => cli::acquire::run(a),
+        cli::Command::Material(a) => cli::material::run(a),
+        cli::Command::FitModel(a) => cli::fit_model::run(a),
     };
     match result {
         Ok(code) => ExitCode::from(code),

@@ -17,6 +17,8 @@ pub mod compare;
 pub mod control;
 pub mod demo;
 pub mod optimize;
+pub mod fit_model;
+pub mod material;
 pub mod process;
 pub mod render;
 pub mod scale;
@@ -75,6 +77,10 @@ pub enum Command {
     Surrogate(surrogate::SurrogateArgs),
     /// Optimize a design on surrogates of designs.csv; re-simulate the best with the FEM.
     Optimize(optimize::OptimizeArgs),
+    /// Fit a hyperelastic model to uniaxial tensile data; list the material presets.
+    Material(material::MaterialArgs),
+    /// Fit model parameters (geometry, material) to a measurement (process output).
+    FitModel(fit_model::FitModelArgs),
 }
 
 /// A progress bar on stderr (drawn only when stderr is a terminal).

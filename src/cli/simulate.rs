@@ -19,7 +19,7 @@ use super::{EXIT_BAD_INPUT, EXIT_NOTHING, EXIT_OK, EXIT_PARTIAL};
 side_face.json (the filmed face per step, input of bendscope render), vtu/ + actuator.pvd (deformed mesh, displacement and stress, for ParaView), plots/, config.toml (the resolved \
 actuator), summary.json; with --blocked force.csv; with --sweep sweep.csv.
 Config sections: [geometry] chambers b i f m p r c g d e l n top_wall roof (mm, method.md §4 names); \
-[material] preset c1 c2 c3 bulk_modulus_mpa density_g_cm3 tensile_strength_mpa; [mesh] size_mm; \
+[material] preset c1 c2 c3 bulk_modulus_mpa density_g_cm3 tensile_strength_mpa scale; [mesh] size_mm; \
 [load] pressures_kpa gravity; [solver] max_iterations tolerance. Print the defaults with --print-config."
 )]
 pub struct SimulateArgs {
@@ -45,7 +45,7 @@ pub struct SimulateArgs {
         allow_hyphen_values = true
     )]
     pub pressures: Option<String>,
-    /// Material preset: proposed, stiffer, softer, ecoflex0030.
+    /// Material preset: proposed, stiffer, softer, ecoflex0030, ecoflex0050, dragonskin10, dragonskin20.
     #[arg(long, value_name = "NAME")]
     pub material: Option<MaterialPreset>,
     /// Bulk modulus, MPa [default: 1000 x the initial shear modulus].

@@ -256,6 +256,9 @@ pub struct MaterialConfig {
     pub density_g_cm3: f64,
     /// Tensile strength, MPa (safety factor).
     pub tensile_strength_mpa: f64,
+    /// Factor on every coefficient (C1, C2, C3 and the bulk modulus): the whole strain
+    /// energy scaled, the stiffness fitted by `bendscope fit-model` (`material.scale`).
+    pub scale: f64,
 }
 
 impl Default for MaterialConfig {
@@ -268,20 +271,28 @@ impl Default for MaterialConfig {
             bulk_modulus_mpa: None,
             density_g_cm3: 1.08,
             tensile_strength_mpa: 3.447,
+            scale: 1.0,
         }
     }
 }
 
 impl MaterialConfig {
-    /// The Yeoh material, checked.
+    /// The Yeoh material (coefficients times `scale`), checked.
     pub fn yeoh(&self) -> Result<Yeoh, FemError> {
+        if !(self.scale.is_finite() && self.scale > 0.0) {
+            return Err(bad(
+                "scale",
+                format!("{}: the material scale must be positive", self.scale),
+            ));
+        }
         let base = self.preset.yeoh();
         let c1 = self.c1.unwrap_or(base.c1);
+        let s = self.scale;
         let m = Yeoh {
-            c1,
-            c2: self.c2.unwrap_or(base.c2),
-            c3: self.c3.unwrap_or(base.c3),
-            bulk_modulus: self
+            c1: s * c1,
+            c2: s * self.c2.unwrap_or(base.c2),
+            c3: s * self.c3.unwrap_or(base.c3),
+            bulk_modulus: s * self
                 .bulk_modulus_mpa
                 .unwrap_or(DEFAULT_BULK_TO_SHEAR * 2.0 * c1),
         };
@@ -532,7 +543,7 @@ impl ActuatorConfig {
         if !hit {
             return Err(bad(
                 name,
-                "no such parameter (geometry: chambers b i f m p r c g d e l n top_wall roof; material: c1 c2 c3 bulk_modulus_mpa density_g_cm3 tensile_strength_mpa; mesh: size_mm; solver: max_iterations tolerance)".into(),
+                "no such parameter (geometry: chambers b i f m p r c g d e l n top_wall roof; material: c1 c2 c3 bulk_modulus_mpa density_g_cm3 tensile_strength_mpa scale; mesh: size_mm; solver: max_iterations tolerance)".into(),
             ));
         }
         doc.try_into()

@@ -55,6 +55,15 @@ pub enum MaterialPreset {
     Softer,
     /// Ecoflex 00-30 (strap study).
     Ecoflex0030,
+    /// Ecoflex 00-50, Yeoh C1 = 0.0127, C2 = 4.23e-4 MPa (smartphone study, from the Soft
+    /// Robotics Toolkit).
+    Ecoflex0050,
+    /// Dragon Skin 10, neo-Hookean C1 = 0.0425 MPa (DOE study).
+    #[serde(rename = "dragonskin10")]
+    DragonSkin10,
+    /// Dragon Skin 20, neo-Hookean C1 = 0.031648 MPa (DOE study).
+    #[serde(rename = "dragonskin20")]
+    DragonSkin20,
 }
 
 impl std::str::FromStr for MaterialPreset {
@@ -65,14 +74,22 @@ impl std::str::FromStr for MaterialPreset {
             "stiffer" => Ok(Self::Stiffer),
             "softer" => Ok(Self::Softer),
             "ecoflex0030" | "ecoflex-00-30" | "ecoflex" => Ok(Self::Ecoflex0030),
+            "ecoflex0050" | "ecoflex-00-50" => Ok(Self::Ecoflex0050),
+            "dragonskin10" | "dragon-skin-10" => Ok(Self::DragonSkin10),
+            "dragonskin20" | "dragon-skin-20" => Ok(Self::DragonSkin20),
             other => Err(format!(
-                "unknown material '{other}': use proposed, stiffer, softer or ecoflex0030"
+                "unknown material '{other}': use {}",
+                MaterialPreset::NAMES
             )),
         }
     }
 }
 
 impl MaterialPreset {
+    /// Every preset's name, for messages.
+    pub const NAMES: &'static str =
+        "proposed, stiffer, softer, ecoflex0030, ecoflex0050, dragonskin10 or dragonskin20";
+
     /// The Yeoh coefficients with the default bulk modulus.
     pub fn yeoh(&self) -> Yeoh {
         let (c1, c2, c3) = match self {
@@ -80,6 +97,9 @@ impl MaterialPreset {
             MaterialPreset::Stiffer => (0.1, 0.119, 0.000604),
             MaterialPreset::Softer => (0.11488, 0.001262, 0.0),
             MaterialPreset::Ecoflex0030 => (0.1, 0.012, 4.96e-5),
+            MaterialPreset::Ecoflex0050 => (0.0127, 4.23e-4, 0.0),
+            MaterialPreset::DragonSkin10 => (0.0425, 0.0, 0.0),
+            MaterialPreset::DragonSkin20 => (0.031648, 0.0, 0.0),
         };
         Yeoh {
             c1,

@@ -276,6 +276,13 @@ impl Pattern {
     fn matrix<'a>(&'a self, values: &'a [f64]) -> SparseColMatRef<'a, usize, f64> {
         SparseColMatRef::new(self.symbolic.as_ref(), values)
     }
+/// A solver's state ([`Solver::state`]), to warm-start a solve of a nearby model.
+#[derive(Debug, Clone)]
+pub struct SolverState {
+    u: Vec<f64>,
+    theta: Vec<f64>,
+    pressure: Vec<f64>,
+    load: LoadState,
 }
 
 /// An incremental solver: holds the current displacement and load state of a model.
@@ -443,6 +450,35 @@ impl<'m> Solver<'m> {
             *fd -= self.load.dead * l;
         }
         f
+    }
+
+    /// The current state (displacement, element dilatations and pressures, load), to
+    /// warm-start another solver of a mesh with the same numbering ([`Self::set_state`]).
+    pub fn state(&self) -> SolverState {
+        SolverState {
+            u: self.u.clone(),
+            theta: self.theta.clone(),
+            pressure: self.pressure.clone(),
+            load: self.load,
+        }
+    }
+
+    /// Restores a state taken by [`Self::state`] (of this mesh or one with the same node
+    /// and element counts): the next [`Self::advance`] starts from it. Refused when the
+    /// sizes differ.
+    pub fn set_state(&mut self, state: &SolverState) -> Result<(), FemError> {
+        if state.u.len() != self.u.len() || state.theta.len() != self.theta.len() {
+            return Err(FemError::Model {
+                why: "a warm-start state of another mesh".into(),
+            });
+        }
+        self.u.clone_from(&state.u);
+        self.theta.clone_from(&state.theta);
+        self.pressure.clone_from(&state.pressure);
+        self.load = state.load;
+        // The secant predictor's last state belongs to the old path.
+        self.previous = None;
+        Ok(())
     }
 
     /// Moves the load from the current state to `target` in adaptive sub-steps, each

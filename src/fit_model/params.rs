@@ -1,0 +1,214 @@
+//! The free parameters of a model fit: config fields by name, their bounds, and configs
+//! with new values.
+
+use crate::fem::actuator::ActuatorConfig;
+
+use super::FitModelError;
+
+/// Default bounds of a parameter without explicit ones: its initial value divided and
+/// multiplied by this factor.
+pub const DEFAULT_BOUND_FACTOR: f64 = 5.0;
+
+/// Material fields that are optional in a config (absent until set).
+const OPTIONAL_MATERIAL_FIELDS: [&str; 4] = ["c1", "c2", "c3", "bulk_modulus_mpa"];
+
+/// A config field the fit varies.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct FreeParameter {
+    /// `section.field`, e.g. `geometry.f`, `material.scale`.
+    pub name: String,
+    /// Config section.
+    pub section: String,
+    /// Field in the section.
+    pub field: String,
+    /// Value in the base config.
+    pub initial: f64,
+    /// Lower bound.
+    pub lower: f64,
+    /// Upper bound.
+    pub upper: f64,
+}
+
+fn bad(name: &str, why: impl Into<String>) -> FitModelError {
+    FitModelError::Parameter {
+        name: name.to_string(),
+        why: why.into(),
+    }
+}
+
+fn config_table(cfg: &ActuatorConfig) -> Result<toml::Table, FitModelError> {
+    toml::Table::try_from(cfg).map_err(|e| bad("config", e.to_string()))
+}
+
+/// Parses `NAME[=LO:HI][,NAME[=LO:HI]...]`: NAME is `section.field` or a field name
+/// found in exactly one section (`f`, `scale`); bounds default to the initial value / and
+/// x [`DEFAULT_BOUND_FACTOR`].
+pub fn parse_free(spec: &str, cfg: &ActuatorConfig) -> Result<Vec<FreeParameter>, FitModelError> {
+    let doc = config_table(cfg)?;
+    let material = cfg
+        .material
+        .yeoh()
+        .map_err(|e| bad("material", e.to_string()))?;
+    let mut out: Vec<FreeParameter> = Vec::new();
+    for item in spec.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+        let (name, bounds) = match item.split_once('=') {
+            Some((n, b)) => (n.trim(), Some(b.trim())),
+            None => (item, None),
+        };
+        let (section, field) = match name.split_once('.') {
+            Some((s, f)) => (s.to_string(), f.to_string()),
+            None => {
+                let hits: Vec<&String> = doc
+                    .iter()
+                    .filter(|(_, t)| t.as_table().is_some_and(|t| t.contains_key(name)))
+                    .map(|(s, _)| s)
+                    .collect();
+                match hits.as_slice() {
+                    [s] => (s.to_string(), name.to_string()),
+                    [] if OPTIONAL_MATERIAL_FIELDS.contains(&name) => {
+                        ("material".to_string(), name.to_string())
+                    }
+                    [] => return Err(bad(name, "no such config field: use section.field, e.g. geometry.f or material.scale (see bendscope simulate --print-config)")),
+                    _ => return Err(bad(name, "in several sections: write section.field")),
+                }
+            }
+        };
+        let full = format!("{section}.{field}");
+        let table = doc
+            .get(&section)
+            .and_then(|t| t.as_table())
+            .ok_or_else(|| bad(&full, format!("no section [{section}] in the config")))?;
+        // Unscaled coefficients: `scale` multiplies them in the material.
+        let s = cfg.material.scale;
+        let initial = match table.get(&field) {
+            Some(toml::Value::Float(v)) => *v,
+            Some(toml::Value::Integer(_)) => {
+                return Err(bad(
+                    &full,
+                    "a whole number cannot be fitted (it is not continuous)",
+                ))
+            }
+            Some(_) => return Err(bad(&full, "not a number")),
+            None if section == "material" && field == "c1" => material.c1 / s,
+            None if section == "material" && field == "c2" => material.c2 / s,
+            None if section == "material" && field == "c3" => material.c3 / s,
+            None if section == "material" && field == "bulk_modulus_mpa" => {
+                material.bulk_modulus / s
+            }
+            None => {
+                return Err(bad(
+                    &full,
+                    format!("no such field in [{section}] (see bendscope simulate --print-config)"),
+                ))
+            }
+        };
+        let (lower, upper) = match bounds {
+            Some(b) => {
+                let (lo, hi) = b
+                    .split_once(':')
+                    .ok_or_else(|| bad(&full, format!("bounds '{b}': write NAME=LO:HI")))?;
+                let num = |v: &str| {
+                    v.trim()
+                        .parse::<f64>()
+                        .ok()
+                        .filter(|x| x.is_finite())
+                        .ok_or_else(|| bad(&full, format!("bound '{v}' is not a number")))
+                };
+                (num(lo)?, num(hi)?)
+            }
+            None if initial > 0.0 => (
+                initial / DEFAULT_BOUND_FACTOR,
+                initial * DEFAULT_BOUND_FACTOR,
+            ),
+            None => {
+                return Err(bad(
+                    &full,
+                    format!("initial value {initial}: give bounds, {full}=LO:HI"),
+                ))
+            }
+        };
+        if !(lower < upper) {
+            return Err(bad(&full, format!("bounds {lower}:{upper}: need LO < HI")));
+        }
+        if !(initial >= lower && initial <= upper) {
+            return Err(bad(
+                &full,
+                format!("the config's value {initial} is outside the bounds {lower}:{upper}"),
+            ));
+        }
+        if out.iter().any(|p| p.name == full) {
+            return Err(bad(&full, "named twice"));
+        }
+        out.push(FreeParameter {
+            name: full,
+            section,
+            field,
+            initial,
+            lower,
+            upper,
+        });
+    }
+    if out.is_empty() {
+        return Err(bad(
+            "--free",
+            "no parameter named: e.g. --free material.scale,geometry.f",
+        ));
+    }
+    Ok(out)
+}
+
+/// `base` with every parameter set to its value, checked.
+pub fn with_values(
+    base: &ActuatorConfig,
+    params: &[FreeParameter],
+    values: &[f64],
+) -> Result<ActuatorConfig, FitModelError> {
+    let mut doc = config_table(base)?;
+    for (p, v) in params.iter().zip(values) {
+        let table = doc
+            .get_mut(&p.section)
+            .and_then(|t| t.as_table_mut())
+            .ok_or_else(|| bad(&p.name, "no such section"))?;
+        table.insert(p.field.clone(), toml::Value::Float(*v));
+    }
+    let cfg: ActuatorConfig = doc
+        .try_into()
+        .map_err(|e: toml::de::Error| bad("config", e.to_string()))?;
+    cfg.validate().map_err(FitModelError::Fem)?;
+    Ok(cfg)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_bounds_and_values() {
+        let cfg = ActuatorConfig::default();
+        let p = parse_free("material.scale, f=4:8 ,c2", &cfg).unwrap();
+        assert_eq!(p[0].name, "material.scale");
+        assert_eq!((p[0].initial, p[0].lower, p[0].upper), (1.0, 0.2, 5.0));
+        assert_eq!(p[1].name, "geometry.f");
+        assert_eq!((p[1].initial, p[1].lower, p[1].upper), (6.0, 4.0, 8.0));
+        assert_eq!(p[2].name, "material.c2");
+        assert!((p[2].initial - 0.0601).abs() < 1e-12);
+        let c = with_values(&cfg, &p, &[0.5, 5.0, 0.03]).unwrap();
+        assert_eq!(c.geometry.f, 5.0);
+        let y = c.material.yeoh().unwrap();
+        // scale multiplies every coefficient, the bulk modulus too.
+        assert!((y.c1 - 0.5 * 0.10744).abs() < 1e-12 && (y.c2 - 0.015).abs() < 1e-12);
+        assert!((y.bulk_modulus - 0.5 * 2000.0 * 0.10744).abs() < 1e-9);
+        for (spec, needle) in [
+            ("chambers", "whole number"),
+            ("zz", "no such config field"),
+            ("f=8:4", "LO < HI"),
+            ("f=1:3", "outside the bounds"),
+            ("f,geometry.f", "named twice"),
+        ] {
+            let e = parse_free(spec, &cfg).unwrap_err().to_string();
+            assert!(e.contains(needle), "{spec}: {e}");
+        }
+        // A value the geometry refuses is an error, not a panic.
+        assert!(with_values(&cfg, &p, &[0.5, -1.0, 0.03]).is_err());
+    }
+}
