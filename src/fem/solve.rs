@@ -276,6 +276,8 @@ impl Pattern {
     fn matrix<'a>(&'a self, values: &'a [f64]) -> SparseColMatRef<'a, usize, f64> {
         SparseColMatRef::new(self.symbolic.as_ref(), values)
     }
+}
+
 /// A solver's state ([`Solver::state`]), to warm-start a solve of a nearby model.
 #[derive(Debug, Clone)]
 pub struct SolverState {
