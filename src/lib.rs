@@ -10,8 +10,11 @@
 //! overlays, the HTML page). [`session`] (manifest, pressure log, settings), [`table`]
 //! (the one CSV layer), [`rgbd`] (colour + depth) and [`io`] (atomic writes, content
 //! keys) serve them. Beside them: [`fem`] (the actuator model and its solver),
-//! [`render`] (synthetic camera images with known ground truth) and [`compare`].
-//! Design exploration: [`surrogate`] (Gaussian-process models of a design table) ->
+//! [`render`] (synthetic camera images with known ground truth), [`compare`],
+//! [`material_fit`] (hyperelastic models from tensile tests), [`fit_model`] (model
+//! parameters fitted to a measurement) and [`control`] (a PID closing the loop on the
+//! model). Design exploration: [`sweep`] (many simulations: local pool, GNU parallel,
+//! Slurm) -> [`surrogate`] (Gaussian-process models of a design table) ->
 //! [`optimize`] (Bayesian optimization or a Pareto front on them, checked with the FEM).
 //! Before them all, [`acquire`] records a session on the bench (pressure regulator on a
 //! serial line, GoPro or webcam) into the folder layout [`session`] reads.
@@ -38,8 +41,8 @@ pub mod fem;
 pub mod fit;
 pub mod fit_model;
 pub mod io;
-pub mod optimize;
 pub mod material_fit;
+pub mod optimize;
 pub mod pipeline;
 pub mod render;
 pub mod report;
@@ -47,7 +50,7 @@ pub mod rgbd;
 pub mod scale;
 pub mod select;
 pub mod session;
-pub mod sweep;
 pub mod surrogate;
+pub mod sweep;
 pub mod table;
 pub mod video;

@@ -16,15 +16,15 @@ pub mod calibrate;
 pub mod compare;
 pub mod control;
 pub mod demo;
-pub mod optimize;
 pub mod fit_model;
 pub mod material;
+pub mod optimize;
 pub mod process;
 pub mod render;
 pub mod scale;
 pub mod simulate;
-pub mod sweep;
 pub mod surrogate;
+pub mod sweep;
 
 use clap::{Parser, Subcommand};
 
