@@ -359,6 +359,36 @@ pub fn bending_angle_from_circle_deg(
     bending_angle_deg(clamp, clamp + t, tip)
 }
 
+/// Bending angle as the turning of the fitted circle's tangent from the clamped-end
+/// marker to the tip, following the markers in order: the sum of the signed central
+/// angles between successive markers (each well under 180 degrees at any marker
+/// spacing), so an actuator curled past 180 degrees reads its whole turn, where the
+/// chord-tangent angle of [`bending_angle_from_circle_deg`] folds back (200 degrees read
+/// as 160). Below 180 degrees both give the same value. A straight chain gives 0.
+pub fn bending_angle_along_markers_deg(
+    markers: &[Point2<f64>],
+    circle: &CircleFit,
+) -> Result<f64, FitError> {
+    if markers.len() < 2 {
+        return Err(FitError::TooFewPoints {
+            what: "bending angle",
+            needed: 2,
+            got: markers.len(),
+        });
+    }
+    if circle.curvature == 0.0 || !circle.center.x.is_finite() {
+        return Ok(0.0);
+    }
+    let total: f64 = markers
+        .windows(2)
+        .map(|w| {
+            let (a, b) = (w[0] - circle.center, w[1] - circle.center);
+            (a.x * b.y - a.y * b.x).atan2(a.dot(&b))
+        })
+        .sum();
+    Ok(total.abs().to_degrees())
+}
+
 /// A circle fitted to 3D points: Pratt's fit in their best-fit plane.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CircleFit3 {
@@ -882,6 +912,18 @@ mod tests {
         .unwrap();
         let alpha = bending_angle_from_circle_deg(on_arc(0.0), on_arc(theta), &c).unwrap();
         assert!((alpha - theta.to_degrees()).abs() < 1e-9, "{alpha}");
+        let markers: Vec<_> = (0..8).map(|i| on_arc(theta * i as f64 / 7.0)).collect();
+        let along = bending_angle_along_markers_deg(&markers, &c).unwrap();
+        assert!((along - alpha).abs() < 1e-9, "{along} vs {alpha}");
+        // Curled past 180 degrees: 250 degrees of turn, the chord-tangent angle folds
+        // back to 110; following the markers reads 250.
+        let theta = 250f64.to_radians();
+        let markers: Vec<_> = (0..8).map(|i| on_arc(theta * i as f64 / 7.0)).collect();
+        let c = fit_circle_pratt(&markers).unwrap();
+        let folded = bending_angle_from_circle_deg(markers[0], markers[7], &c).unwrap();
+        assert!((folded - 110.0).abs() < 1e-6, "{folded}");
+        let along = bending_angle_along_markers_deg(&markers, &c).unwrap();
+        assert!((along - 250.0).abs() < 1e-9, "{along}");
     }
 
     #[test]

@@ -3,7 +3,7 @@
 //! cavity volume and, with the tip blocked, the support force.
 //!
 //! The radius and the bending angle come from the same functions as the image chain
-//! ([`crate::fit::fit_circle_pratt`], [`crate::fit::bending_angle_from_circle_deg`] on
+//! ([`crate::fit::fit_circle_pratt`], [`crate::fit::bending_angle_along_markers_deg`] on
 //! the 8 marker points in the x-z plane), so simulated and measured numbers share their
 //! definitions.
 
@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 use super::actuator::ActuatorMesh;
 use super::solve::{LoadState, NewtonSettings, Solver};
 use super::FemError;
-use crate::fit::{bending_angle_from_circle_deg, fit_circle_pratt};
+use crate::fit::{bending_angle_along_markers_deg, fit_circle_pratt};
 
 /// Results of one converged pressure step (whole actuator).
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -260,9 +260,8 @@ fn step_result(
         why: format!("marker circle at {pressure_kpa} kPa: {e}"),
     };
     let circle = fit_circle_pratt(&markers).map_err(fit_err)?;
-    let (first, last) = (markers[0], markers[markers.len() - 1]);
     let angle = if circle.curvature > 0.0 {
-        bending_angle_from_circle_deg(first, last, &circle).map_err(fit_err)?
+        bending_angle_along_markers_deg(&markers, &circle).map_err(fit_err)?
     } else {
         0.0
     };

@@ -12,7 +12,7 @@ use nalgebra::Point2;
 use super::actuator::ActuatorMesh;
 use super::solve::{LoadState, NewtonSettings, Solver};
 use super::FemError;
-use crate::fit::{bending_angle_from_circle_deg, fit_circle_pratt};
+use crate::fit::{bending_angle_along_markers_deg, fit_circle_pratt};
 
 /// One quasi-static solve of [`QuasiStaticStepper::solve_at`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -102,7 +102,6 @@ impl<'m> QuasiStaticStepper<'m> {
         if circle.curvature <= 0.0 {
             return Ok(0.0);
         }
-        bending_angle_from_circle_deg(markers[0], markers[markers.len() - 1], &circle)
-            .map_err(fit_err)
+        bending_angle_along_markers_deg(&markers, &circle).map_err(fit_err)
     }
 }

@@ -9,7 +9,7 @@ use crate::calib::Undistorter;
 use crate::detect::{
     detect_markers_with, order_marker_indices, ChainStart, DetectSettings, MaskBuffer, PixelSource,
 };
-use crate::fit::{bending_angle_from_circle_deg, fit_circle_3d, fit_circle_pratt};
+use crate::fit::{bending_angle_along_markers_deg, fit_circle_3d, fit_circle_pratt};
 use crate::rgbd::{markers_on_depth_plane, RgbdIntrinsics};
 use crate::scale::apply_homography;
 use crate::select::{select_markers, Candidate};
@@ -281,10 +281,7 @@ fn measure_plane(
         Ok(c) => c,
         Err(e) => return fit_failed(e),
     };
-    let angle = match (mm_points.first(), mm_points.last()) {
-        (Some(o), Some(a)) => bending_angle_from_circle_deg(*o, *a, &circle_mm).unwrap_or(f64::NAN),
-        _ => f64::NAN,
-    };
+    let angle = bending_angle_along_markers_deg(&mm_points, &circle_mm).unwrap_or(f64::NAN);
     FrameMeasurement {
         n_markers: n,
         ignored_px: vec![],
@@ -324,13 +321,8 @@ fn measure_depth(
             return FrameMeasurement::rejected(n, FrameStatus::FitFailed { why: e.to_string() })
         }
     };
-    let angle = match (pts.first(), pts.last()) {
-        (Some(o), Some(a)) => {
-            bending_angle_from_circle_deg(c.to_plane(o), c.to_plane(a), &c.circle)
-                .unwrap_or(f64::NAN)
-        }
-        _ => f64::NAN,
-    };
+    let in_plane: Vec<Point2<f64>> = pts.iter().map(|p| c.to_plane(p)).collect();
+    let angle = bending_angle_along_markers_deg(&in_plane, &c.circle).unwrap_or(f64::NAN);
     FrameMeasurement {
         n_markers: n,
         ignored_px: vec![],

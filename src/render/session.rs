@@ -332,7 +332,7 @@ pub fn fem_videos(
     distractor: bool,
 ) -> Result<Vec<(super::fem_scene::FemScene, VideoTruth)>, RenderError> {
     use super::fem_scene::{scene_bounds, FemScene};
-    use crate::fit::{bending_angle_from_circle_deg, fit_circle_pratt};
+    use crate::fit::{bending_angle_along_markers_deg, fit_circle_pratt};
     let (lo, hi) = scene_bounds(face, origin);
     face.steps
         .iter()
@@ -354,7 +354,7 @@ pub fn fem_videos(
                 )));
             }
             let circle = fit_circle_pratt(&m).map_err(|e| RenderError::Fem(e.to_string()))?;
-            let angle = bending_angle_from_circle_deg(m[0], m[m.len() - 1], &circle)
+            let angle = bending_angle_along_markers_deg(&m, &circle)
                 .map_err(|e| RenderError::Fem(e.to_string()))?;
             let truth = VideoTruth {
                 file: video_name(i),
