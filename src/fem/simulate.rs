@@ -240,6 +240,18 @@ pub fn run_ramp(
     Ok(ramp)
 }
 
+/// The markers' current positions in the filmed side plane (x, z), mm: what a step's
+/// circle, radius and bending angle are read from.
+pub fn marker_points(mesh: &ActuatorMesh, solver: &Solver) -> Vec<Point2<f64>> {
+    mesh.markers
+        .iter()
+        .map(|n| {
+            let x = solver.position(*n);
+            Point2::new(x.x, x.z)
+        })
+        .collect()
+}
+
 fn step_result(
     mesh: &ActuatorMesh,
     solver: &Solver,
@@ -248,14 +260,7 @@ fn step_result(
     newton_iterations: usize,
     blocked: bool,
 ) -> Result<StepResult, FemError> {
-    let markers: Vec<Point2<f64>> = mesh
-        .markers
-        .iter()
-        .map(|n| {
-            let x = solver.position(*n);
-            Point2::new(x.x, x.z)
-        })
-        .collect();
+    let markers = marker_points(mesh, solver);
     let fit_err = |e: crate::fit::FitError| FemError::Model {
         why: format!("marker circle at {pressure_kpa} kPa: {e}"),
     };

@@ -7,8 +7,6 @@
 //! Newton solve from where the actuator is; the hyperelastic model has no history, so
 //! the result does not depend on the path.
 
-use nalgebra::Point2;
-
 use super::actuator::ActuatorMesh;
 use super::solve::{LoadState, NewtonSettings, Solver};
 use super::FemError;
@@ -86,15 +84,7 @@ impl<'m> QuasiStaticStepper<'m> {
     /// The bending angle of the current state, degrees: the Pratt circle through the
     /// markers and the half-angle convention, as [`super::simulate`] reads a step.
     fn bending_angle_deg(&self) -> Result<f64, FemError> {
-        let markers: Vec<Point2<f64>> = self
-            .mesh
-            .markers
-            .iter()
-            .map(|n| {
-                let x = self.solver.position(*n);
-                Point2::new(x.x, x.z)
-            })
-            .collect();
+        let markers = super::simulate::marker_points(self.mesh, &self.solver);
         let fit_err = |e: crate::fit::FitError| FemError::Model {
             why: format!("marker circle: {e}"),
         };

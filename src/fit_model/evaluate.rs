@@ -10,8 +10,6 @@
 //! when the mesh has the same node and element counts (a geometric parameter may change
 //! them: the state of another mesh is never used).
 
-use nalgebra::Point2;
-
 use crate::fem::actuator::{build_mesh, ActuatorConfig};
 use crate::fem::solve::{LoadState, NewtonSettings, Solver, SolverState};
 use crate::fem::FemError;
@@ -150,14 +148,7 @@ impl Evaluator {
             }
             loaded = true;
             states.push(solver.state());
-            let markers: Vec<Point2<f64>> = mesh
-                .markers
-                .iter()
-                .map(|n| {
-                    let x = solver.position(*n);
-                    Point2::new(x.x, x.z)
-                })
-                .collect();
+            let markers = crate::fem::simulate::marker_points(&mesh, &solver);
             let circle = fit_circle_pratt(&markers).map_err(|e| {
                 FitModelError::Fem(FemError::Model {
                     why: format!("marker circle at {p} kPa: {e}"),
