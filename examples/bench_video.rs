@@ -1,5 +1,5 @@
 //! Renders a one-video benchmark session: `cargo run --release --example bench_video --
-//! OUT_DIR WIDTH HEIGHT FRAMES MBPS`. A synthetic actuator (8 markers) through a
+//! OUT_DIR WIDTH HEIGHT FRAMES MBPS [FPS]` (FPS default 30). A synthetic actuator (8 markers) through a
 //! GoPro-like fisheye camera with sensor noise, H.264 at the given bit rate, plus
 //! cam.yaml (the true camera), pressures.csv, bendscope.toml and seed.toml (the same
 //! with full-frame undistortion). Used by scripts/bench-process.sh.
@@ -21,6 +21,10 @@ fn main() -> anyhow::Result<()> {
     let (w, h): (u32, u32) = (a[2].parse()?, a[3].parse()?);
     let frames: usize = a[4].parse()?;
     let mbps: u64 = a[5].parse()?;
+    let fps: u32 = match a.get(6) {
+        Some(f) => f.parse()?,
+        None => 30,
+    };
     std::fs::create_dir_all(&out)?;
     let camera = gopro_like_camera(w, h);
     let distance = 260.0;
@@ -39,7 +43,7 @@ fn main() -> anyhow::Result<()> {
         w,
         h,
         &EncodeSettings {
-            fps: 30,
+            fps,
             crf: 0,
             bitrate_bps: Some(mbps * 1_000_000),
             ..Default::default()
@@ -70,7 +74,7 @@ fn main() -> anyhow::Result<()> {
         format!("{cfg}full_frame_undistort = true\n"),
     )?;
     println!(
-        "wrote {} ({w}x{h}, {frames} frames, {mbps} Mb/s; true radius 90 mm)",
+        "wrote {} ({w}x{h}, {frames} frames at {fps} fps, {mbps} Mb/s; true radius 90 mm)",
         out.display()
     );
     Ok(())

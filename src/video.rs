@@ -11,7 +11,7 @@
 //! written under a temporary name and renamed on [`VideoWriter::finish`].
 
 use std::path::{Path, PathBuf};
-use std::sync::Once;
+use std::sync::{Arc, Once};
 
 use ffmpeg::format::Pixel;
 use ffmpeg::software::scaling;
@@ -177,9 +177,19 @@ fn pretest_threshold(t: &crate::detect::HsvThresholds) -> Option<i32> {
         .then(|| CR_PRETEST * (t.v_min.min(60) as i32) / 60)
 }
 
+mod sealed {
+    /// Only the sample types below: [`super::YuvFrame`] reads decoder buffers as them.
+    pub trait Sealed {}
+    impl Sealed for u8 {}
+    impl Sealed for u16 {}
+}
+
 /// A sample of a YUV plane: 8-bit, or 10-bit in 16 bits (HEVC Main 10, as recent
-/// GoPros record). Conversions work at the sample's own depth.
-pub trait Sample: Copy + Default + Ord + Send + Sync + std::fmt::Debug + 'static {
+/// GoPros record). Conversions work at the sample's own depth. Sealed: implemented for
+/// `u8` and `u16` only, types for which every bit pattern is a value.
+pub trait Sample:
+    sealed::Sealed + Copy + Default + Ord + Send + Sync + std::fmt::Debug + 'static
+{
     /// Bits beyond 8 (0 for 8-bit samples, 2 for 10-bit ones).
     const EXTRA_BITS: u32;
     /// The sample's value.
@@ -214,38 +224,143 @@ impl Sample for u16 {
 /// compared first (a vectorized max), and a chunk below the pre-test is skipped whole.
 const CR_CHUNK: usize = 32;
 
-/// A decoded 4:2:0 frame kept in YUV at its native depth (planes copied out of the
-/// decoder): detection reads the quarter-size Cr plane first and converts to RGB only
-/// the pixels that may be red, instead of converting whole frames. BT.601, limited or
-/// full range. `T` is `u8` for 8-bit streams, `u16` for 10-bit ones.
-#[derive(Debug, Clone, Default)]
+/// Where a [`YuvFrame`]'s samples live.
+#[derive(Clone)]
+enum Planes<T> {
+    /// Y, Cb, Cr copied into vectors.
+    Owned([Vec<T>; 3]),
+    /// The decoder's own frame: its buffers are reference-counted and go back to
+    /// FFmpeg's pool when the last holder drops it, so a 4K frame is never copied (a
+    /// 10-bit 4K frame is 25 MB; copying it cost ~3% of the run and a buffer per frame
+    /// in flight).
+    Decoded(Arc<ffmpeg::frame::Video>),
+}
+
+/// A decoded 4:2:0 frame kept in YUV at its native depth: detection reads the
+/// quarter-size Cr plane first and converts to RGB only the pixels that may be red,
+/// instead of converting whole frames. BT.601, limited or full range. `T` is `u8` for
+/// 8-bit streams, `u16` for 10-bit ones. The planes are the decoder's buffers (no copy)
+/// or owned vectors ([`YuvFrame::from_planes`]).
+#[derive(Clone)]
 pub struct YuvFrame<T: Sample = u8> {
     /// Width, px.
     pub width: u32,
     /// Height, px.
     pub height: u32,
-    /// Luma plane, `width` x `height`.
-    pub y: Vec<T>,
-    /// Cb plane, ceil(width/2) x ceil(height/2).
-    pub u: Vec<T>,
-    /// Cr plane, same size as `u`.
-    pub v: Vec<T>,
     /// Full-range (JPEG) levels instead of limited (16..235).
     pub full_range: bool,
+    planes: Planes<T>,
+    /// Row strides of Y, Cb, Cr, samples.
+    strides: [usize; 3],
+}
+
+impl<T: Sample> Default for YuvFrame<T> {
+    fn default() -> Self {
+        Self {
+            width: 0,
+            height: 0,
+            full_range: false,
+            planes: Planes::Owned([vec![], vec![], vec![]]),
+            strides: [0; 3],
+        }
+    }
+}
+
+impl<T: Sample> std::fmt::Debug for YuvFrame<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("YuvFrame")
+            .field("width", &self.width)
+            .field("height", &self.height)
+            .field("full_range", &self.full_range)
+            .field("zero_copy", &matches!(self.planes, Planes::Decoded(_)))
+            .finish()
+    }
 }
 
 impl<T: Sample> YuvFrame<T> {
+    /// A frame from packed planes: `y` is `width` x `height`, `u` and `v` are
+    /// ceil(width/2) x ceil(height/2); `None` when a plane is too short.
+    pub fn from_planes(
+        width: u32,
+        height: u32,
+        y: Vec<T>,
+        u: Vec<T>,
+        v: Vec<T>,
+        full_range: bool,
+    ) -> Option<Self> {
+        let (w, h) = (width as usize, height as usize);
+        let (cw, ch) = (w.div_ceil(2), h.div_ceil(2));
+        (y.len() >= w * h && u.len() >= cw * ch && v.len() >= cw * ch).then(|| Self {
+            width,
+            height,
+            full_range,
+            planes: Planes::Owned([y, u, v]),
+            strides: [w, cw, cw],
+        })
+    }
+
+    /// The decoder's frame itself when its three planes can be read as `T` samples in
+    /// place (aligned, whole-sample strides, little-endian for 16-bit samples), else
+    /// `None`.
+    fn from_decoded(frame: ffmpeg::frame::Video, full_range: bool) -> Option<Self> {
+        let bytes = std::mem::size_of::<T>();
+        if frame.planes() < 3 || (bytes > 1 && cfg!(target_endian = "big")) {
+            return None;
+        }
+        let (w, h) = (frame.width() as usize, frame.height() as usize);
+        let (cw, ch) = (w.div_ceil(2), h.div_ceil(2));
+        let mut strides = [0; 3];
+        for (i, (row, rows)) in [(w, h), (cw, ch), (cw, ch)].into_iter().enumerate() {
+            let data = frame.data(i);
+            let stride = frame.stride(i);
+            let aligned = (data.as_ptr() as usize) % std::mem::align_of::<T>() == 0;
+            if !aligned || stride % bytes != 0 || stride < row * bytes {
+                return None;
+            }
+            if data.len() < (rows.max(1) - 1) * stride + row * bytes {
+                return None;
+            }
+            strides[i] = stride / bytes;
+        }
+        Some(Self {
+            width: frame.width(),
+            height: frame.height(),
+            full_range,
+            planes: Planes::Decoded(Arc::new(frame)),
+            strides,
+        })
+    }
+
+    /// Plane `i` (0 Y, 1 Cb, 2 Cr) as samples, rows [`Self::strides`] apart.
+    #[inline]
+    fn plane(&self, i: usize) -> &[T] {
+        match &self.planes {
+            Planes::Owned(p) => &p[i],
+            Planes::Decoded(f) => {
+                let data = f.data(i);
+                // SAFETY: `T` is u8 or u16 (Sample is sealed), for which every bit
+                // pattern is a valid value; `from_decoded` checked that the plane is
+                // aligned for `T`; the length stays within `data`.
+                unsafe {
+                    std::slice::from_raw_parts(
+                        data.as_ptr() as *const T,
+                        data.len() / std::mem::size_of::<T>(),
+                    )
+                }
+            }
+        }
+    }
+
     /// RGB at (x, y): BT.601, chroma of the 2x2 block the pixel belongs to; integer
     /// arithmetic at the samples' depth, rounded once to 8 bits.
     #[inline]
     pub fn rgb_at(&self, x: u32, y: u32) -> [u8; 3] {
         let k = T::EXTRA_BITS;
-        let cw = self.width.div_ceil(2) as usize;
-        let yy = self.y[(y * self.width + x) as usize].value();
-        let ci = (y as usize / 2) * cw + x as usize / 2;
+        let yy = self.plane(0)[y as usize * self.strides[0] + x as usize].value();
+        let (cy, cx) = (y as usize / 2, x as usize / 2);
         let (d, e) = (
-            self.u[ci].value() - (128 << k),
-            self.v[ci].value() - (128 << k),
+            self.plane(1)[cy * self.strides[1] + cx].value() - (128 << k),
+            self.plane(2)[cy * self.strides[2] + cx].value() - (128 << k),
         );
         let (r, g, b) = if self.full_range {
             let c = yy << 8;
@@ -276,8 +391,10 @@ impl<T: Sample> crate::detect::PixelSource for YuvFrame<T> {
     }
     #[inline]
     fn is_red_at(&self, x: u32, y: u32, t: &crate::detect::HsvThresholds) -> bool {
-        let ci = (y as usize / 2) * self.width.div_ceil(2) as usize + x as usize / 2;
-        if pretest_threshold(t).is_some_and(|k| self.v[ci].value() < (128 + k) << T::EXTRA_BITS) {
+        let ci = (y as usize / 2) * self.strides[2] + x as usize / 2;
+        if pretest_threshold(t)
+            .is_some_and(|k| self.plane(2)[ci].value() < (128 + k) << T::EXTRA_BITS)
+        {
             return false;
         }
         let p = self.rgb_at(x, y);
@@ -293,8 +410,8 @@ impl<T: Sample> crate::detect::PixelSource for YuvFrame<T> {
         };
         let threshold = T::saturated((128 + k) << T::EXTRA_BITS);
         let cw = self.width.div_ceil(2) as usize;
-        let start = (y as usize / 2) * cw;
-        let Some(row) = self.v.get(start..start + cw) else {
+        let start = (y as usize / 2) * self.strides[2];
+        let Some(row) = self.plane(2).get(start..start + cw) else {
             return;
         };
         for (c, chunk) in row.chunks(CR_CHUNK).enumerate() {
@@ -612,95 +729,43 @@ impl VideoReader {
         })
     }
 
-    /// The frame last returned by [`Self::advance`] as [`Pixels`]: its YUV planes copied
-    /// at their native depth (into `recycled`'s buffers when given) for 8- and 10-bit
-    /// 4:2:0 streams, else RGB.
-    pub fn current_pixels(&mut self, recycled: Option<Pixels>) -> Result<Pixels, VideoError> {
+    /// Takes the frame last returned by [`Self::advance`] as [`Pixels`]: for 8- and
+    /// 10-bit 4:2:0 streams the decoder's frame itself (no copy; its buffers go back to
+    /// FFmpeg's pool when the pixels are dropped), else RGB (converted into `recycled`'s
+    /// buffer when given). The frame is gone from the reader afterwards.
+    pub fn take_pixels(&mut self, recycled: Option<Pixels>) -> Result<Pixels, VideoError> {
+        let full_range = self.decoded.format() == Pixel::YUVJ420P
+            || self.decoded.color_range() == ffmpeg::util::color::Range::JPEG;
         match self.decoded.format() {
             Pixel::YUV420P | Pixel::YUVJ420P => {
-                let full_range = self.decoded.format() == Pixel::YUVJ420P;
-                let out = match recycled {
-                    Some(Pixels::Yuv(f)) => f,
-                    _ => YuvFrame::default(),
-                };
-                Ok(Pixels::Yuv(self.copy_planes(
-                    out,
-                    full_range,
-                    1,
-                    |dst, line| dst.extend_from_slice(line),
-                )))
+                let frame = std::mem::replace(&mut self.decoded, ffmpeg::frame::Video::empty());
+                match YuvFrame::from_decoded(frame, full_range) {
+                    Some(f) => return Ok(Pixels::Yuv(f)),
+                    None => return Err(self.odd_layout()),
+                }
             }
             Pixel::YUV420P10LE => {
-                let full_range = self.decoded.color_range() == ffmpeg::util::color::Range::JPEG;
-                let out = match recycled {
-                    Some(Pixels::Yuv10(f)) => f,
-                    _ => YuvFrame::default(),
-                };
-                Ok(Pixels::Yuv10(self.copy_planes(
-                    out,
-                    full_range,
-                    2,
-                    |dst, line| {
-                        dst.extend(
-                            line.chunks_exact(2)
-                                .map(|b| u16::from_le_bytes([b[0], b[1]])),
-                        )
-                    },
-                )))
+                let frame = std::mem::replace(&mut self.decoded, ffmpeg::frame::Video::empty());
+                match YuvFrame::from_decoded(frame, full_range) {
+                    Some(f) => return Ok(Pixels::Yuv10(f)),
+                    None => return Err(self.odd_layout()),
+                }
             }
-            _ => {
-                let buf = match recycled {
-                    Some(Pixels::Rgb(i)) => i.into_raw(),
-                    _ => Vec::new(),
-                };
-                Ok(Pixels::Rgb(self.current_rgb_into(buf)?))
-            }
+            _ => {}
         }
+        let buf = match recycled {
+            Some(Pixels::Rgb(i)) => i.into_raw(),
+            _ => Vec::new(),
+        };
+        Ok(Pixels::Rgb(self.current_rgb_into(buf)?))
     }
 
-    /// Copies the decoded frame's three 4:2:0 planes into `out` (buffers reused), each
-    /// row of `bytes_per_sample`-byte samples appended by `push_row`.
-    fn copy_planes<T: Sample>(
-        &self,
-        mut out: YuvFrame<T>,
-        full_range: bool,
-        bytes_per_sample: usize,
-        push_row: impl Fn(&mut Vec<T>, &[u8]),
-    ) -> YuvFrame<T> {
-        let (w, h) = (self.decoded.width(), self.decoded.height());
-        let (cw, ch) = (w.div_ceil(2) as usize, h.div_ceil(2) as usize);
-        out.width = w;
-        out.height = h;
-        out.full_range = full_range;
-        let copy = |dst: &mut Vec<T>, data: &[u8], stride: usize, row: usize, rows: usize| {
-            dst.clear();
-            dst.reserve(row * rows);
-            for r in 0..rows {
-                push_row(dst, &data[r * stride..r * stride + row * bytes_per_sample]);
-            }
-        };
-        copy(
-            &mut out.y,
-            self.decoded.data(0),
-            self.decoded.stride(0),
-            w as usize,
-            h as usize,
-        );
-        copy(
-            &mut out.u,
-            self.decoded.data(1),
-            self.decoded.stride(1),
-            cw,
-            ch,
-        );
-        copy(
-            &mut out.v,
-            self.decoded.data(2),
-            self.decoded.stride(2),
-            cw,
-            ch,
-        );
-        out
+    /// The error for a decoded frame whose planes cannot be read in place.
+    fn odd_layout(&self) -> VideoError {
+        VideoError::NotAVideo {
+            path: self.path.clone(),
+            reason: "decoded frame with an unexpected plane layout (misaligned or short planes): report the file's codec".to_string(),
+        }
     }
 
     /// The next frame whose index is a multiple of `stride`, as [`Pixels`].
@@ -712,7 +777,7 @@ impl VideoReader {
         let stride = stride.max(1);
         while let Some((index, time_s)) = self.advance() {
             if index % stride == 0 {
-                return Ok(Some((index, time_s, self.current_pixels(recycled)?)));
+                return Ok(Some((index, time_s, self.take_pixels(recycled)?)));
             }
         }
         Ok(None)
@@ -1155,19 +1220,19 @@ mod tests {
         let Pixels::Yuv10(yuv) = px else {
             panic!("HEVC yuv420p10le should stay 10-bit YUV")
         };
-        assert!(yuv.y.iter().any(|v| *v > 255), "10-bit levels kept");
+        assert!(yuv.plane(0).iter().any(|v| *v > 255), "10-bit levels kept");
         // Against BT.601 limited range in floating point on the 10-bit samples: off by
         // at most the final rounding (swscale's own 10 -> 8-bit path dithers, so it is
         // only a loose second check).
         let (mut exact, mut loose) = (0.0f64, 0);
-        let cw = yuv.width.div_ceil(2) as usize;
+        let [ys, cs, _] = yuv.strides;
         for y in 0..64u32 {
             for x in 0..96u32 {
-                let yy = yuv.y[(y * yuv.width + x) as usize] as f64 / 4.0 - 16.0;
-                let ci = (y as usize / 2) * cw + x as usize / 2;
+                let yy = yuv.plane(0)[y as usize * ys + x as usize] as f64 / 4.0 - 16.0;
+                let ci = (y as usize / 2) * cs + x as usize / 2;
                 let (d, e) = (
-                    yuv.u[ci] as f64 / 4.0 - 128.0,
-                    yuv.v[ci] as f64 / 4.0 - 128.0,
+                    yuv.plane(1)[ci] as f64 / 4.0 - 128.0,
+                    yuv.plane(2)[ci] as f64 / 4.0 - 128.0,
                 );
                 let f = [
                     1.164 * yy + 1.596 * e,
@@ -1200,7 +1265,7 @@ mod tests {
         #![proptest_config(proptest::prelude::ProptestConfig::with_cases(20_000))]
         #[test]
         fn cr_pretest_never_rejects_a_red_pixel(y: u8, u: u8, v: u8, full: bool, v_min in 1u8..=80) {
-            let f = YuvFrame { width: 2, height: 2, y: vec![y; 4], u: vec![u], v: vec![v], full_range: full };
+            let f = YuvFrame::from_planes(2, 2, vec![y; 4], vec![u], vec![v], full).unwrap();
             let t = crate::detect::HsvThresholds { v_min, ..Default::default() };
             let p = f.rgb_at(0, 0);
             let exact = crate::detect::is_red(p[0], p[1], p[2], &t);
@@ -1232,14 +1297,14 @@ mod tests {
             };
             if ten_bit {
                 let up = |p: &[u16]| p.iter().map(|&s| s << 2).collect::<Vec<u16>>();
-                let f = YuvFrame { width: w, height: h, y: up(&y), u: up(&u), v: up(&v), full_range: false };
+                let f = YuvFrame::from_planes(w, h, up(&y), up(&u), up(&v), false).unwrap();
                 check(&|row, a, b| {
                     crate::detect::PixelSource::coarse_row_hits(&f, row, &t, a);
                     crate::detect::coarse_row_hits_exact(&f, row, &t, b);
                 })?;
             } else {
                 let down = |p: &[u16]| p.iter().map(|&s| s as u8).collect::<Vec<u8>>();
-                let f = YuvFrame { width: w, height: h, y: down(&y), u: down(&u), v: down(&v), full_range: false };
+                let f = YuvFrame::from_planes(w, h, down(&y), down(&u), down(&v), false).unwrap();
                 check(&|row, a, b| {
                     crate::detect::PixelSource::coarse_row_hits(&f, row, &t, a);
                     crate::detect::coarse_row_hits_exact(&f, row, &t, b);

@@ -12,6 +12,7 @@ use std::path::Path;
 
 use common::cvscene::{
     calibration_views, draw_board, rvec_from_angles, Actuator, Canvas, CvCamera, Lens, Pose,
+    MARKER_BGR,
 };
 use common::{col, read_csv, Run};
 
@@ -26,6 +27,7 @@ fn write_session(
     distance_mm: f64,
     calib_distance_mm: (f64, f64),
     seed: u64,
+    clutter: bool,
 ) {
     fs::create_dir_all(dir.join("calib")).unwrap();
     for (i, view) in calibration_views(cam, 16, (9, 6, 25.0), calib_distance_mm, seed)
@@ -57,7 +59,7 @@ fn write_session(
     let mut manifest = String::from("file,pressure_kpa\n");
     for (k, &radius_mm) in RADII_MM.iter().enumerate() {
         let mut canvas = Canvas::new(cam, 3, [120.0, 120.0, 118.0]);
-        Actuator {
+        let actuator = Actuator {
             clamp: [-55.0, -25.0],
             radius_mm,
             length_mm: 112.0,
@@ -66,8 +68,11 @@ fn write_session(
             first_mm: 6.0,
             spacing_mm: 14.0,
             marker_mm: 3.0,
+        };
+        actuator.draw(&mut canvas, cam, &plane);
+        if clutter {
+            draw_clutter(&mut canvas, cam, &plane, &actuator, k);
         }
-        .draw(&mut canvas, cam, &plane);
         let name = format!("IMG_{:04}.jpg", k + 1);
         fs::write(
             dir.join(&name),
@@ -82,6 +87,33 @@ fn write_session(
         format!("model = \"{model}\"\n[scale_board]\nsquare_mm = 10\n"),
     )
     .unwrap();
+}
+
+/// Red things besides the markers, as a lab has them: the air tube running into the
+/// clamp block, a 4 mm red disc 7 mm beside the tip marker, a regulator's LED far off,
+/// and a marker-sized dot on the arc's extension one spacing beyond the tip (even
+/// photos; a chain of 8 evenly spaced dots exists without the clamped-end marker) or
+/// two spacings beyond it (odd photos).
+fn draw_clutter(canvas: &mut Canvas, cam: &CvCamera, plane: &Pose, a: &Actuator, k: usize) {
+    let red = [30.0, 28.0, 200.0];
+    let c = a.clamp;
+    let tube: Vec<[f64; 2]> = (0..=40)
+        .map(|i| [c[0] - 230.0 + 200.0 * i as f64 / 40.0, c[1] - 2.5])
+        .chain(
+            (0..=40)
+                .rev()
+                .map(|i| [c[0] - 230.0 + 200.0 * i as f64 / 40.0, c[1] + 2.5]),
+        )
+        .collect();
+    canvas.polygon(&cam.project(plane, &tube), red);
+    let tip_s = a.first_mm + (a.markers - 1) as f64 * a.spacing_mm;
+    let beside = Actuator::disc(a.at(tip_s, -7.0), 4.0);
+    canvas.polygon(&cam.project(plane, &beside), red);
+    let led = Actuator::disc([95.0, -70.0], 2.0);
+    canvas.polygon(&cam.project(plane, &led), [60.0, 60.0, 255.0]);
+    let spacings = if k % 2 == 0 { 1.0 } else { 2.0 };
+    let dot = Actuator::disc(a.at(tip_s + spacings * a.spacing_mm, 0.0), a.marker_mm);
+    canvas.polygon(&cam.project(plane, &dot), MARKER_BGR);
 }
 
 /// Processes the session and returns the relative radius errors.
@@ -138,13 +170,10 @@ fn assert_within(errors: &[f64], case: &str) {
     }
 }
 
-/// A phone-like pinhole camera (1280x960, OpenCV's 5-coefficient distortion with
-/// tangential terms), calibrated by `process` from 16 OpenCV-drawn views, the actuator
-/// plane 2 and 1.5 degrees off perpendicular: bent radii within 0.25% (the scalar mm/px
-/// was off by 0.09-0.25% here; the board's homography removes it).
-#[test]
-fn opencv_drawn_pinhole_session() {
-    let cam = CvCamera {
+/// A phone-like pinhole camera: 1280x960, OpenCV's 5-coefficient distortion with
+/// tangential terms.
+fn phone_camera() -> CvCamera {
+    CvCamera {
         width: 1280,
         height: 960,
         fx: 1005.0,
@@ -152,7 +181,16 @@ fn opencv_drawn_pinhole_session() {
         cx: 646.3,
         cy: 471.8,
         lens: Lens::Pinhole([-0.11, 0.07, 0.0006, -0.0004, -0.015]),
-    };
+    }
+}
+
+/// A phone-like pinhole camera (1280x960, OpenCV's 5-coefficient distortion with
+/// tangential terms), calibrated by `process` from 16 OpenCV-drawn views, the actuator
+/// plane 2 and 1.5 degrees off perpendicular: bent radii within 0.25% (the scalar mm/px
+/// was off by 0.09-0.25% here; the board's homography removes it).
+#[test]
+fn opencv_drawn_pinhole_session() {
+    let cam = phone_camera();
     let dir = tempfile::tempdir().unwrap();
     let (_guard, dir) = keep(dir, "phone");
     write_session(
@@ -162,8 +200,35 @@ fn opencv_drawn_pinhole_session() {
         300.0,
         (450.0, 750.0),
         11,
+        false,
     );
     assert_within(&radius_errors(&dir, "phone"), "pinhole");
+}
+
+/// The pinhole session with lab clutter in every photo ([`draw_clutter`]: the air tube,
+/// a disc beside the tip, an LED, a marker-sized dot one or two spacings beyond the tip
+/// on the arc): the actuator's chain is picked, the others are counted as ignored, and
+/// the bent radii stay within 0.25%.
+#[test]
+fn opencv_drawn_pinhole_session_with_clutter() {
+    let cam = phone_camera();
+    let dir = tempfile::tempdir().unwrap();
+    let (_guard, dir) = keep(dir, "clutter");
+    write_session(
+        &dir.join("clutter"),
+        &cam,
+        "pinhole",
+        300.0,
+        (450.0, 750.0),
+        11,
+        true,
+    );
+    assert_within(&radius_errors(&dir, "clutter"), "pinhole with clutter");
+    let (h, frames) = read_csv(&dir.join("clutter/bendscope-out/per_frame.csv"));
+    for f in &frames {
+        let ignored: usize = f[col(&h, "n_ignored")].parse().unwrap();
+        assert_eq!(ignored, 4, "tube, disc, LED and dot ignored: {f:?}");
+    }
 }
 
 /// A GoPro-like fisheye (1280x720, OpenCV's Kannala-Brandt model), calibrated by
@@ -189,6 +254,7 @@ fn opencv_drawn_fisheye_session() {
         190.0,
         (280.0, 480.0),
         23,
+        false,
     );
     assert_within(&radius_errors(&dir, "gopro"), "fisheye");
 }

@@ -59,6 +59,11 @@ pub trait FrameSource {
 /// complete (a few frames may be lost at the end of an edit list).
 pub const TRUNCATION_SHARE: f64 = 0.98;
 
+/// Decoded frames waiting for the measuring thread beside the one it works on and the
+/// one the decoder offers. Each is a whole frame (25 MB at 4K 10-bit); FFmpeg's frame
+/// threads already decode several frames ahead, so a deeper queue only costs memory.
+pub const FRAMES_AHEAD: usize = 0;
+
 /// What the decoder thread sends.
 enum Decoded {
     Frame(u64, f64, Pixels),
@@ -82,7 +87,7 @@ impl VideoSource {
     pub fn open(path: &Path, stride: u64, want_rgb: bool) -> Result<Self, String> {
         let name = file_name(path);
         let (info_tx, info_rx) = sync_channel::<Result<(u32, u32), String>>(1);
-        let (tx, rx) = sync_channel::<Decoded>(2);
+        let (tx, rx) = sync_channel::<Decoded>(FRAMES_AHEAD);
         let (back, back_rx) = sync_channel::<Pixels>(3);
         let path = path.to_path_buf();
         let thread =
@@ -191,8 +196,12 @@ impl FrameSource for VideoSource {
         }
     }
 
+    /// RGB buffers go back to the decoder thread to be converted into again; YUV
+    /// frames are the decoder's own buffers, returned to its pool by dropping them here.
     fn recycle(&mut self, pixels: Pixels) {
-        let _ = self.back.try_send(pixels);
+        if matches!(pixels, Pixels::Rgb(_)) {
+            let _ = self.back.try_send(pixels);
+        }
     }
 
     fn finish(mut self: Box<Self>) -> Vec<String> {

@@ -243,6 +243,9 @@ pub fn inside(cam: &CvCamera, px: &[[f64; 2]], margin: f64) -> bool {
     })
 }
 
+/// The markers' paint (BGR).
+pub const MARKER_BGR: [f64; 3] = [40.0, 35.0, 190.0];
+
 /// A bent actuator in the plane: a clamp block, a silicone band along a circular arc of
 /// radius `radius_mm` leaving `clamp` (mm) along +x and curving towards +y, and
 /// `markers` red discs of `marker_mm` diameter every `spacing_mm` along its centre line
@@ -260,7 +263,7 @@ pub struct Actuator {
 
 impl Actuator {
     /// The point at arc length `s` and signed offset `d` from the centre line (mm).
-    fn at(&self, s: f64, d: f64) -> [f64; 2] {
+    pub fn at(&self, s: f64, d: f64) -> [f64; 2] {
         let r = self.radius_mm;
         let a = s / r;
         // Centre of curvature at clamp + (0, r); d > 0 towards the centre.
@@ -268,6 +271,18 @@ impl Actuator {
             self.clamp[0] + (r - d) * a.sin(),
             self.clamp[1] + r - (r - d) * a.cos(),
         ]
+    }
+
+    /// A disc of diameter `diameter_mm` centred at `centre` (plane mm), as a polygon in
+    /// plane mm.
+    pub fn disc(centre: [f64; 2], diameter_mm: f64) -> Vec<[f64; 2]> {
+        (0..48)
+            .map(|i| {
+                let t = 2.0 * std::f64::consts::PI * i as f64 / 48.0;
+                let r = diameter_mm / 2.0;
+                [centre[0] + r * t.cos(), centre[1] + r * t.sin()]
+            })
+            .collect()
     }
 
     /// Draws it; returns the marker centres (plane mm).
@@ -296,14 +311,8 @@ impl Actuator {
         (0..self.markers)
             .map(|k| {
                 let centre = self.at(self.first_mm + k as f64 * self.spacing_mm, 0.0);
-                let disc: Vec<[f64; 2]> = (0..48)
-                    .map(|i| {
-                        let t = 2.0 * std::f64::consts::PI * i as f64 / 48.0;
-                        let r = self.marker_mm / 2.0;
-                        [centre[0] + r * t.cos(), centre[1] + r * t.sin()]
-                    })
-                    .collect();
-                canvas.polygon(&cam.project(pose, &disc), [40.0, 35.0, 190.0]);
+                let disc = Self::disc(centre, self.marker_mm);
+                canvas.polygon(&cam.project(pose, &disc), MARKER_BGR);
                 centre
             })
             .collect()
