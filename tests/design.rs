@@ -40,6 +40,8 @@ fn surrogates_of_radius_and_angle_explain_99_percent_and_interpolate() {
     for (output, model) in [
         ("radius_mm@100", "radius.json"),
         ("bending_angle_deg@50", "angle.json"),
+        // Past 180 degrees at f = 3 mm (193-200): the angle follows the markers.
+        ("bending_angle_deg@100", "angle100.json"),
     ] {
         let run = Run::new(
             dir.path(),
