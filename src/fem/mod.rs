@@ -18,6 +18,7 @@
 
 pub mod actuator;
 pub mod analytic;
+pub mod contact;
 pub mod hex;
 pub mod layer;
 pub mod material;

@@ -11,6 +11,7 @@ use nalgebra::{Matrix3, Point2, Vector3};
 use serde::{Deserialize, Serialize};
 
 use super::actuator::ActuatorMesh;
+use super::contact::{min_gap_mm, ContactConfig};
 use super::solve::{LoadState, NewtonSettings, Solver};
 use super::FemError;
 use crate::fit::{bending_angle_along_markers_deg, fit_circle_pratt};
@@ -39,6 +40,9 @@ pub struct StepResult {
     pub bottom_elongation_pct: f64,
     /// Volume of the cavities (chambers + channel), mm³.
     pub cavity_volume_mm3: f64,
+    /// Smallest signed gap between the facing walls of neighbouring chambers, mm
+    /// (negative: the walls interpenetrate; NaN when no wall node faces the other wall).
+    pub min_wall_gap_mm: f64,
     /// Newton iterations this step took.
     pub newton_iterations: usize,
     /// Force of the tip on its support, N (blocked-tip runs only).
@@ -301,6 +305,7 @@ fn step_result(
         safety_factor: mesh.tensile_strength_mpa / max_principal_stress.max(1e-300),
         bottom_elongation_pct: 100.0 * (l1 / l0 - 1.0),
         cavity_volume_mm3: 2.0 * solver.cavity_volume(),
+        min_wall_gap_mm: min_gap_mm(&mesh.wall_pairs, &|a| solver.position(a)).unwrap_or(f64::NAN),
         newton_iterations,
         blocked_force_n,
         markers_mm: markers.iter().map(|p| (p.x, p.y)).collect(),
@@ -446,10 +451,25 @@ pub fn marker_turning_deg(markers: &[(f64, f64)]) -> f64 {
 }
 
 /// What a user must know about a ramp's results: the first step where the safety
-/// factor drops below 1 (the silicone would tear) and the first step where the markers
-/// curl past a full turn (the bending angle wraps and is no longer the total bend).
-pub fn ramp_warnings(steps: &[StepResult]) -> Vec<String> {
+/// factor drops below 1 (the silicone would tear), the first step where the markers
+/// curl past a full turn (the bending angle wraps and is no longer the total bend), and
+/// the first step where the facing chamber walls interpenetrate: at all without
+/// `contact` (the ramp's model has no contact), beyond its tolerance with it.
+pub fn ramp_warnings(steps: &[StepResult], contact: Option<&ContactConfig>) -> Vec<String> {
     let mut w = Vec::new();
+    let allowed = contact.map_or(0.0, |c| c.tolerance_mm);
+    if let Some(s) = steps.iter().find(|s| s.min_wall_gap_mm < -allowed) {
+        w.push(match contact {
+            None => format!(
+                "from {} kPa the facing walls of neighbouring chambers interpenetrate (smallest gap {:.3} mm): the model has no contact between them, so the steps from there on are not physical; add a [contact] table to the config",
+                s.pressure_kpa, s.min_wall_gap_mm
+            ),
+            Some(c) => format!(
+                "from {} kPa the facing chamber walls interpenetrate by {:.3} mm, more than contact.tolerance_mm = {} mm: raise contact.penalty_mpa_per_mm",
+                s.pressure_kpa, -s.min_wall_gap_mm, c.tolerance_mm
+            ),
+        });
+    }
     if let Some(s) = steps.iter().find(|s| s.safety_factor < 1.0) {
         w.push(format!(
             "safety factor {:.2} < 1 from {} kPa: the max principal stress ({:.2} MPa) exceeds the tensile strength; the silicone would tear there",
@@ -509,26 +529,46 @@ mod warning_tests {
             safety_factor: sf,
             bottom_elongation_pct: 0.0,
             cavity_volume_mm3: 0.0,
+            min_wall_gap_mm: 1.0 - p / 250.0,
             newton_iterations: 3,
             blocked_force_n: None,
             markers_mm: arc(turn, 8),
         };
-        assert!(ramp_warnings(&[step(100.0, 2.0, 200.0)]).is_empty());
-        let w = ramp_warnings(&[
+        assert!(ramp_warnings(&[step(100.0, 2.0, 200.0)], None).is_empty());
+        // Gaps 0.6, -0.2, -0.6 mm.
+        let steps = [
             step(100.0, 2.0, 200.0),
             step(300.0, 0.8, 380.0),
             step(400.0, 0.5, 420.0),
-        ]);
-        assert_eq!(w.len(), 2, "{w:?}");
+        ];
+        let w = ramp_warnings(&steps, None);
+        assert_eq!(w.len(), 3, "{w:?}");
         assert!(
-            w[0].contains("safety factor 0.80 < 1 from 300 kPa"),
+            w[0].contains("from 300 kPa the facing walls of neighbouring chambers interpenetrate (smallest gap -0.200 mm)"),
             "{}",
             w[0]
         );
         assert!(
-            w[1].contains("from 400 kPa the markers curl past a full turn"),
+            w[1].contains("safety factor 0.80 < 1 from 300 kPa"),
             "{}",
             w[1]
+        );
+        assert!(
+            w[2].contains("from 400 kPa the markers curl past a full turn"),
+            "{}",
+            w[2]
+        );
+        // With contact, only a penetration beyond its tolerance is worth a warning.
+        let contact = ContactConfig {
+            tolerance_mm: 0.3,
+            ..ContactConfig::default()
+        };
+        let w = ramp_warnings(&steps, Some(&contact));
+        assert_eq!(w.len(), 3, "{w:?}");
+        assert!(
+            w[0].contains("from 400 kPa the facing chamber walls interpenetrate by 0.600 mm"),
+            "{}",
+            w[0]
         );
     }
 }

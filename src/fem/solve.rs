@@ -24,6 +24,7 @@ use faer::{Conj, Mat, Par, Side};
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 
+use super::contact::{contact_terms, Contact};
 use super::hex::{
     element_cauchy_stress, element_kinematics, element_response, ElementMatrix, ElementVector,
     HexGeometry,
@@ -57,6 +58,8 @@ pub struct Model {
     pub element_material: Vec<u8>,
     /// The materials beside [`Self::material`].
     pub extra_materials: Vec<Yeoh>,
+    /// Frictionless contact between surfaces ([`super::contact`]); `None`: no contact.
+    pub contact: Option<Contact>,
 }
 
 impl Model {
@@ -209,6 +212,21 @@ impl Pattern {
         for f in &model.pressure_faces {
             add(&dofs(f));
         }
+        // Contact: a slave node may meet any face of its master surface, so it is coupled
+        // to every master node (the faces' own couplings are those of their elements).
+        for pair in model.contact.iter().flat_map(|c| &c.pairs) {
+            let master = pair.master_nodes();
+            for s in &pair.slave_nodes {
+                let mut group = vec![*s];
+                group.extend(&master);
+                for rs in dofs(&[*s]).iter().flatten() {
+                    for c in dofs(&group).iter().flatten() {
+                        let (hi, lo) = if rs >= c { (*rs, *c) } else { (*c, *rs) };
+                        columns[lo].push(hi);
+                    }
+                }
+            }
+        }
         let mut col_ptr = Vec::with_capacity(n_eq + 1);
         let mut row_idx = Vec::new();
         col_ptr.push(0);
@@ -271,6 +289,17 @@ impl Pattern {
             active,
             face_slots,
         })
+    }
+
+    /// The value index of lower-triangle entry (r, c), r >= c, or SKIP when it is not in
+    /// the pattern.
+    fn slot(&self, r: usize, c: usize) -> u32 {
+        let col_ptr = self.symbolic.col_ptr();
+        let rows = &self.symbolic.row_idx()[col_ptr[c]..col_ptr[c + 1]];
+        match rows.binary_search(&r) {
+            Ok(k) => (col_ptr[c] + k) as u32,
+            Err(_) => SKIP,
+        }
     }
 
     fn matrix<'a>(&'a self, values: &'a [f64]) -> SparseColMatRef<'a, usize, f64> {
@@ -337,11 +366,26 @@ impl<'m> Solver<'m> {
                 why: "element_material needs one valid material index per element".into(),
             });
         }
+        if model
+            .contact
+            .iter()
+            .flat_map(|c| &c.pairs)
+            .any(|p| p.slave_nodes.len() != p.slave_areas_mm2.len())
+        {
+            return Err(FemError::Model {
+                why: "a contact pair needs one area per slave node".into(),
+            });
+        }
         if let Some(bad) = model
             .elements
             .iter()
             .flatten()
             .chain(model.pressure_faces.iter().flatten())
+            .chain(model.contact.iter().flat_map(|c| {
+                c.pairs
+                    .iter()
+                    .flat_map(|p| p.slave_nodes.iter().chain(p.master_faces.iter().flatten()))
+            }))
             .find(|a| **a >= n)
         {
             return Err(FemError::Model {
@@ -446,6 +490,13 @@ impl<'m> Solver<'m> {
             let (_, g, _) = face_volume(&x, &self.model.volume_weights);
             for a in 0..12 {
                 f[3 * face[a / 3] + a % 3] -= p * g[a];
+            }
+        }
+        if let Some(contact) = &self.model.contact {
+            for t in contact_terms(contact, &|a| self.position(a)) {
+                for a in 0..15 {
+                    f[3 * t.nodes[a / 3] + a % 3] += t.force[a];
+                }
             }
         }
         for (fd, l) in f.iter_mut().zip(&self.model.loads) {
@@ -717,6 +768,29 @@ impl<'m> Solver<'m> {
                 }
             }
         }
+        if let Some(contact) = &model.contact {
+            let position =
+                |a: usize| model.nodes[a] + Vector3::new(u[3 * a], u[3 * a + 1], u[3 * a + 2]);
+            for t in contact_terms(contact, &position) {
+                let d: [Option<usize>; 15] =
+                    std::array::from_fn(|a| eq[3 * t.nodes[a / 3] + a % 3]);
+                for a in 0..15 {
+                    let Some(i) = d[a] else { continue };
+                    r[i] += t.force[a];
+                    for b in 0..15 {
+                        match d[b] {
+                            Some(j) if i >= j => {
+                                let s = self.pattern.slot(i, j);
+                                if s != SKIP {
+                                    values[s as usize] += t.stiffness[(a, b)];
+                                }
+                            }
+                            _ => {}
+                        }
+                    }
+                }
+            }
+        }
         for (d, e) in eq.iter().enumerate() {
             if let Some(i) = e {
                 let f = load.dead * model.loads[d];
@@ -965,6 +1039,7 @@ mod tests {
             volume_weights: crate::fem::pressure::CLOSED,
             element_material: Vec::new(),
             extra_materials: Vec::new(),
+            contact: None,
         };
         let r = solve_static(&model, &NewtonSettings::default()).unwrap();
         r.displacement[3 * id(n, n, 0) + 1]
@@ -1047,6 +1122,7 @@ mod tests {
             volume_weights: crate::fem::pressure::CLOSED,
             element_material: Vec::new(),
             extra_materials: Vec::new(),
+            contact: None,
         };
         let r = solve_static(&model, &NewtonSettings::default()).unwrap();
         // Exact: F = diag(l1, l2, l2) with P11 = T, P22 = 0 (Newton on the material).
@@ -1144,6 +1220,7 @@ mod tests {
             volume_weights: Vector3::new(0.5, 0.5, 0.0),
             element_material: Vec::new(),
             extra_materials: Vec::new(),
+            contact: None,
         };
         let mut solver = Solver::new(&model).unwrap();
         let settings = NewtonSettings {
