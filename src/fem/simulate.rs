@@ -382,6 +382,98 @@ mod tests {
     }
 }
 
+#[cfg(test)]
+mod contact_tests {
+    use super::*;
+    use crate::fem::actuator::{build_mesh, ActuatorConfig, Geometry, LoadConfig, MeshConfig};
+    use crate::fem::contact::ContactConfig;
+
+    /// The reference actuator with 0.5 mm gaps between its chambers, coarse (3 mm).
+    fn narrow_gaps(contact: Option<ContactConfig>) -> ActuatorConfig {
+        ActuatorConfig {
+            geometry: Geometry {
+                d: 0.5,
+                ..Geometry::default()
+            },
+            mesh: MeshConfig { size_mm: 3.0 },
+            load: LoadConfig {
+                pressures_kpa: "10,25,40".into(),
+                gravity: true,
+            },
+            contact,
+            ..Default::default()
+        }
+    }
+
+    /// The chambers bulge into the 0.5 mm gaps: by 25 kPa the facing walls would pass
+    /// through each other; with contact they stay apart to a penetration of hundredths of
+    /// a millimetre, Newton converges as without, and the walls pushing on each other
+    /// bend the actuator more.
+    #[test]
+    fn walls_driven_into_each_other_stay_apart_with_contact() {
+        let run = |cfg: &ActuatorConfig| {
+            let mesh = build_mesh(cfg).unwrap();
+            let started = std::time::Instant::now();
+            let ramp = run_ramp(
+                &mesh,
+                &cfg.pressures_kpa().unwrap(),
+                &RampSettings {
+                    newton: cfg.solver.newton(),
+                    ..Default::default()
+                },
+                |_, _| {},
+            )
+            .unwrap();
+            (ramp, started.elapsed().as_secs_f64())
+        };
+        let (free, t_free) = run(&narrow_gaps(None));
+        let contact = ContactConfig::default();
+        let (held, t_held) = run(&narrow_gaps(Some(contact.clone())));
+        for (a, b) in free.steps.iter().zip(&held.steps) {
+            eprintln!(
+                "{:4.0} kPa: min wall gap {:8.4} mm without contact, {:8.4} mm with; radius {:7.3} / {:7.3} mm ({:+.2}%); Newton iterations {} / {}",
+                a.pressure_kpa,
+                a.min_wall_gap_mm,
+                b.min_wall_gap_mm,
+                a.radius_mm,
+                b.radius_mm,
+                100.0 * (b.radius_mm / a.radius_mm - 1.0),
+                a.newton_iterations,
+                b.newton_iterations
+            );
+        }
+        eprintln!(
+            "ramp {t_free:.2} s without contact, {t_held:.2} s with ({:.2}x)",
+            t_held / t_free
+        );
+        assert!(free.failure.is_none() && held.failure.is_none());
+        assert_eq!((free.steps.len(), held.steps.len()), (3, 3));
+        let gap = |r: &Ramp| -> Vec<f64> { r.steps.iter().map(|s| s.min_wall_gap_mm).collect() };
+        let (g_free, g_held) = (gap(&free), gap(&held));
+        // Open at 10 kPa (0.5 mm less the bulges: measured 0.281 mm), the same with and
+        // without contact; without, the walls overlap by 0.1 mm and more from 25 kPa.
+        assert!((g_free[0] - 0.281).abs() < 0.01 && (g_held[0] - g_free[0]).abs() < 1e-12);
+        assert!(g_free[1] < -0.1 && g_free[2] < g_free[1], "{g_free:?}");
+        let warnings = ramp_warnings(&free.steps, None);
+        assert!(
+            warnings
+                .iter()
+                .any(|w| w.contains("from 25 kPa the facing walls")),
+            "{warnings:?}"
+        );
+        // With contact: in contact, penetration within the tolerance (measured 0.012 mm
+        // at 40 kPa), no warning.
+        for g in &g_held[1..] {
+            assert!(*g < 0.0 && *g > -contact.tolerance_mm, "{g_held:?}");
+        }
+        assert!(ramp_warnings(&held.steps, Some(&contact)).is_empty());
+        // Smaller radius with contact at 25 and 40 kPa (measured -1.7% at 40 kPa).
+        let ratio = held.steps[2].radius_mm / free.steps[2].radius_mm;
+        assert!(ratio < 0.99 && ratio > 0.95, "{ratio}");
+        assert!(held.steps[1].radius_mm < free.steps[1].radius_mm);
+    }
+}
+
 /// The thinnest wall of the actuator, mm, with its name: the top wall, the bottom under
 /// the channel, the side walls beside the cavities and channel, and the chamber walls.
 pub fn thinnest_wall_mm(g: &super::actuator::Geometry) -> (f64, &'static str) {
