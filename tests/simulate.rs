@@ -50,10 +50,17 @@ fn coarse_ramp_writes_steps_markers_fields_force_and_plots() {
         "safety_factor",
         "bottom_elongation_pct",
         "cavity_volume_mm3",
+        "min_wall_gap_mm",
         "newton_iterations",
     ] {
         col(&h, name);
     }
+    // The chambers bulge into the 1 mm gaps between them: the smallest gap shrinks.
+    let gap: Vec<f64> = rows.iter().map(|r| r[col(&h, "min_wall_gap_mm")]).collect();
+    assert!(
+        gap[0] < 1.0 && gap[1] < gap[0] && gap[2] < gap[1],
+        "{gap:?}"
+    );
     assert_eq!(rows.len(), 3);
     let (p, r, k) = (
         col(&h, "pressure_kpa"),

@@ -239,7 +239,7 @@ pub fn project_on_face(xs: &Vector3<f64>, x: &[Vector3<f64>; 4]) -> Option<([f64
     let (n, d1, d2, _) = shape(xi);
     let normal = combine(&d1, x).cross(&combine(&d2, x));
     let len = normal.norm();
-    if !(len > 0.0) {
+    if len.is_nan() || len <= 0.0 {
         return None;
     }
     Some((xi, (xs - combine(&n, x)).dot(&normal) / len))
@@ -283,7 +283,7 @@ pub fn gap_derivatives(
     let (a1, a2, a12) = (combine(&d1, x), combine(&d2, x), combine(&d12, x));
     let cross = a1.cross(&a2);
     let len = cross.norm();
-    if !(len > 0.0) {
+    if len.is_nan() || len <= 0.0 {
         return None;
     }
     let n = cross / len;

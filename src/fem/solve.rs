@@ -777,10 +777,10 @@ impl<'m> Solver<'m> {
                 for a in 0..15 {
                     let Some(i) = d[a] else { continue };
                     r[i] += t.force[a];
-                    for b in 0..15 {
-                        match d[b] {
-                            Some(j) if i >= j => {
-                                let s = self.pattern.slot(i, j);
+                    for (b, db) in d.iter().enumerate() {
+                        match db {
+                            Some(j) if i >= *j => {
+                                let s = self.pattern.slot(i, *j);
                                 if s != SKIP {
                                     values[s as usize] += t.stiffness[(a, b)];
                                 }
