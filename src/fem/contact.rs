@@ -18,6 +18,9 @@
 //! for a bilinear face), A = m − g k, T_α = [a_α; −N_k a_α], N_α = [0; N_k,α n],
 //! ∂²g/∂u² = −N A⁻¹ (T + g N)ᵀ − T m⁻¹ Nᵀ − T m⁻¹ k A⁻¹ (T + g N)ᵀ (symmetric).
 //! The energy keeps the whole tangent symmetric, so the solver's LDLᵀ stays valid.
+//! A slave node and the master face it meets are coupled in the solver's sparsity
+//! pattern when they first meet ([`super::solve`] extends the pattern then): contact
+//! that never happens costs only the search.
 //!
 //! The actuator ([`super::actuator`]) pairs the two walls across every gap between
 //! chambers both ways (two-pass, each pass with half the node areas, so that flat walls
@@ -63,6 +66,10 @@ const EDGE_TOLERANCE: f64 = 1e-6;
 /// its contact instead of dropping out and back in every Newton iteration. A projection
 /// strictly inside a face is always preferred to one on a neighbour's extension.
 const EDGE_EXTENSION: f64 = 0.05;
+
+/// The contact search projects a slave node only onto the master faces whose bounding
+/// box, widened by this many times its largest side, holds the node.
+const SEARCH_REACH: f64 = 1.0;
 
 /// Newton iterations of the closest-point projection onto a face.
 const PROJECTION_ITERATIONS: usize = 30;
@@ -136,16 +143,6 @@ pub struct ContactPair {
     /// Master faces: 4 nodes, counter-clockwise seen from the slave side (normal
     /// x_ξ × x_η out of the master body).
     pub master_faces: Vec<[usize; 4]>,
-}
-
-impl ContactPair {
-    /// The nodes of the master faces, sorted, each once.
-    pub fn master_nodes(&self) -> Vec<usize> {
-        let mut n: Vec<usize> = self.master_faces.iter().flatten().copied().collect();
-        n.sort_unstable();
-        n.dedup();
-        n
-    }
 }
 
 /// The contact of a model: its pairs and the penalty stiffness.
@@ -253,11 +250,32 @@ pub fn closest_point(
     xs: &Vector3<f64>,
     position: &impl Fn(usize) -> Vector3<f64>,
 ) -> Option<Projection> {
+    closest_point_within(pair, xs, position, f64::INFINITY)
+}
+
+/// [`closest_point`] over the faces whose bounding box, widened by `reach` times its
+/// largest side, holds `xs`: a node that far from a face can neither touch it nor
+/// penetrate it by a physical amount, and the contact search (every slave node against
+/// every master face, at every assembly) skips the projection onto it.
+fn closest_point_within(
+    pair: &ContactPair,
+    xs: &Vector3<f64>,
+    position: &impl Fn(usize) -> Vector3<f64>,
+    reach: f64,
+) -> Option<Projection> {
     pair.master_faces
         .iter()
         .enumerate()
         .filter_map(|(k, f)| {
             let x = f.map(position);
+            if reach.is_finite() {
+                let lo = x.iter().fold(x[0], |a, b| a.inf(b));
+                let hi = x.iter().fold(x[0], |a, b| a.sup(b));
+                let margin = reach * (hi - lo).max();
+                if (0..3).any(|i| xs[i] < lo[i] - margin || xs[i] > hi[i] + margin) {
+                    return None;
+                }
+            }
             project_on_face(xs, &x).map(|(xi, g)| Projection {
                 face: k,
                 xi,
@@ -359,7 +377,7 @@ pub fn contact_terms(
                 .zip(&pair.slave_areas_mm2)
                 .filter_map(|(&s, &area)| {
                     let xs = position(s);
-                    let p = closest_point(pair, &xs, position)?;
+                    let p = closest_point_within(pair, &xs, position, SEARCH_REACH)?;
                     let face = pair.master_faces[p.face];
                     let x = face.map(position);
                     let eps_a = contact.penalty_mpa_per_mm * area;
