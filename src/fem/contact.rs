@@ -363,21 +363,25 @@ pub fn penalty_response(
 }
 
 /// The active slave nodes of `contact` at the current positions, with their forces and
-/// stiffnesses (in parallel over the nodes).
+/// stiffnesses (in parallel over the pairs: one parallel dispatch per call, since a
+/// dispatch per pair cost more than the search itself on a busy machine).
 pub fn contact_terms(
     contact: &Contact,
     position: &(impl Fn(usize) -> Vector3<f64> + Sync),
 ) -> Vec<ContactTerm> {
     contact
         .pairs
-        .iter()
-        .flat_map(|pair| {
+        .par_iter()
+        .flat_map_iter(|pair| {
             pair.slave_nodes
-                .par_iter()
+                .iter()
                 .zip(&pair.slave_areas_mm2)
                 .filter_map(|(&s, &area)| {
                     let xs = position(s);
                     let p = closest_point_within(pair, &xs, position, SEARCH_REACH)?;
+                    if p.gap_mm > 0.0 {
+                        return None;
+                    }
                     let face = pair.master_faces[p.face];
                     let x = face.map(position);
                     let eps_a = contact.penalty_mpa_per_mm * area;
@@ -390,7 +394,6 @@ pub fn contact_terms(
                         stiffness,
                     })
                 })
-                .collect::<Vec<_>>()
         })
         .collect()
 }
@@ -402,12 +405,11 @@ pub fn min_gap_mm(
     position: &(impl Fn(usize) -> Vector3<f64> + Sync),
 ) -> Option<f64> {
     pairs
-        .iter()
-        .filter_map(|pair| {
+        .par_iter()
+        .flat_map_iter(|pair| {
             pair.slave_nodes
-                .par_iter()
+                .iter()
                 .filter_map(|s| closest_point(pair, &position(*s), position).map(|p| p.gap_mm))
-                .min_by(f64::total_cmp)
         })
         .min_by(f64::total_cmp)
 }
@@ -692,6 +694,62 @@ mod tests {
             })
             .collect();
         (out, penalty)
+    }
+
+    /// `[contact]` switches contact on with the default penalty 10 E₀ / h; the actuator's
+    /// wall pairs are its facing walls, their gap d at rest; bad numbers are named.
+    #[test]
+    fn contact_table_pairs_the_facing_walls_of_the_actuator() {
+        use crate::fem::actuator::{build_mesh, ActuatorConfig, MeshConfig};
+        let cfg: ActuatorConfig = toml::from_str("[contact]\n[mesh]\nsize_mm = 4.0\n").unwrap();
+        let c = cfg.contact.clone().unwrap();
+        assert!(c.enabled && c.penalty_mpa_per_mm.is_none());
+        let mesh = build_mesh(&cfg).unwrap();
+        let contact = mesh.model.contact.as_ref().unwrap();
+        // Proposed set: C1 = 0.10744 MPa, E₀ = 6 C1.
+        assert!((contact.penalty_mpa_per_mm - 10.0 * 6.0 * 0.10744 / 4.0).abs() < 1e-12);
+        // 8 gaps, both ways; each pass carries half the area of a wall of the half model:
+        // (a − (f + m + roof)) i / 2 = (23.5 − 9) 7.5 mm².
+        assert_eq!(contact.pairs.len(), 16);
+        for pair in &contact.pairs {
+            let area: f64 = pair.slave_areas_mm2.iter().sum();
+            assert!((area - 0.5 * 14.5 * 7.5).abs() < 1e-9, "{area}");
+        }
+        let rest = min_gap_mm(&mesh.wall_pairs, &|a| mesh.model.nodes[a]).unwrap();
+        assert!((rest - 1.0).abs() < 1e-12, "{rest}");
+        let off = ActuatorConfig {
+            contact: Some(ContactConfig {
+                enabled: false,
+                ..c.clone()
+            }),
+            mesh: MeshConfig { size_mm: 4.0 },
+            ..Default::default()
+        };
+        let mesh = build_mesh(&off).unwrap();
+        assert!(mesh.model.contact.is_none() && mesh.wall_pairs.len() == 16);
+        for (bad, name) in [
+            (
+                ContactConfig {
+                    penalty_mpa_per_mm: Some(-1.0),
+                    ..c.clone()
+                },
+                "contact.penalty_mpa_per_mm",
+            ),
+            (
+                ContactConfig {
+                    tolerance_mm: 0.0,
+                    ..c.clone()
+                },
+                "contact.tolerance_mm",
+            ),
+        ] {
+            let cfg = ActuatorConfig {
+                contact: Some(bad),
+                ..Default::default()
+            };
+            let err = cfg.validate().unwrap_err().to_string();
+            assert!(err.contains(name), "{err}");
+        }
     }
 
     #[test]
