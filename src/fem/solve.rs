@@ -561,6 +561,7 @@ impl<'m> Solver<'m> {
         while t < 1.0 {
             let next = (t + step).min(1.0);
             let saved = (self.u.clone(), self.theta.clone(), self.pressure.clone());
+            let saved_couplings = self.extra_couplings.clone();
             let load = start.lerp(&target, next);
             let guess = self.predict(load);
             match self.newton(load, s, guess) {
@@ -576,6 +577,15 @@ impl<'m> Solver<'m> {
                 }
                 None => {
                     (self.u, self.theta, self.pressure) = saved;
+                    if self.extra_couplings != saved_couplings {
+                        // Contact met by the iterates of a failed increment (e.g. the
+                        // wild first iterates under gravity) would only densify the
+                        // matrix from now on.
+                        self.extra_couplings = saved_couplings;
+                        self.pattern =
+                            Pattern::new(self.model, &self.eq, self.n_eq, &self.extra_couplings)?;
+                        self.symbolic = None;
+                    }
                     step *= 0.5;
                     if step < s.min_step {
                         return Err(FemError::Diverged {
