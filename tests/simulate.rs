@@ -50,10 +50,17 @@ fn coarse_ramp_writes_steps_markers_fields_force_and_plots() {
         "safety_factor",
         "bottom_elongation_pct",
         "cavity_volume_mm3",
+        "min_wall_gap_mm",
         "newton_iterations",
     ] {
         col(&h, name);
     }
+    // The chambers bulge into the 1 mm gaps between them: the smallest gap shrinks.
+    let gap: Vec<f64> = rows.iter().map(|r| r[col(&h, "min_wall_gap_mm")]).collect();
+    assert!(
+        gap[0] < 1.0 && gap[1] < gap[0] && gap[2] < gap[1],
+        "{gap:?}"
+    );
     assert_eq!(rows.len(), 3);
     let (p, r, k) = (
         col(&h, "pressure_kpa"),
@@ -264,4 +271,53 @@ fn a_step_that_does_not_converge_is_named_and_the_converged_ones_are_kept() {
     assert_eq!(rows[0][col(&h, "pressure_kpa")], 0.0);
     let summary = std::fs::read_to_string(dir.path().join("fem/summary.json")).unwrap();
     assert!(summary.contains("did not converge"), "{summary}");
+}
+
+#[test]
+fn walls_meeting_are_warned_about_without_contact_and_held_apart_with_it() {
+    // The reference actuator with 0.5 mm gaps: its walls meet at about 20 kPa.
+    let dir = tempfile::tempdir().unwrap();
+    let narrow = "[geometry]\nd = 0.5\n[mesh]\nsize_mm = 3.0\n[load]\npressures_kpa = \"10,25\"\n";
+    std::fs::write(dir.path().join("free.toml"), narrow).unwrap();
+    std::fs::write(
+        dir.path().join("contact.toml"),
+        format!("{narrow}[contact]\n"),
+    )
+    .unwrap();
+    let summary = |name: &str| -> serde_json::Value {
+        let run = Run::new(
+            dir.path(),
+            &[
+                "simulate",
+                "--config",
+                &format!("{name}.toml"),
+                "--no-vtu",
+                "-o",
+                name,
+            ],
+        );
+        assert_eq!(run.code, 0, "{run}");
+        let text = std::fs::read_to_string(dir.path().join(name).join("summary.json")).unwrap();
+        serde_json::from_str(&text).unwrap()
+    };
+    let free = summary("free");
+    let warnings = free["warnings"].to_string();
+    assert!(
+        warnings.contains("from 25 kPa the facing walls of neighbouring chambers interpenetrate"),
+        "{warnings}"
+    );
+    // Measured -0.117 mm (the fem::simulate contact test's ramp).
+    let gap = free["min_wall_gap_mm"].as_f64().unwrap();
+    assert!((gap + 0.117).abs() < 0.01, "{gap}");
+    assert!(free["contact_penalty_mpa_per_mm"].is_null());
+    let held = summary("contact");
+    assert!(
+        !held["warnings"].to_string().contains("interpenetrate"),
+        "{held}"
+    );
+    // Default penalty 10 E0 / h = 10 * 6 * 0.10744 / 3 MPa/mm; penetration 0.0034 mm.
+    let penalty = held["contact_penalty_mpa_per_mm"].as_f64().unwrap();
+    assert!((penalty - 2.1488).abs() < 1e-9, "{penalty}");
+    let gap = held["min_wall_gap_mm"].as_f64().unwrap();
+    assert!(gap < 0.0 && gap > -0.01, "{gap}");
 }

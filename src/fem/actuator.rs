@@ -23,6 +23,7 @@
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
+use super::contact::{Contact, ContactConfig, ContactPair};
 use super::hex::{nodal_volumes, HexGeometry};
 use super::layer::LayerConfig;
 use super::material::{MaterialPreset, Yeoh, DEFAULT_BULK_TO_SHEAR};
@@ -397,6 +398,9 @@ pub struct ActuatorConfig {
     pub solver: SolverConfig,
     /// An optional strain-limiting layer in the base (`[layer]`; none by default).
     pub layer: Option<LayerConfig>,
+    /// Frictionless contact between the facing walls of neighbouring chambers
+    /// (`[contact]`; off by default).
+    pub contact: Option<ContactConfig>,
 }
 
 /// Loads of a simulation.
@@ -494,6 +498,9 @@ impl ActuatorConfig {
         if let Some(layer) = &self.layer {
             layer.validate(self.geometry.f)?;
         }
+        if let Some(contact) = &self.contact {
+            contact.validate()?;
+        }
         let h = self.mesh.size_mm;
         if !(h.is_finite() && h > 0.0) {
             return Err(bad("mesh size", format!("{h} mm: must be positive")));
@@ -573,6 +580,10 @@ pub struct ActuatorMesh {
     pub side_face: Vec<[usize; 4]>,
     /// Clamped length (first chamber), mm.
     pub clamp_mm: f64,
+    /// The facing walls across every gap between chambers, paired both ways (each with
+    /// half the node areas, [`super::contact`]): where `min_wall_gap_mm` is measured,
+    /// and the contact pairs when `[contact]` is on.
+    pub wall_pairs: Vec<ContactPair>,
 }
 
 /// Least number of elements through every wall (side walls beside the chambers and the
@@ -791,6 +802,61 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
         });
     }
 
+    // Facing walls across each gap: faces between a gap cell and a solid cell beside it
+    // in x, normal out of the wall's block into the gap (ξ along y, η along z for the
+    // left wall's +x normal; ξ along z, η along y for the right wall's -x).
+    let gaps = blocks.len().saturating_sub(1);
+    let mut left_walls: Vec<Vec<[usize; 4]>> = vec![Vec::new(); gaps];
+    let mut right_walls: Vec<Vec<[usize; 4]>> = vec![Vec::new(); gaps];
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                if cells[cell_id(i, j, k)] != Cell::Outside {
+                    continue;
+                }
+                let xc = 0.5 * (xs[i] + xs[i + 1]);
+                let Some(gap) = blocks.windows(2).position(|w| inside(xc, w[0].1, w[1].0)) else {
+                    continue;
+                };
+                let (j1, k1) = (j + 1, k + 1);
+                let node = |a: usize, b: usize, c: usize| node_of[grid_id(a, b, c)];
+                if i > 0 && cells[cell_id(i - 1, j, k)] == Cell::Solid {
+                    left_walls[gap].push([
+                        node(i, j, k),
+                        node(i, j1, k),
+                        node(i, j1, k1),
+                        node(i, j, k1),
+                    ]);
+                }
+                if i + 1 < nx && cells[cell_id(i + 1, j, k)] == Cell::Solid {
+                    let i1 = i + 1;
+                    right_walls[gap].push([
+                        node(i1, j, k),
+                        node(i1, j, k1),
+                        node(i1, j1, k1),
+                        node(i1, j1, k),
+                    ]);
+                }
+            }
+        }
+    }
+    if left_walls
+        .iter()
+        .chain(&right_walls)
+        .flatten()
+        .flatten()
+        .any(|n| *n == usize::MAX)
+    {
+        return Err(FemError::Model {
+            why: "a chamber wall face has a node outside the solid (mesh bug)".into(),
+        });
+    }
+    let wall_pairs: Vec<ContactPair> = left_walls
+        .iter()
+        .zip(&right_walls)
+        .flat_map(|(l, r)| [slave_against(r, l, &nodes), slave_against(l, r, &nodes)])
+        .collect();
+
     // Supports: the first chamber is clamped; y = 0 is the symmetry plane.
     let n_nodes = nodes.len();
     let mut fixed = vec![false; 3 * n_nodes];
@@ -865,6 +931,10 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
             volume_weights: CLOSED,
             element_material,
             extra_materials: cfg.layer.iter().map(LayerConfig::material).collect(),
+            contact: cfg.contact.as_ref().filter(|c| c.enabled).map(|c| Contact {
+                pairs: wall_pairs.clone(),
+                penalty_mpa_per_mm: c.penalty_for(&material, h),
+            }),
         },
         markers,
         tip,
@@ -873,7 +943,31 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
         tensile_strength_mpa: cfg.material.tensile_strength_mpa,
         side_face,
         clamp_mm: g.c,
+        wall_pairs,
     })
+}
+
+/// The pair with the nodes of `slave` faces (each with half its share of their areas:
+/// the walls are paired both ways) against the `master` faces.
+fn slave_against(
+    slave: &[[usize; 4]],
+    master: &[[usize; 4]],
+    nodes: &[Vector3<f64>],
+) -> ContactPair {
+    let mut area = std::collections::BTreeMap::new();
+    for f in slave {
+        let x = f.map(|a| nodes[a]);
+        // A planar quad's area; each corner takes a quarter (∫ N_a dA of a parallelogram).
+        let a = 0.5 * (x[2] - x[0]).cross(&(x[3] - x[1])).norm();
+        for n in f {
+            *area.entry(*n).or_insert(0.0) += 0.5 * 0.25 * a;
+        }
+    }
+    ContactPair {
+        slave_nodes: area.keys().copied().collect(),
+        slave_areas_mm2: area.values().copied().collect(),
+        master_faces: master.to_vec(),
+    }
 }
 
 #[cfg(test)]

@@ -271,6 +271,7 @@ mod tests {
             volume_weights: crate::fem::pressure::CLOSED,
             element_material,
             extra_materials: vec![layer.material()],
+            contact: None,
         };
         let r = solve_static(&model, &NewtonSettings::default()).unwrap();
         let (top, bottom) = (id(nx, 0, nz), id(nx, 0, 0));

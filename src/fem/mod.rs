@@ -6,18 +6,21 @@
 //!
 //! Data flows: [`material`] (Yeoh silicone, isochoric/volumetric split, stress and
 //! tangent) -> [`hex`] (Q1/P0 mean-dilatation hexahedron) and [`pressure`] (cavity
-//! faces, follower pressure as −p V) -> [`solve`] (Newton on the three-field form,
-//! adaptive load steps) -> [`actuator`] (the parametric PneuNets geometry and its half
+//! faces, follower pressure as −p V) and [`contact`] (frictionless node-to-surface
+//! penalty contact between the facing chamber walls, optional) -> [`solve`] (Newton on
+//! the three-field form, adaptive load steps) -> [`actuator`] (the parametric PneuNets geometry and its half
 //! mesh) -> [`simulate`] (the pressure ramp and the quantities read off each step),
 //! [`vtu`] (ParaView files) and [`output`] (every result file of a run or a sweep).
 //!
 //! Verified (tests): Yeoh uniaxial and equibiaxial stress against method.md §5; stress,
 //! tangent, pressure force and load stiffness against finite differences; the uniaxial
 //! block exactly; the plane-strain thick cylinder against the analytic inflation
-//! pressure; Cook's membrane against its reference tip displacement.
+//! pressure; Cook's membrane against its reference tip displacement; the contact
+//! tangent against finite differences and the pressed-blocks patch test.
 
 pub mod actuator;
 pub mod analytic;
+pub mod contact;
 pub mod hex;
 pub mod layer;
 pub mod material;

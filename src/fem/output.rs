@@ -92,6 +92,7 @@ pub fn write_steps(out: &Path, steps: &[StepResult]) -> Result<(), FemError> {
                 s.bottom_elongation_pct
             }),
             col("cavity_volume_mm3", 4, steps, |s| s.cavity_volume_mm3),
+            col("min_wall_gap_mm", 5, steps, |s| s.min_wall_gap_mm),
             Column::int(
                 "newton_iterations",
                 steps.iter().map(|s| s.newton_iterations as u64),
@@ -225,8 +226,14 @@ pub struct SimulationSummary {
     pub failure: Option<String>,
     /// Notes on the model (mesh coarser than a wall).
     pub notes: Vec<String>,
-    /// Warnings on the results (safety factor below 1, markers past a full turn).
+    /// Warnings on the results (safety factor below 1, markers past a full turn, chamber
+    /// walls interpenetrating).
     pub warnings: Vec<String>,
+    /// Smallest signed gap between facing chamber walls over the ramp, mm (negative:
+    /// interpenetration).
+    pub min_wall_gap_mm: Option<f64>,
+    /// Contact penalty stiffness, MPa/mm, when contact between the walls is on.
+    pub contact_penalty_mpa_per_mm: Option<f64>,
 }
 
 /// A simulation's results.
@@ -295,7 +302,14 @@ pub fn simulate_to(
         seconds,
         failure,
         notes,
-        warnings: ramp_warnings(&ramp.steps),
+        warnings: ramp_warnings(&ramp.steps, cfg.contact.as_ref().filter(|c| c.enabled)),
+        min_wall_gap_mm: ramp
+            .steps
+            .iter()
+            .map(|s| s.min_wall_gap_mm)
+            .filter(|g| g.is_finite())
+            .min_by(f64::total_cmp),
+        contact_penalty_mpa_per_mm: mesh.model.contact.as_ref().map(|c| c.penalty_mpa_per_mm),
     };
     write_json(&out.join("summary.json"), &summary).map_err(output)?;
     Ok(Simulation {

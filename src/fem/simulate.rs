@@ -11,6 +11,7 @@ use nalgebra::{Matrix3, Point2, Vector3};
 use serde::{Deserialize, Serialize};
 
 use super::actuator::ActuatorMesh;
+use super::contact::{min_gap_mm, ContactConfig};
 use super::solve::{LoadState, NewtonSettings, Solver};
 use super::FemError;
 use crate::fit::{bending_angle_along_markers_deg, fit_circle_pratt};
@@ -39,6 +40,9 @@ pub struct StepResult {
     pub bottom_elongation_pct: f64,
     /// Volume of the cavities (chambers + channel), mm³.
     pub cavity_volume_mm3: f64,
+    /// Smallest signed gap between the facing walls of neighbouring chambers, mm
+    /// (negative: the walls interpenetrate; NaN when no wall node faces the other wall).
+    pub min_wall_gap_mm: f64,
     /// Newton iterations this step took.
     pub newton_iterations: usize,
     /// Force of the tip on its support, N (blocked-tip runs only).
@@ -301,6 +305,7 @@ fn step_result(
         safety_factor: mesh.tensile_strength_mpa / max_principal_stress.max(1e-300),
         bottom_elongation_pct: 100.0 * (l1 / l0 - 1.0),
         cavity_volume_mm3: 2.0 * solver.cavity_volume(),
+        min_wall_gap_mm: min_gap_mm(&mesh.wall_pairs, &|a| solver.position(a)).unwrap_or(f64::NAN),
         newton_iterations,
         blocked_force_n,
         markers_mm: markers.iter().map(|p| (p.x, p.y)).collect(),
@@ -377,6 +382,98 @@ mod tests {
     }
 }
 
+#[cfg(test)]
+mod contact_tests {
+    use super::*;
+    use crate::fem::actuator::{build_mesh, ActuatorConfig, Geometry, LoadConfig, MeshConfig};
+    use crate::fem::contact::ContactConfig;
+
+    /// The reference actuator with 0.5 mm gaps between its chambers, coarse (3 mm).
+    fn narrow_gaps(contact: Option<ContactConfig>) -> ActuatorConfig {
+        ActuatorConfig {
+            geometry: Geometry {
+                d: 0.5,
+                ..Geometry::default()
+            },
+            mesh: MeshConfig { size_mm: 3.0 },
+            load: LoadConfig {
+                pressures_kpa: "10,25,40".into(),
+                gravity: true,
+            },
+            contact,
+            ..Default::default()
+        }
+    }
+
+    /// The chambers bulge into the 0.5 mm gaps: by 25 kPa the facing walls would pass
+    /// through each other; with contact they stay apart to a penetration of hundredths of
+    /// a millimetre, Newton converges as without, and the walls pushing on each other
+    /// bend the actuator more.
+    #[test]
+    fn walls_driven_into_each_other_stay_apart_with_contact() {
+        let run = |cfg: &ActuatorConfig| {
+            let mesh = build_mesh(cfg).unwrap();
+            let started = std::time::Instant::now();
+            let ramp = run_ramp(
+                &mesh,
+                &cfg.pressures_kpa().unwrap(),
+                &RampSettings {
+                    newton: cfg.solver.newton(),
+                    ..Default::default()
+                },
+                |_, _| {},
+            )
+            .unwrap();
+            (ramp, started.elapsed().as_secs_f64())
+        };
+        let (free, t_free) = run(&narrow_gaps(None));
+        let contact = ContactConfig::default();
+        let (held, t_held) = run(&narrow_gaps(Some(contact.clone())));
+        for (a, b) in free.steps.iter().zip(&held.steps) {
+            eprintln!(
+                "{:4.0} kPa: min wall gap {:8.4} mm without contact, {:8.4} mm with; radius {:7.3} / {:7.3} mm ({:+.2}%); Newton iterations {} / {}",
+                a.pressure_kpa,
+                a.min_wall_gap_mm,
+                b.min_wall_gap_mm,
+                a.radius_mm,
+                b.radius_mm,
+                100.0 * (b.radius_mm / a.radius_mm - 1.0),
+                a.newton_iterations,
+                b.newton_iterations
+            );
+        }
+        eprintln!(
+            "ramp {t_free:.2} s without contact, {t_held:.2} s with ({:.2}x)",
+            t_held / t_free
+        );
+        assert!(free.failure.is_none() && held.failure.is_none());
+        assert_eq!((free.steps.len(), held.steps.len()), (3, 3));
+        let gap = |r: &Ramp| -> Vec<f64> { r.steps.iter().map(|s| s.min_wall_gap_mm).collect() };
+        let (g_free, g_held) = (gap(&free), gap(&held));
+        // Open at 10 kPa (0.5 mm less the bulges: measured 0.281 mm), the same with and
+        // without contact; without, the walls overlap by 0.1 mm and more from 25 kPa.
+        assert!((g_free[0] - 0.281).abs() < 0.01 && (g_held[0] - g_free[0]).abs() < 1e-12);
+        assert!(g_free[1] < -0.1 && g_free[2] < g_free[1], "{g_free:?}");
+        let warnings = ramp_warnings(&free.steps, None);
+        assert!(
+            warnings
+                .iter()
+                .any(|w| w.contains("from 25 kPa the facing walls")),
+            "{warnings:?}"
+        );
+        // With contact: in contact, penetration within the tolerance (measured 0.012 mm
+        // at 40 kPa), no warning.
+        for g in &g_held[1..] {
+            assert!(*g < 0.0 && *g > -contact.tolerance_mm, "{g_held:?}");
+        }
+        assert!(ramp_warnings(&held.steps, Some(&contact)).is_empty());
+        // Smaller radius with contact at 25 and 40 kPa (measured -1.7% at 40 kPa).
+        let ratio = held.steps[2].radius_mm / free.steps[2].radius_mm;
+        assert!(ratio < 0.99 && ratio > 0.95, "{ratio}");
+        assert!(held.steps[1].radius_mm < free.steps[1].radius_mm);
+    }
+}
+
 /// The thinnest wall of the actuator, mm, with its name: the top wall, the bottom under
 /// the channel, the side walls beside the cavities and channel, and the chamber walls.
 pub fn thinnest_wall_mm(g: &super::actuator::Geometry) -> (f64, &'static str) {
@@ -446,10 +543,25 @@ pub fn marker_turning_deg(markers: &[(f64, f64)]) -> f64 {
 }
 
 /// What a user must know about a ramp's results: the first step where the safety
-/// factor drops below 1 (the silicone would tear) and the first step where the markers
-/// curl past a full turn (the bending angle wraps and is no longer the total bend).
-pub fn ramp_warnings(steps: &[StepResult]) -> Vec<String> {
+/// factor drops below 1 (the silicone would tear), the first step where the markers
+/// curl past a full turn (the bending angle wraps and is no longer the total bend), and
+/// the first step where the facing chamber walls interpenetrate: at all without
+/// `contact` (the ramp's model has no contact), beyond its tolerance with it.
+pub fn ramp_warnings(steps: &[StepResult], contact: Option<&ContactConfig>) -> Vec<String> {
     let mut w = Vec::new();
+    let allowed = contact.map_or(0.0, |c| c.tolerance_mm);
+    if let Some(s) = steps.iter().find(|s| s.min_wall_gap_mm < -allowed) {
+        w.push(match contact {
+            None => format!(
+                "from {} kPa the facing walls of neighbouring chambers interpenetrate (smallest gap {:.3} mm): the model has no contact between them, so the steps from there on are not physical; add a [contact] table to the config",
+                s.pressure_kpa, s.min_wall_gap_mm
+            ),
+            Some(c) => format!(
+                "from {} kPa the facing chamber walls interpenetrate by {:.3} mm, more than contact.tolerance_mm = {} mm: raise contact.penalty_mpa_per_mm",
+                s.pressure_kpa, -s.min_wall_gap_mm, c.tolerance_mm
+            ),
+        });
+    }
     if let Some(s) = steps.iter().find(|s| s.safety_factor < 1.0) {
         w.push(format!(
             "safety factor {:.2} < 1 from {} kPa: the max principal stress ({:.2} MPa) exceeds the tensile strength; the silicone would tear there",
@@ -509,26 +621,46 @@ mod warning_tests {
             safety_factor: sf,
             bottom_elongation_pct: 0.0,
             cavity_volume_mm3: 0.0,
+            min_wall_gap_mm: 1.0 - p / 250.0,
             newton_iterations: 3,
             blocked_force_n: None,
             markers_mm: arc(turn, 8),
         };
-        assert!(ramp_warnings(&[step(100.0, 2.0, 200.0)]).is_empty());
-        let w = ramp_warnings(&[
+        assert!(ramp_warnings(&[step(100.0, 2.0, 200.0)], None).is_empty());
+        // Gaps 0.6, -0.2, -0.6 mm.
+        let steps = [
             step(100.0, 2.0, 200.0),
             step(300.0, 0.8, 380.0),
             step(400.0, 0.5, 420.0),
-        ]);
-        assert_eq!(w.len(), 2, "{w:?}");
+        ];
+        let w = ramp_warnings(&steps, None);
+        assert_eq!(w.len(), 3, "{w:?}");
         assert!(
-            w[0].contains("safety factor 0.80 < 1 from 300 kPa"),
+            w[0].contains("from 300 kPa the facing walls of neighbouring chambers interpenetrate (smallest gap -0.200 mm)"),
             "{}",
             w[0]
         );
         assert!(
-            w[1].contains("from 400 kPa the markers curl past a full turn"),
+            w[1].contains("safety factor 0.80 < 1 from 300 kPa"),
             "{}",
             w[1]
+        );
+        assert!(
+            w[2].contains("from 400 kPa the markers curl past a full turn"),
+            "{}",
+            w[2]
+        );
+        // With contact, only a penetration beyond its tolerance is worth a warning.
+        let contact = ContactConfig {
+            tolerance_mm: 0.3,
+            ..ContactConfig::default()
+        };
+        let w = ramp_warnings(&steps, Some(&contact));
+        assert_eq!(w.len(), 3, "{w:?}");
+        assert!(
+            w[0].contains("from 400 kPa the facing chamber walls interpenetrate by 0.600 mm"),
+            "{}",
+            w[0]
         );
     }
 }

@@ -24,6 +24,7 @@ use faer::{Conj, Mat, Par, Side};
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 
+use super::contact::{contact_terms, Contact};
 use super::hex::{
     element_cauchy_stress, element_kinematics, element_response, ElementMatrix, ElementVector,
     HexGeometry,
@@ -57,6 +58,8 @@ pub struct Model {
     pub element_material: Vec<u8>,
     /// The materials beside [`Self::material`].
     pub extra_materials: Vec<Yeoh>,
+    /// Frictionless contact between surfaces ([`super::contact`]); `None`: no contact.
+    pub contact: Option<Contact>,
 }
 
 impl Model {
@@ -162,6 +165,10 @@ struct Assembled {
     /// Values of the lower triangle in the fixed pattern of [`Pattern`].
     values: Vec<f64>,
     condensed: Vec<Condensed>,
+    /// Node pairs a contact term couples that the pattern lacks (a slave node meeting a
+    /// master face for the first time): the pattern is then extended and the state
+    /// assembled again.
+    missing: Vec<(usize, usize)>,
 }
 
 /// Marks an entry of an element or face matrix that is not assembled (a fixed dof, or
@@ -187,7 +194,12 @@ struct Pattern {
 }
 
 impl Pattern {
-    fn new(model: &Model, eq: &[Option<usize>], n_eq: usize) -> Result<Self, FemError> {
+    fn new(
+        model: &Model,
+        eq: &[Option<usize>],
+        n_eq: usize,
+        extra: &[(usize, usize)],
+    ) -> Result<Self, FemError> {
         let dofs = |nodes: &[usize]| -> Vec<Option<usize>> {
             (0..3 * nodes.len())
                 .map(|a| eq[3 * nodes[a / 3] + a % 3])
@@ -208,6 +220,16 @@ impl Pattern {
         }
         for f in &model.pressure_faces {
             add(&dofs(f));
+        }
+        // Contact: the node pairs contact has coupled so far (`extra`, found during the
+        // solve); the master faces' own couplings are those of their elements.
+        for (a, b) in extra {
+            for ra in dofs(&[*a]).iter().flatten() {
+                for cb in dofs(&[*b]).iter().flatten() {
+                    let (hi, lo) = if ra >= cb { (*ra, *cb) } else { (*cb, *ra) };
+                    columns[lo].push(hi);
+                }
+            }
         }
         let mut col_ptr = Vec::with_capacity(n_eq + 1);
         let mut row_idx = Vec::new();
@@ -273,6 +295,17 @@ impl Pattern {
         })
     }
 
+    /// The value index of lower-triangle entry (r, c), r >= c, or SKIP when it is not in
+    /// the pattern.
+    fn slot(&self, r: usize, c: usize) -> u32 {
+        let col_ptr = self.symbolic.col_ptr();
+        let rows = &self.symbolic.row_idx()[col_ptr[c]..col_ptr[c + 1]];
+        match rows.binary_search(&r) {
+            Ok(k) => (col_ptr[c] + k) as u32,
+            Err(_) => SKIP,
+        }
+    }
+
     fn matrix<'a>(&'a self, values: &'a [f64]) -> SparseColMatRef<'a, usize, f64> {
         SparseColMatRef::new(self.symbolic.as_ref(), values)
     }
@@ -294,6 +327,12 @@ pub struct Solver<'m> {
     eq: Vec<Option<usize>>,
     n_eq: usize,
     pattern: Pattern,
+    /// Node pairs added to the pattern during the solve: slave nodes and the nodes of the
+    /// master faces they have met. Coupling every wall node to the facing wall from the
+    /// start made the default actuator's ramp 1.7x dearer even with no contact (the
+    /// couplings across the gaps turn the comb of chambers into a solid bar for the
+    /// fill-reducing ordering); coupled on demand, contact costs nothing until it happens.
+    extra_couplings: Vec<(usize, usize)>,
     symbolic: Option<SymbolicCholesky<usize>>,
     factor: Vec<f64>,
     u: Vec<f64>,
@@ -337,11 +376,26 @@ impl<'m> Solver<'m> {
                 why: "element_material needs one valid material index per element".into(),
             });
         }
+        if model
+            .contact
+            .iter()
+            .flat_map(|c| &c.pairs)
+            .any(|p| p.slave_nodes.len() != p.slave_areas_mm2.len())
+        {
+            return Err(FemError::Model {
+                why: "a contact pair needs one area per slave node".into(),
+            });
+        }
         if let Some(bad) = model
             .elements
             .iter()
             .flatten()
             .chain(model.pressure_faces.iter().flatten())
+            .chain(model.contact.iter().flat_map(|c| {
+                c.pairs
+                    .iter()
+                    .flat_map(|p| p.slave_nodes.iter().chain(p.master_faces.iter().flatten()))
+            }))
             .find(|a| **a >= n)
         {
             return Err(FemError::Model {
@@ -363,13 +417,14 @@ impl<'m> Solver<'m> {
                 n_eq += 1;
             }
         }
-        let pattern = Pattern::new(model, &eq, n_eq)?;
+        let pattern = Pattern::new(model, &eq, n_eq, &[])?;
         Ok(Self {
             model,
             geom,
             eq,
             n_eq,
             pattern,
+            extra_couplings: Vec::new(),
             symbolic: None,
             factor: Vec::new(),
             u: vec![0.0; 3 * n],
@@ -448,6 +503,13 @@ impl<'m> Solver<'m> {
                 f[3 * face[a / 3] + a % 3] -= p * g[a];
             }
         }
+        if let Some(contact) = &self.model.contact {
+            for t in contact_terms(contact, &|a| self.position(a)) {
+                for a in 0..15 {
+                    f[3 * t.nodes[a / 3] + a % 3] += t.force[a];
+                }
+            }
+        }
         for (fd, l) in f.iter_mut().zip(&self.model.loads) {
             *fd -= self.load.dead * l;
         }
@@ -499,6 +561,7 @@ impl<'m> Solver<'m> {
         while t < 1.0 {
             let next = (t + step).min(1.0);
             let saved = (self.u.clone(), self.theta.clone(), self.pressure.clone());
+            let saved_couplings = self.extra_couplings.clone();
             let load = start.lerp(&target, next);
             let guess = self.predict(load);
             match self.newton(load, s, guess) {
@@ -514,6 +577,15 @@ impl<'m> Solver<'m> {
                 }
                 None => {
                     (self.u, self.theta, self.pressure) = saved;
+                    if self.extra_couplings != saved_couplings {
+                        // Contact met by the iterates of a failed increment (e.g. the
+                        // wild first iterates under gravity) would only densify the
+                        // matrix from now on.
+                        self.extra_couplings = saved_couplings;
+                        self.pattern =
+                            Pattern::new(self.model, &self.eq, self.n_eq, &self.extra_couplings)?;
+                        self.symbolic = None;
+                    }
                     step *= 0.5;
                     if step < s.min_step {
                         return Err(FemError::Diverged {
@@ -717,6 +789,32 @@ impl<'m> Solver<'m> {
                 }
             }
         }
+        let mut missing = Vec::new();
+        if let Some(contact) = &model.contact {
+            let position =
+                |a: usize| model.nodes[a] + Vector3::new(u[3 * a], u[3 * a + 1], u[3 * a + 2]);
+            for t in contact_terms(contact, &position) {
+                let d: [Option<usize>; 15] =
+                    std::array::from_fn(|a| eq[3 * t.nodes[a / 3] + a % 3]);
+                for a in 0..15 {
+                    let Some(i) = d[a] else { continue };
+                    r[i] += t.force[a];
+                    for (b, db) in d.iter().enumerate() {
+                        match db {
+                            Some(j) if i >= *j => {
+                                let s = self.pattern.slot(i, *j);
+                                if s != SKIP {
+                                    values[s as usize] += t.stiffness[(a, b)];
+                                } else {
+                                    missing.push((t.nodes[a / 3], t.nodes[b / 3]));
+                                }
+                            }
+                            _ => {}
+                        }
+                    }
+                }
+            }
+        }
         for (d, e) in eq.iter().enumerate() {
             if let Some(i) = e {
                 let f = load.dead * model.loads[d];
@@ -735,6 +833,7 @@ impl<'m> Solver<'m> {
             volume_error,
             values,
             condensed: parts.into_iter().map(|(_, _, c)| c).collect(),
+            missing,
         })
     }
 
@@ -779,6 +878,23 @@ impl<'m> Solver<'m> {
             }
             if it == s.max_iterations || cur.equilibrium_norm > DIVERGENCE_FACTOR * first_norm {
                 return None;
+            }
+            if !cur.missing.is_empty() {
+                // New contact couplings: extend the pattern (a new symbolic factorization)
+                // and assemble the same state into it.
+                self.extra_couplings.append(&mut cur.missing);
+                self.extra_couplings.sort_unstable();
+                self.extra_couplings.dedup();
+                if debug {
+                    eprintln!(
+                        "newton {it}: contact beyond the pattern: {} extra node pairs",
+                        self.extra_couplings.len()
+                    );
+                }
+                self.pattern =
+                    Pattern::new(self.model, &self.eq, self.n_eq, &self.extra_couplings).ok()?;
+                self.symbolic = None;
+                cur = self.assemble(&u, &theta, &pressure, load)?;
             }
             let Some(du) = self.factor_and_solve(&cur.values, &cur.residual) else {
                 if debug {
@@ -965,6 +1081,7 @@ mod tests {
             volume_weights: crate::fem::pressure::CLOSED,
             element_material: Vec::new(),
             extra_materials: Vec::new(),
+            contact: None,
         };
         let r = solve_static(&model, &NewtonSettings::default()).unwrap();
         r.displacement[3 * id(n, n, 0) + 1]
@@ -1047,6 +1164,7 @@ mod tests {
             volume_weights: crate::fem::pressure::CLOSED,
             element_material: Vec::new(),
             extra_materials: Vec::new(),
+            contact: None,
         };
         let r = solve_static(&model, &NewtonSettings::default()).unwrap();
         // Exact: F = diag(l1, l2, l2) with P11 = T, P22 = 0 (Newton on the material).
@@ -1144,6 +1262,7 @@ mod tests {
             volume_weights: Vector3::new(0.5, 0.5, 0.0),
             element_material: Vec::new(),
             extra_materials: Vec::new(),
+            contact: None,
         };
         let mut solver = Solver::new(&model).unwrap();
         let settings = NewtonSettings {
