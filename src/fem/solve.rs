@@ -335,6 +335,9 @@ pub struct Solver<'m> {
     extra_couplings: Vec<(usize, usize)>,
     symbolic: Option<SymbolicCholesky<usize>>,
     factor: Vec<f64>,
+    /// Scratch memory of the numeric factorization and solve, kept between Newton
+    /// iterations (allocated anew each time it cost ~8% of a ramp in page faults).
+    scratch: Option<MemBuffer>,
     u: Vec<f64>,
     /// Element dilatations θ_e.
     theta: Vec<f64>,
@@ -427,6 +430,7 @@ impl<'m> Solver<'m> {
             extra_couplings: Vec::new(),
             symbolic: None,
             factor: Vec::new(),
+            scratch: None,
             u: vec![0.0; 3 * n],
             theta: vec![1.0; model.elements.len()],
             pressure: vec![0.0; model.elements.len()],
@@ -585,6 +589,7 @@ impl<'m> Solver<'m> {
                         self.pattern =
                             Pattern::new(self.model, &self.eq, self.n_eq, &self.extra_couplings)?;
                         self.symbolic = None;
+                        self.scratch = None;
                     }
                     step *= 0.5;
                     if step < s.min_step {
@@ -657,13 +662,21 @@ impl<'m> Solver<'m> {
             self.symbolic = Some(sym);
         }
         let sym = self.symbolic.as_ref()?;
-        let par = Par::rayon(0);
-        let mut mem = MemBuffer::try_new(
-            sym.factorize_numeric_ldlt_scratch::<f64>(par, Default::default())
-                .or(sym.solve_in_place_scratch::<f64>(1, par)),
-        )
-        .ok()?;
-        let stack = MemStack::new(&mut mem);
+        // Sequential: faer's parallel supernodal factorization on 2 cores spent more
+        // time in thread hand-offs (sched_yield, futex: 23 s of system time in a 41 s
+        // ramp) than it saved; sequential it is 32 s. The elements are assembled in
+        // parallel.
+        let par = Par::Seq;
+        if self.scratch.is_none() {
+            self.scratch = Some(
+                MemBuffer::try_new(
+                    sym.factorize_numeric_ldlt_scratch::<f64>(par, Default::default())
+                        .or(sym.solve_in_place_scratch::<f64>(1, par)),
+                )
+                .ok()?,
+            );
+        }
+        let stack = MemStack::new(self.scratch.as_mut()?);
         let ldlt = sym
             .factorize_numeric_ldlt(
                 &mut self.factor,
@@ -894,6 +907,7 @@ impl<'m> Solver<'m> {
                 self.pattern =
                     Pattern::new(self.model, &self.eq, self.n_eq, &self.extra_couplings).ok()?;
                 self.symbolic = None;
+                self.scratch = None;
                 cur = self.assemble(&u, &theta, &pressure, load)?;
             }
             let Some(du) = self.factor_and_solve(&cur.values, &cur.residual) else {
