@@ -16,6 +16,8 @@
 //! is cut in half and retried. `BENDSCOPE_DEBUG_NEWTON=1` prints every iteration's
 //! residual to stderr.
 
+use std::sync::Mutex;
+
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
 use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, SymbolicCholesky};
@@ -143,7 +145,11 @@ pub struct StepReport {
     pub iterations: usize,
 }
 
+/// An element's force, tangent and condensed terms at the current state.
+type ElementPart = (ElementVector, ElementMatrix, Condensed);
+
 /// Per-element terms of the condensation, kept to update θ_e and p_e after a step.
+#[derive(Clone)]
 struct Condensed {
     /// ∂v_e/∂u.
     g: ElementVector,
@@ -338,6 +344,10 @@ pub struct Solver<'m> {
     /// Scratch memory of the numeric factorization and solve, kept between Newton
     /// iterations (allocated anew each time it cost ~8% of a ramp in page faults).
     scratch: Option<MemBuffer>,
+    /// Each element's force, tangent and condensed terms from the last assembly, kept so
+    /// that an assembly allocates nothing (a fresh ~55 MB vector per Newton iteration at
+    /// the default mesh cost page faults and moves).
+    parts: Mutex<Vec<Option<ElementPart>>>,
     u: Vec<f64>,
     /// Element dilatations θ_e.
     theta: Vec<f64>,
@@ -357,6 +367,53 @@ fn gather<const N: usize>(u: &[f64], nodes: &[usize; N]) -> [Vector3<f64>; N] {
 
 fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+/// One element's force, tangent and condensed terms at displacement `u`, dilatation
+/// `th` and pressure `p`; zeros for an element whose nodes are all fixed; `None` when the
+/// element is inverted.
+#[allow(clippy::too_many_arguments)]
+fn element_part(
+    model: &Model,
+    e: usize,
+    el: &[usize; 8],
+    g: &HexGeometry,
+    th: f64,
+    p: f64,
+    active: bool,
+    u: &[f64],
+) -> Option<ElementPart> {
+    let material = model.material_of(e);
+    if !active {
+        // Every node fixed: u = 0, θ = 1, p = 0 stay the exact state; nothing
+        // to assemble (the clamped chamber of the actuator).
+        return Some((
+            ElementVector::zeros(),
+            ElementMatrix::zeros(),
+            Condensed {
+                g: ElementVector::zeros(),
+                r_volume: 0.0,
+                r_pressure: 0.0,
+                ddu: material.ddu(th),
+            },
+        ));
+    }
+    let e = element_kinematics(g, material, &gather(u, el))?;
+    if th <= 0.0 {
+        return None;
+    }
+    let vol = g.volume;
+    let ddu = material.ddu(th);
+    let c = Condensed {
+        r_volume: e.v - vol * th,
+        r_pressure: vol * (material.du(th) - p),
+        ddu,
+        g: e.g,
+    };
+    // Equilibrium with the element's own pressure, and the condensed system.
+    let force = e.force_iso + e.g * p;
+    let k = e.k_iso + e.h * p + e.g * e.g.transpose() * (ddu / vol);
+    Some((force, k, c))
 }
 
 impl<'m> Solver<'m> {
@@ -431,6 +488,7 @@ impl<'m> Solver<'m> {
             symbolic: None,
             factor: Vec::new(),
             scratch: None,
+            parts: Mutex::new(Vec::new()),
             u: vec![0.0; 3 * n],
             theta: vec![1.0; model.elements.len()],
             pressure: vec![0.0; model.elements.len()],
@@ -702,48 +760,21 @@ impl<'m> Solver<'m> {
         load: LoadState,
     ) -> Option<Assembled> {
         let model = self.model;
-        let parts: Option<Vec<(ElementVector, ElementMatrix, Condensed)>> = model
-            .elements
-            .par_iter()
+        let mut parts = self.parts.lock().ok()?;
+        parts.resize_with(model.elements.len(), || None);
+        parts
+            .par_iter_mut()
+            .zip(&model.elements)
             .zip(&self.geom)
             .zip(theta.par_iter().zip(pressure))
             .zip(&self.pattern.active)
             .enumerate()
-            .map(|(e, (((el, g), (&th, &p)), &active))| {
-                let material = model.material_of(e);
-                if !active {
-                    // Every node fixed: u = 0, θ = 1, p = 0 stay the exact state; nothing
-                    // to assemble (the clamped chamber of the actuator).
-                    return Some((
-                        ElementVector::zeros(),
-                        ElementMatrix::zeros(),
-                        Condensed {
-                            g: ElementVector::zeros(),
-                            r_volume: 0.0,
-                            r_pressure: 0.0,
-                            ddu: material.ddu(th),
-                        },
-                    ));
-                }
-                let e = element_kinematics(g, material, &gather(u, el))?;
-                if th <= 0.0 {
-                    return None;
-                }
-                let vol = g.volume;
-                let ddu = material.ddu(th);
-                let c = Condensed {
-                    r_volume: e.v - vol * th,
-                    r_pressure: vol * (material.du(th) - p),
-                    ddu,
-                    g: e.g,
-                };
-                // Equilibrium with the element's own pressure, and the condensed system.
-                let force = e.force_iso + e.g * p;
-                let k = e.k_iso + e.h * p + e.g * e.g.transpose() * (ddu / vol);
-                Some((force, k, c))
-            })
-            .collect();
-        let parts = parts?;
+            .for_each(|(e, ((((slot, el), g), (&th, &p)), &active))| {
+                *slot = element_part(model, e, el, g, th, p, active, u);
+            });
+        if parts.iter().any(Option::is_none) {
+            return None;
+        }
         let faces: Vec<(f64, FaceVector, FaceMatrix)> = model
             .pressure_faces
             .par_iter()
@@ -762,7 +793,7 @@ impl<'m> Solver<'m> {
         for (((el, (f, k, c)), g), slots) in model
             .elements
             .iter()
-            .zip(&parts)
+            .zip(parts.iter().flatten())
             .zip(&self.geom)
             .zip(&self.pattern.element_slots)
         {
@@ -845,7 +876,7 @@ impl<'m> Solver<'m> {
             external_norm: norm(&ext),
             volume_error,
             values,
-            condensed: parts.into_iter().map(|(_, _, c)| c).collect(),
+            condensed: parts.iter().flatten().map(|(_, _, c)| c.clone()).collect(),
             missing,
         })
     }
