@@ -734,23 +734,9 @@ impl VideoReader {
     /// FFmpeg's pool when the pixels are dropped), else RGB (converted into `recycled`'s
     /// buffer when given). The frame is gone from the reader afterwards.
     pub fn take_pixels(&mut self, recycled: Option<Pixels>) -> Result<Pixels, VideoError> {
-        let full_range = self.decoded.format() == Pixel::YUVJ420P
-            || self.decoded.color_range() == ffmpeg::util::color::Range::JPEG;
         match self.decoded.format() {
-            Pixel::YUV420P | Pixel::YUVJ420P => {
-                let frame = std::mem::replace(&mut self.decoded, ffmpeg::frame::Video::empty());
-                match YuvFrame::from_decoded(frame, full_range) {
-                    Some(f) => return Ok(Pixels::Yuv(f)),
-                    None => return Err(self.odd_layout()),
-                }
-            }
-            Pixel::YUV420P10LE => {
-                let frame = std::mem::replace(&mut self.decoded, ffmpeg::frame::Video::empty());
-                match YuvFrame::from_decoded(frame, full_range) {
-                    Some(f) => return Ok(Pixels::Yuv10(f)),
-                    None => return Err(self.odd_layout()),
-                }
-            }
+            Pixel::YUV420P | Pixel::YUVJ420P => return self.take_yuv().map(Pixels::Yuv),
+            Pixel::YUV420P10LE => return self.take_yuv().map(Pixels::Yuv10),
             _ => {}
         }
         let buf = match recycled {
@@ -760,12 +746,15 @@ impl VideoReader {
         Ok(Pixels::Rgb(self.current_rgb_into(buf)?))
     }
 
-    /// The error for a decoded frame whose planes cannot be read in place.
-    fn odd_layout(&self) -> VideoError {
-        VideoError::NotAVideo {
+    /// Takes the decoded 4:2:0 frame as a [`YuvFrame`] of `T` samples, read in place.
+    fn take_yuv<T: Sample>(&mut self) -> Result<YuvFrame<T>, VideoError> {
+        let full_range = self.decoded.format() == Pixel::YUVJ420P
+            || self.decoded.color_range() == ffmpeg::util::color::Range::JPEG;
+        let frame = std::mem::replace(&mut self.decoded, ffmpeg::frame::Video::empty());
+        YuvFrame::from_decoded(frame, full_range).ok_or_else(|| VideoError::NotAVideo {
             path: self.path.clone(),
             reason: "decoded frame with an unexpected plane layout (misaligned or short planes): report the file's codec".to_string(),
-        }
+        })
     }
 
     /// The next frame whose index is a multiple of `stride`, as [`Pixels`].

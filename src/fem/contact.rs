@@ -554,16 +554,7 @@ mod tests {
             for k in 0..nz {
                 for j in 0..n {
                     for i in 0..n {
-                        elements.push([
-                            id(i, j, k),
-                            id(i + 1, j, k),
-                            id(i + 1, j + 1, k),
-                            id(i, j + 1, k),
-                            id(i, j, k + 1),
-                            id(i + 1, j, k + 1),
-                            id(i + 1, j + 1, k + 1),
-                            id(i, j + 1, k + 1),
-                        ]);
+                        elements.push(crate::fem::solve::tests::cell(id, i, j, k));
                     }
                 }
             }

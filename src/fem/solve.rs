@@ -1036,11 +1036,16 @@ pub fn solve_static(model: &Model, settings: &NewtonSettings) -> Result<NewtonRe
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     /// The hexahedron of grid cell (i, j, k) in the local node order of `hex`.
-    fn cell(id: impl Fn(usize, usize, usize) -> usize, i: usize, j: usize, k: usize) -> [usize; 8] {
+    pub(crate) fn cell(
+        id: impl Fn(usize, usize, usize) -> usize,
+        i: usize,
+        j: usize,
+        k: usize,
+    ) -> [usize; 8] {
         [
             id(i, j, k),
             id(i + 1, j, k),
