@@ -1,5 +1,6 @@
 //! Renders a one-video benchmark session: `cargo run --release --example bench_video --
-//! OUT_DIR WIDTH HEIGHT FRAMES MBPS [FPS]` (FPS default 30). A synthetic actuator (8 markers) through a
+//! OUT_DIR WIDTH HEIGHT FRAMES MBPS [FPS] [COLOUR]` (FPS default 30; COLOUR `red`, the
+//! default, or `green`: the markers' paint). A synthetic actuator (8 markers) through a
 //! GoPro-like fisheye camera with sensor noise, H.264 at the given bit rate, plus
 //! cam.yaml (the true camera), pressures.csv, bendscope.toml and seed.toml (the same
 //! with full-frame undistortion). Used by scripts/bench-process.sh.
@@ -25,6 +26,11 @@ fn main() -> anyhow::Result<()> {
         Some(f) => f.parse()?,
         None => 30,
     };
+    let green = match a.get(7).map(String::as_str) {
+        None | Some("red") => false,
+        Some("green") => true,
+        Some(other) => anyhow::bail!("unknown colour {other}: red or green"),
+    };
     std::fs::create_dir_all(&out)?;
     let camera = gopro_like_camera(w, h);
     let distance = 260.0;
@@ -33,7 +39,11 @@ fn main() -> anyhow::Result<()> {
         translation_mm: Vector3::new(0.0, 0.0, distance),
     };
     let sampler = PlaneSampler::new(&camera, &plane, 1, 5)?;
-    let scene = ArcScene::reference_actuator(1.0 / 90.0, Point2::new(-50.0, 22.0));
+    let mut scene = ArcScene::reference_actuator(1.0 / 90.0, Point2::new(-50.0, 22.0));
+    if green {
+        // Green paint of the same lightness as the red one.
+        scene.marker_rgb = [40.0, 150.0, 64.0];
+    }
     let look = FrameLook {
         noise_sigma: 6.0,
         ..FrameLook::default()
@@ -68,10 +78,15 @@ fn main() -> anyhow::Result<()> {
         "file,pressure_kpa\nGX010001.MP4,50\n",
     )?;
     let cfg = format!("calibration = \"cam.yaml\"\nmm_per_px = {mm_per_px}\n");
-    std::fs::write(out.join("bendscope.toml"), &cfg)?;
+    let detect = if green {
+        "[detect]\ncolour = \"green\"\n"
+    } else {
+        ""
+    };
+    std::fs::write(out.join("bendscope.toml"), format!("{cfg}{detect}"))?;
     std::fs::write(
         out.join("seed.toml"),
-        format!("{cfg}full_frame_undistort = true\n"),
+        format!("{cfg}full_frame_undistort = true\n{detect}"),
     )?;
     println!(
         "wrote {} ({w}x{h}, {frames} frames at {fps} fps, {mbps} Mb/s; true radius 90 mm)",

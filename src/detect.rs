@@ -1,8 +1,10 @@
-//! Marker detection: HSV red mask, hole fill, speck removal, connected components and
+//! Marker detection: HSV colour mask, hole fill, speck removal, connected components and
 //! sub-pixel centroids.
 //!
 //! The chain, per frame: [`mask_from_rgb`] (OpenCV's HSV convention, H in 0..180 with
-//! red wrapping around 0/180, S and V in 0..255) -> [`blobs_from_mask`] (8-connected
+//! red wrapping around 0/180, S and V in 0..255; the marker colour is a band of it:
+//! [`MarkerColour`]'s presets red, green, blue, yellow, dark, or any hue band with
+//! saturation and value bounds, [`HsvThresholds`]) -> [`blobs_from_mask`] (8-connected
 //! components, holes filled, specks and oversized blobs dropped and counted) -> sub-pixel
 //! centroids -> [`order_markers`] from the clamped end to the tip.
 //!
@@ -28,14 +30,15 @@ use nalgebra::Point2;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-/// Default upper hue bound of the low red band (OpenCV scale, 0..180).
-pub const DEFAULT_HUE_MAX_LOW: u8 = 10;
-/// Default lower hue bound of the high red band (OpenCV scale, 0..180).
-pub const DEFAULT_HUE_MIN_HIGH: u8 = 170;
-/// Default minimum saturation (0..255): pale silicone and the white sheet stay out.
+/// Default minimum saturation (0..255) of a coloured marker: pale silicone and the white
+/// sheet stay out.
 pub const DEFAULT_S_MIN: u8 = 100;
-/// Default minimum value (0..255): shadows stay out.
+/// Default minimum value (0..255) of a coloured marker: shadows stay out.
 pub const DEFAULT_V_MIN: u8 = 60;
+/// Default largest value (0..255) of a dark marker (black dots on a light actuator).
+pub const DEFAULT_DARK_V_MAX: u8 = 80;
+/// Largest hue on OpenCV's scale (degrees / 2).
+pub const HUE_MAX: u8 = 180;
 /// Default smallest blob kept, px (smaller are specks: noise, reflections).
 pub const DEFAULT_MIN_AREA_PX: u32 = 6;
 /// Default largest blob kept, px (larger are other red objects).
@@ -44,27 +47,226 @@ pub const DEFAULT_MAX_AREA_PX: u32 = 20_000;
 /// and its surroundings for coverage weighting; below it, binary centroids are used.
 pub const MIN_COVERAGE_CONTRAST: f64 = 30.0;
 
-/// Thresholds of the red mask (OpenCV HSV scale).
+/// The marker colours with a preset band (`[detect] colour = ...`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MarkerColour {
+    /// Hue 170..10 (wrapping at 0/180), S >= 100, V >= 60.
+    #[default]
+    Red,
+    /// Hue 35..85, S >= 80, V >= 40.
+    Green,
+    /// Hue 95..130, S >= 80, V >= 40.
+    Blue,
+    /// Hue 20..34, S >= 100, V >= 80.
+    Yellow,
+    /// Any hue, V <= 80: black or dark dots on a light actuator.
+    Dark,
+}
+
+impl MarkerColour {
+    /// The preset band of this colour.
+    pub fn thresholds(self) -> HsvThresholds {
+        let band = |hue_min, hue_max, s_min, v_min| HsvThresholds {
+            hue_min,
+            hue_max,
+            s_min,
+            v_min,
+            v_max: 255,
+        };
+        match self {
+            MarkerColour::Red => band(170, 10, DEFAULT_S_MIN, DEFAULT_V_MIN),
+            MarkerColour::Green => band(35, 85, 80, 40),
+            MarkerColour::Blue => band(95, 130, 80, 40),
+            MarkerColour::Yellow => band(20, 34, 100, 80),
+            MarkerColour::Dark => HsvThresholds {
+                hue_min: 0,
+                hue_max: HUE_MAX,
+                s_min: 0,
+                v_min: 0,
+                v_max: DEFAULT_DARK_V_MAX,
+            },
+        }
+    }
+}
+
+/// The marker colour as a band of OpenCV's HSV (H in 0..180, S and V in 0..255): hue in
+/// `hue_min..=hue_max` (wrapping through 0/180 when `hue_min > hue_max`, as red does;
+/// `0..=180` is every hue), S >= `s_min`, `v_min` <= V <= `v_max`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
 pub struct HsvThresholds {
-    /// Red band one: hue in [0, hue_max_low].
-    pub hue_max_low: u8,
-    /// Red band two: hue in [hue_min_high, 180].
-    pub hue_min_high: u8,
+    /// Lowest hue of the band.
+    pub hue_min: u8,
+    /// Highest hue of the band (below `hue_min`: the band wraps through 0).
+    pub hue_max: u8,
     /// Minimum saturation.
     pub s_min: u8,
     /// Minimum value.
     pub v_min: u8,
+    /// Maximum value (255 for coloured markers; dark markers set it).
+    pub v_max: u8,
 }
 
 impl Default for HsvThresholds {
     fn default() -> Self {
-        Self {
-            hue_max_low: DEFAULT_HUE_MAX_LOW,
-            hue_min_high: DEFAULT_HUE_MIN_HIGH,
-            s_min: DEFAULT_S_MIN,
-            v_min: DEFAULT_V_MIN,
+        MarkerColour::Red.thresholds()
+    }
+}
+
+impl HsvThresholds {
+    /// True when every hue passes (dark markers).
+    pub fn every_hue(&self) -> bool {
+        self.hue_min == 0 && self.hue_max >= HUE_MAX
+    }
+
+    /// True when the band holds hue 0 (red): the centroid's fallback cue is redness.
+    pub fn holds_red(&self) -> bool {
+        self.hue_min > self.hue_max || self.hue_min == 0
+    }
+
+    /// True when the band holds hue `h` (OpenCV scale) given as `num / den` (den > 0).
+    #[inline]
+    fn holds_hue(&self, num: i32, den: i32) -> bool {
+        let (lo, hi) = (self.hue_min as i32 * den, self.hue_max as i32 * den);
+        if self.hue_min <= self.hue_max {
+            lo <= num && num <= hi
+        } else {
+            num >= lo || num <= hi
+        }
+    }
+}
+
+/// `[detect]` as written in bendscope.toml: a preset `colour` and the keys that override
+/// its band. Checked and resolved into [`DetectSettings`].
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct DetectConfig {
+    /// Preset colour (default red).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub colour: Option<MarkerColour>,
+    /// Lowest hue of the band, 0..180.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hue_min: Option<i64>,
+    /// Highest hue of the band, 0..180 (below `hue_min`: wraps through 0).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hue_max: Option<i64>,
+    /// Red's two-band form: hue in [0, hue_max_low] (= `hue_max`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hue_max_low: Option<i64>,
+    /// Red's two-band form: hue in [hue_min_high, 180] (= `hue_min`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hue_min_high: Option<i64>,
+    /// Minimum saturation, 0..255.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub s_min: Option<i64>,
+    /// Minimum value, 0..255.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub v_min: Option<i64>,
+    /// Maximum value, 0..255.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub v_max: Option<i64>,
+    /// Smallest blob kept, px.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub min_area_px: Option<u32>,
+    /// Largest blob kept, px.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_area_px: Option<u32>,
+    /// Fill holes inside blobs.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fill_holes: Option<bool>,
+    /// Where the clamped end is in the first frame.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub clamp_side: Option<ClampSide>,
+    /// Lower `v_min` (and `v_max`) in proportion when the frame is dim.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub auto_exposure: Option<bool>,
+}
+
+impl TryFrom<DetectConfig> for DetectSettings {
+    type Error = String;
+
+    fn try_from(c: DetectConfig) -> Result<Self, String> {
+        let colour = c.colour.unwrap_or_default();
+        let mut t = colour.thresholds();
+        let level = |v: Option<i64>, max: i64| -> Result<Option<u8>, String> {
+            match v {
+                Some(v) if !(0..=max).contains(&v) => Err(format!(
+                    "{v} is outside 0..{max}{}",
+                    if max == HUE_MAX as i64 {
+                        " (OpenCV's hue scale: degrees / 2)"
+                    } else {
+                        ""
+                    }
+                )),
+                v => Ok(v.map(|v| v as u8)),
+            }
+        };
+        let hue = HUE_MAX as i64;
+        let (lo, hi) = (level(c.hue_min, hue)?, level(c.hue_max, hue)?);
+        let (low, high) = (level(c.hue_max_low, hue)?, level(c.hue_min_high, hue)?);
+        if (low.is_some() || high.is_some()) && (lo.is_some() || hi.is_some()) {
+            return Err(
+                "`hue_max_low`/`hue_min_high` (red's two bands) and `hue_min`/`hue_max` \
+                 both given: keep one form"
+                    .into(),
+            );
+        }
+        if (low.is_some() || high.is_some()) && colour != MarkerColour::Red {
+            return Err(format!(
+                "`hue_max_low`/`hue_min_high` are red's bands, but colour = \"{}\": use `hue_min`/`hue_max`",
+                serde_json::to_value(colour).ok().and_then(|v| v.as_str().map(String::from)).unwrap_or_default()
+            ));
+        }
+        if let Some(h) = high.or(lo) {
+            t.hue_min = h;
+        }
+        if let Some(h) = low.or(hi) {
+            t.hue_max = h;
+        }
+        if let Some(s) = level(c.s_min, 255)? {
+            t.s_min = s;
+        }
+        if let Some(v) = level(c.v_min, 255)? {
+            t.v_min = v;
+        }
+        if let Some(v) = level(c.v_max, 255)? {
+            t.v_max = v;
+        }
+        if t.v_min > t.v_max {
+            return Err(format!(
+                "`v_min` = {} is above `v_max` = {}: no pixel can pass",
+                t.v_min, t.v_max
+            ));
+        }
+        let d = DetectSettings::default();
+        Ok(DetectSettings {
+            hsv: t,
+            min_area_px: c.min_area_px.unwrap_or(d.min_area_px),
+            max_area_px: c.max_area_px.unwrap_or(d.max_area_px),
+            fill_holes: c.fill_holes.unwrap_or(d.fill_holes),
+            clamp_side: c.clamp_side.unwrap_or(d.clamp_side),
+            auto_exposure: c.auto_exposure.unwrap_or(d.auto_exposure),
+        })
+    }
+}
+
+impl From<DetectSettings> for DetectConfig {
+    fn from(s: DetectSettings) -> Self {
+        let t = s.hsv;
+        DetectConfig {
+            colour: None,
+            hue_min: Some(t.hue_min as i64),
+            hue_max: Some(t.hue_max as i64),
+            hue_max_low: None,
+            hue_min_high: None,
+            s_min: Some(t.s_min as i64),
+            v_min: Some(t.v_min as i64),
+            v_max: Some(t.v_max as i64),
+            min_area_px: Some(s.min_area_px),
+            max_area_px: Some(s.max_area_px),
+            fill_holes: Some(s.fill_holes),
+            clamp_side: Some(s.clamp_side),
+            auto_exposure: Some(s.auto_exposure),
         }
     }
 }
@@ -84,12 +286,11 @@ pub enum ClampSide {
     Bottom,
 }
 
-/// Marker detection settings.
+/// Marker detection settings (read from `[detect]` through [`DetectConfig`]).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
+#[serde(try_from = "DetectConfig", into = "DetectConfig")]
 pub struct DetectSettings {
-    /// Red mask thresholds.
-    #[serde(flatten)]
+    /// The markers' colour band.
     pub hsv: HsvThresholds,
     /// Smallest blob kept, px.
     pub min_area_px: u32,
@@ -112,10 +313,12 @@ pub const MIN_ADJUSTED_V: u8 = 20;
 /// Samples per side of the grid the white level is read on.
 pub const EXPOSURE_GRID: u32 = 48;
 
-/// The thresholds for this frame: `v_min` scaled by the frame's white level (the 90th
-/// percentile of max(R, G, B) on a coarse grid) over [`NOMINAL_WHITE`] when the frame is
-/// darker than that, never below [`MIN_ADJUSTED_V`]. A red marker in a dim frame keeps
-/// its hue and saturation but loses value; the white sheet tells how much light there is.
+/// The thresholds for this frame: `v_min` (and a dark marker's `v_max`) scaled by the
+/// frame's white level (the 90th percentile of max(R, G, B) on a coarse grid) over
+/// [`NOMINAL_WHITE`] when the frame is darker than that, `v_min` never below
+/// [`MIN_ADJUSTED_V`]. A coloured marker in a dim frame keeps its hue and saturation but
+/// loses value, and a dark marker's value falls with the light too; the white sheet tells
+/// how much light there is.
 pub fn exposure_adjusted<S: PixelSource>(img: &S, t: &HsvThresholds) -> HsvThresholds {
     let (w, h) = img.dimensions();
     if w == 0 || h == 0 {
@@ -137,9 +340,10 @@ pub fn exposure_adjusted<S: PixelSource>(img: &S, t: &HsvThresholds) -> HsvThres
     if white >= NOMINAL_WHITE {
         return *t;
     }
-    let v = (t.v_min as f64 * white / NOMINAL_WHITE).round() as u8;
+    let scaled = |v: u8| (v as f64 * white / NOMINAL_WHITE).round() as u8;
     HsvThresholds {
-        v_min: v.max(MIN_ADJUSTED_V).min(t.v_min),
+        v_min: scaled(t.v_min).max(MIN_ADJUSTED_V).min(t.v_min),
+        v_max: if t.v_max == 255 { 255 } else { scaled(t.v_max) },
         ..*t
     }
 }
@@ -164,17 +368,17 @@ pub trait PixelSource: Sync {
     fn dimensions(&self) -> (u32, u32);
     /// The RGB value at (x, y).
     fn rgb(&self, x: u32, y: u32) -> image::Rgb<u8>;
-    /// Whether (x, y) is red by `t`; sources may reject cheaply first (see
-    /// [`crate::video::YuvFrame`]).
+    /// Whether (x, y) has the marker colour of `t`; sources may reject cheaply first
+    /// (see [`crate::video::YuvFrame`]).
     #[inline]
-    fn is_red_at(&self, x: u32, y: u32, t: &HsvThresholds) -> bool {
+    fn is_marker_at(&self, x: u32, y: u32, t: &MarkerTest) -> bool {
         let p = self.rgb(x, y);
-        is_red(p[0], p[1], p[2], t)
+        t.matches(p[0], p[1], p[2])
     }
-    /// Appends to `out` the x of every [`COARSE_STEP`]-th pixel of row `y` that is red
-    /// by `t` (the coarse pass of [`mask_from_rgb_sparse`]); sources may skip runs of
-    /// pixels that cannot be red (a YUV frame scans its Cr row first).
-    fn coarse_row_hits(&self, y: u32, t: &HsvThresholds, out: &mut Vec<u32>) {
+    /// Appends to `out` the x of every [`COARSE_STEP`]-th pixel of row `y` that has the
+    /// marker colour of `t` (the coarse pass of [`mask_from_rgb_sparse`]); sources may
+    /// skip runs of pixels that cannot pass (a YUV frame scans a chroma or luma row first).
+    fn coarse_row_hits(&self, y: u32, t: &MarkerTest, out: &mut Vec<u32>) {
         coarse_row_hits_exact(self, y, t, out);
     }
 }
@@ -183,14 +387,14 @@ pub trait PixelSource: Sync {
 pub fn coarse_row_hits_exact<S: PixelSource + ?Sized>(
     img: &S,
     y: u32,
-    t: &HsvThresholds,
+    t: &MarkerTest,
     out: &mut Vec<u32>,
 ) {
     let (w, _) = img.dimensions();
     out.extend(
         (0..w)
             .step_by(COARSE_STEP as usize)
-            .filter(|&x| img.is_red_at(x, y, t)),
+            .filter(|&x| img.is_marker_at(x, y, t)),
     );
 }
 
@@ -204,32 +408,206 @@ impl PixelSource for RgbImage {
     }
 }
 
-/// Whether an RGB pixel is red by the thresholds (OpenCV's HSV, integer arithmetic).
+/// Whether an RGB pixel lies in the colour band `t` (OpenCV's HSV, integer arithmetic).
 ///
-/// Red hues (within 60° of 0) have red as the largest channel, so V = r; then
-/// S = 255 (r - min) / r and H = 30 (g - b) / (r - min) (OpenCV's degrees / 2), plus 180
-/// when negative. The comparisons are done cross-multiplied, without division.
+/// V = max(r, g, b), S = 255 (V - min) / V, and H (OpenCV's degrees / 2) from the largest
+/// channel, in OpenCV's order (r, then g, then b on ties): 30 (g - b) / delta (plus 180
+/// when negative), 60 + 30 (b - r) / delta, 120 + 30 (r - g) / delta. The comparisons are
+/// cross-multiplied, without division. A grey pixel (delta 0) has no hue: it passes only
+/// a band of every hue.
 #[inline]
-pub fn is_red(r: u8, g: u8, b: u8, t: &HsvThresholds) -> bool {
-    if r < t.v_min || r < g || r < b {
+pub fn is_marker_colour(r: u8, g: u8, b: u8, t: &HsvThresholds) -> bool {
+    let v = r.max(g).max(b);
+    if v < t.v_min || v > t.v_max {
         return false;
     }
-    let (r, g, b) = (r as i32, g as i32, b as i32);
-    let min = g.min(b);
-    let delta = r - min;
-    if delta == 0 || 255 * delta < t.s_min as i32 * r {
+    let (r, g, b, v) = (r as i32, g as i32, b as i32, v as i32);
+    let delta = v - r.min(g).min(b);
+    if 255 * delta < t.s_min as i32 * v {
         return false;
     }
-    if g >= b {
-        // H = 30 (g - b) / delta in [0, 30]: inside the low band?
-        30 * (g - b) <= t.hue_max_low as i32 * delta
+    if t.every_hue() {
+        return true;
+    }
+    if delta == 0 {
+        return false;
+    }
+    let num = if v == r {
+        let n = 30 * (g - b);
+        if n < 0 {
+            n + 180 * delta
+        } else {
+            n
+        }
+    } else if v == g {
+        60 * delta + 30 * (b - r)
     } else {
-        // H = 180 - 30 (b - g) / delta: inside the high band?
-        30 * (b - g) <= (180 - t.hue_min_high as i32) * delta
+        120 * delta + 30 * (r - g)
+    };
+    t.holds_hue(num, delta)
+}
+
+/// Share of the smallest chroma excess of a band's pixels that the pre-test demands
+/// ([`MarkerTest::pretest`]): the rest is room for the rounding and clamping of a YUV
+/// sample's conversion to RGB. 3/7 keeps the red pre-test of a Cr excess of 3 at the
+/// default thresholds (whose smallest excess is 7).
+pub const PRETEST_SHARE: f64 = 3.0 / 7.0;
+/// Length of the chroma direction of a [`Pretest::Chroma`] (integer components).
+pub const PRETEST_DIRECTION: f64 = 64.0;
+
+/// A necessary condition on a YUV sample (BT.601, 8-bit units; a 10-bit sample compares
+/// with the bounds shifted by 2 bits) for its pixel to pass a colour band: what lets a
+/// YUV frame skip most pixels without converting them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Pretest {
+    /// No cheap test applies: every pixel gets the exact test.
+    None,
+    /// Only samples with a (Cb - 128) + b (Cr - 128) >= k can pass.
+    Chroma {
+        /// Weight of Cb - 128.
+        a: i32,
+        /// Weight of Cr - 128.
+        b: i32,
+        /// Bound.
+        k: i32,
+    },
+    /// Only samples with Y <= the bound can pass (dark markers).
+    Luma {
+        /// Bound for limited-range (16..235) luma.
+        limited: i32,
+        /// Bound for full-range luma.
+        full: i32,
+    },
+}
+
+/// RGB (0..255) of OpenCV hue `h` (0..180), saturation and value (0..1 and 0..255).
+pub(crate) fn rgb_of_hsv(h: f64, s: f64, v: f64) -> [f64; 3] {
+    let h6 = (h / 30.0).rem_euclid(6.0);
+    let c = v * s;
+    let x = c * (1.0 - (h6 % 2.0 - 1.0).abs());
+    let m = v - c;
+    let (r, g, b) = match h6 as u32 {
+        0 => (c, x, 0.0),
+        1 => (x, c, 0.0),
+        2 => (0.0, c, x),
+        3 => (0.0, x, c),
+        4 => (x, 0.0, c),
+        _ => (c, 0.0, x),
+    };
+    [r + m, g + m, b + m]
+}
+
+/// BT.601 limited-range chroma (Cb - 128, Cr - 128) of an RGB colour (0..255); the
+/// full-range chroma is this times 255/224, so a positive bound on it holds for both.
+fn chroma_of_rgb(p: [f64; 3]) -> [f64; 2] {
+    let [r, g, b] = p;
+    [
+        (-37.797 * r - 74.203 * g + 112.0 * b) / 255.0,
+        (112.0 * r - 93.786 * g - 18.214 * b) / 255.0,
+    ]
+}
+
+impl Pretest {
+    /// The strongest pre-test of band `t`. The chroma of a colour is linear in its RGB,
+    /// and RGB is linear in S and V for a fixed hue and piecewise linear in the hue (its
+    /// pieces meet at multiples of 30), so the smallest projection of the band's chroma
+    /// on a direction is met at the band's edges or a multiple of 30 inside it, at
+    /// S = s_min or 1 and V = v_min: those few colours give it exactly. Of the four
+    /// chroma axes (one plane to scan) and the band's centre direction, the axis with the
+    /// largest smallest projection is taken unless the centre's is over 1.4 times larger.
+    pub fn of_band(t: &HsvThresholds) -> Pretest {
+        if t.every_hue() {
+            if t.s_min == 0 && t.v_max < 255 {
+                // Y is a weighted mean of R, G, B, so never above V.
+                let v = t.v_max as i32;
+                return Pretest::Luma {
+                    limited: 16 + (219 * v + 254) / 255 + 1,
+                    full: v + 1,
+                };
+            }
+            return Pretest::None;
+        }
+        if t.v_min == 0 {
+            return Pretest::None;
+        }
+        let (lo, hi) = (t.hue_min as f64, t.hue_max as f64);
+        let hi = if t.hue_min > t.hue_max {
+            hi + 180.0
+        } else {
+            hi
+        };
+        let mut hues = vec![lo, hi];
+        let mut m = (lo / 30.0).ceil() * 30.0;
+        while m < hi {
+            hues.push(m);
+            m += 30.0;
+        }
+        let v = t.v_min as f64;
+        let colours: Vec<[f64; 2]> = hues
+            .iter()
+            .flat_map(|&h| {
+                [t.s_min as f64 / 255.0, 1.0].map(|s| chroma_of_rgb(rgb_of_hsv(h, s, v)))
+            })
+            .collect();
+        let floor = |a: f64, b: f64| {
+            colours
+                .iter()
+                .map(|c| a * c[0] + b * c[1])
+                .fold(f64::INFINITY, f64::min)
+        };
+        let n = PRETEST_DIRECTION;
+        let centre = chroma_of_rgb(rgb_of_hsv((lo + hi) / 2.0, 1.0, 255.0));
+        let len = centre[0].hypot(centre[1]).max(1e-9);
+        let (ca, cb) = ((n * centre[0] / len).round(), (n * centre[1] / len).round());
+        let axes = [(0.0, n), (0.0, -n), (n, 0.0), (-n, 0.0)];
+        let (aa, ab, af) = axes.iter().map(|&(a, b)| (a, b, floor(a, b))).fold(
+            (0.0, 0.0, f64::NEG_INFINITY),
+            |best, c| if c.2 > best.2 { c } else { best },
+        );
+        let cf = floor(ca, cb) * n / ca.hypot(cb).max(1e-9);
+        let (a, b, f) = if cf > 1.4 * af {
+            (ca, cb, floor(ca, cb))
+        } else {
+            (aa, ab, af)
+        };
+        let k = (f * PRETEST_SHARE).floor();
+        if k <= 0.0 {
+            return Pretest::None;
+        }
+        Pretest::Chroma {
+            a: a as i32,
+            b: b as i32,
+            k: k as i32,
+        }
     }
 }
 
-/// Red mask (255 red, 0 not) of an RGB frame, rows in parallel.
+/// A colour band with its pre-test, made once per frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MarkerTest {
+    /// The band.
+    pub band: HsvThresholds,
+    /// The cheap necessary condition for YUV samples.
+    pub pretest: Pretest,
+}
+
+impl MarkerTest {
+    /// The test of band `t`.
+    pub fn new(t: &HsvThresholds) -> Self {
+        Self {
+            band: *t,
+            pretest: Pretest::of_band(t),
+        }
+    }
+
+    /// Whether an RGB pixel passes.
+    #[inline]
+    pub fn matches(&self, r: u8, g: u8, b: u8) -> bool {
+        is_marker_colour(r, g, b, &self.band)
+    }
+}
+
+/// Marker mask (255 in the band, 0 not) of an RGB frame, rows in parallel.
 pub fn mask_from_rgb(img: &RgbImage, t: &HsvThresholds) -> GrayImage {
     let (w, h) = img.dimensions();
     let mut mask = GrayImage::new(w, h);
@@ -241,7 +619,11 @@ pub fn mask_from_rgb(img: &RgbImage, t: &HsvThresholds) -> GrayImage {
             let s = &src[y * w as usize * 3..(y + 1) * w as usize * 3];
             for (x, m) in row.iter_mut().enumerate() {
                 let p = &s[x * 3..x * 3 + 3];
-                *m = if is_red(p[0], p[1], p[2], t) { 255 } else { 0 };
+                *m = if is_marker_colour(p[0], p[1], p[2], t) {
+                    255
+                } else {
+                    0
+                };
             }
         });
     mask
@@ -303,6 +685,7 @@ pub fn mask_from_rgb_sparse_into<S: PixelSource>(img: &S, t: &HsvThresholds, buf
         }
     }
     buf.rows.clear();
+    let t = &MarkerTest::new(t);
     let mask = &mut buf.mask;
     // Coarse rows in parallel: x ranges of hits, as (row, x0, x1) in full-res px.
     let rows: Vec<(u32, Vec<(u32, u32)>)> = (0..h.div_ceil(COARSE_STEP))
@@ -331,7 +714,7 @@ pub fn mask_from_rgb_sparse_into<S: PixelSource>(img: &S, t: &HsvThresholds, buf
             touched[yy as usize] = true;
             for &(x0, x1) in &spans {
                 for x in x0..x1 {
-                    if img.is_red_at(x, yy, t) {
+                    if img.is_marker_at(x, yy, t) {
                         mask.put_pixel(x, yy, image::Luma([255]));
                     }
                 }
@@ -514,6 +897,13 @@ fn redness(p: &image::Rgb<u8>) -> f64 {
     p[0] as f64 - (p[1].max(p[2])) as f64
 }
 
+/// Chroma max(r, g, b) - min(r, g, b) of a pixel: the fallback cue of markers of other
+/// colours than red.
+#[inline]
+fn chroma(p: &image::Rgb<u8>) -> f64 {
+    p[0].max(p[1]).max(p[2]) as f64 - p[0].min(p[1]).min(p[2]) as f64
+}
+
 /// Luma (Rec. 601) of a pixel: full resolution in 4:2:0 video, where chroma (and so
 /// redness) has half the resolution in both directions.
 #[inline]
@@ -616,14 +1006,19 @@ fn blobs_from_components<S: PixelSource>(
             sy += c * y as f64;
         };
         // Coverage cue: luma (full resolution even in 4:2:0 video) when the marker
-        // stands out from its surroundings in brightness, else redness.
+        // stands out from its surroundings in brightness, else redness (chroma for
+        // markers of other colours).
+        let colour_cue: fn(&image::Rgb<u8>) -> f64 = if settings.hsv.holds_red() {
+            redness
+        } else {
+            chroma
+        };
         let cue = img.and_then(|img| {
             let bbox = (x0, y0, x1, y1);
             cue_levels(img, &inside, bbox, luma)
                 .map(|l| (img, l, luma as fn(&image::Rgb<u8>) -> f64))
                 .or_else(|| {
-                    cue_levels(img, &inside, bbox, redness)
-                        .map(|l| (img, l, redness as fn(&image::Rgb<u8>) -> f64))
+                    cue_levels(img, &inside, bbox, colour_cue).map(|l| (img, l, colour_cue))
                 })
         });
         match cue {
@@ -813,10 +1208,19 @@ mod tests {
         (h / 2.0, s, v)
     }
 
-    fn red_reference(r: u8, g: u8, b: u8, t: &HsvThresholds) -> bool {
+    /// The band test on OpenCV's floating-point HSV (a grey pixel has no hue: it passes
+    /// only a band of every hue).
+    fn band_reference(r: u8, g: u8, b: u8, t: &HsvThresholds) -> bool {
         let (h, s, v) = hsv_reference(r, g, b);
-        let hue_ok = h <= t.hue_max_low as f64 || h >= t.hue_min_high as f64;
-        hue_ok && s >= t.s_min as f64 && v >= t.v_min as f64 && s > 0.0
+        let (lo, hi) = (t.hue_min as f64, t.hue_max as f64);
+        let hue_ok = t.every_hue()
+            || (s > 0.0
+                && if lo <= hi {
+                    lo <= h && h <= hi
+                } else {
+                    h >= lo || h <= hi
+                });
+        hue_ok && s >= t.s_min as f64 && v >= t.v_min as f64 && v <= t.v_max as f64
     }
 
     proptest! {
@@ -824,8 +1228,121 @@ mod tests {
         #[test]
         fn integer_red_test_matches_opencv_hsv(r: u8, g: u8, b: u8) {
             let t = HsvThresholds::default();
-            prop_assert_eq!(is_red(r, g, b, &t), red_reference(r, g, b, &t), "rgb {} {} {}", r, g, b);
+            prop_assert_eq!(is_marker_colour(r, g, b, &t), band_reference(r, g, b, &t), "rgb {} {} {}", r, g, b);
         }
+
+        #[test]
+        fn integer_band_test_matches_opencv_hsv(r: u8, g: u8, b: u8, lo in 0u8..=180, hi in 0u8..=180, s_min: u8, v_min: u8, v_max: u8) {
+            let t = HsvThresholds { hue_min: lo, hue_max: hi, s_min, v_min, v_max };
+            prop_assert_eq!(is_marker_colour(r, g, b, &t), band_reference(r, g, b, &t), "rgb {} {} {} in {:?}", r, g, b, t);
+        }
+    }
+
+    #[test]
+    fn every_preset_passes_its_own_colour_and_not_the_others() {
+        // Saturated paint of each colour as a camera sees it, and a red tube, a white
+        // sheet and a grey shadow.
+        let paint = [
+            (MarkerColour::Red, [196, 28, 34]),
+            (MarkerColour::Green, [40, 160, 70]),
+            (MarkerColour::Blue, [30, 60, 180]),
+            (MarkerColour::Yellow, [220, 190, 30]),
+            (MarkerColour::Dark, [35, 32, 30]),
+        ];
+        for (colour, _) in paint {
+            let t = colour.thresholds();
+            for (other, [r, g, b]) in paint {
+                assert_eq!(
+                    is_marker_colour(r, g, b, &t),
+                    colour == other,
+                    "{colour:?} on {other:?}"
+                );
+            }
+            for [r, g, b] in [[230, 228, 222], [120, 118, 115]] {
+                assert!(
+                    !is_marker_colour(r, g, b, &t),
+                    "{colour:?} on grey {r} {g} {b}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn detect_config_resolves_presets_and_names_bad_keys() {
+        let read = |text: &str| -> Result<DetectSettings, String> {
+            toml::from_str::<DetectSettings>(text).map_err(|e| e.message().to_string())
+        };
+        assert_eq!(read("").unwrap(), DetectSettings::default());
+        let green = read("colour = \"green\"\ns_min = 60\n").unwrap();
+        assert_eq!(
+            (green.hsv.hue_min, green.hsv.hue_max, green.hsv.s_min),
+            (35, 85, 60)
+        );
+        // Red's two-band form is the wrapping band.
+        let red = read("hue_max_low = 8\nhue_min_high = 172\n").unwrap();
+        assert_eq!((red.hsv.hue_min, red.hsv.hue_max), (172, 8));
+        let dark = read("colour = \"dark\"\nv_max = 70\n").unwrap();
+        assert!(dark.hsv.every_hue() && dark.hsv.v_max == 70);
+        for (text, needle) in [
+            ("hue_min = 200\nhue_max = 10\n", "200 is outside 0..180"),
+            ("colour = \"purple\"\n", "unknown variant `purple`"),
+            ("hue_max_low = 8\nhue_max = 9\n", "keep one form"),
+            (
+                "colour = \"blue\"\nhue_max_low = 8\n",
+                "use `hue_min`/`hue_max`",
+            ),
+            ("v_min = 90\nv_max = 80\n", "no pixel can pass"),
+        ] {
+            let e = read(text).unwrap_err();
+            assert!(e.contains(needle), "{text:?}: {e}");
+        }
+        // Written back and read again: the same settings.
+        let text = toml::to_string(&green).unwrap();
+        assert_eq!(read(&text).unwrap(), green);
+    }
+
+    /// The pre-test never rejects a pixel of the band: checked on every colour of the
+    /// band's edges and centre at random S and V (the smallest projection is met at the
+    /// extremal colours, see [`Pretest::of_band`]), 8-bit limited range.
+    #[test]
+    fn pretest_floors_hold_for_every_preset() {
+        for colour in [
+            MarkerColour::Red,
+            MarkerColour::Green,
+            MarkerColour::Blue,
+            MarkerColour::Yellow,
+        ] {
+            let t = colour.thresholds();
+            let Pretest::Chroma { a, b, k } = Pretest::of_band(&t) else {
+                panic!("{colour:?}: no chroma pre-test");
+            };
+            let mut worst = f64::INFINITY;
+            for r in 0..=255u8 {
+                for g in (0..=255u8).step_by(3) {
+                    for bl in (0..=255u8).step_by(3) {
+                        if is_marker_colour(r, g, bl, &t) {
+                            let c = chroma_of_rgb([r as f64, g as f64, bl as f64]);
+                            worst = worst.min(a as f64 * c[0] + b as f64 * c[1]);
+                        }
+                    }
+                }
+            }
+            assert!(
+                worst >= k as f64 / PRETEST_SHARE - 1e-6,
+                "{colour:?}: {worst} below {}",
+                k as f64 / PRETEST_SHARE
+            );
+        }
+        // Red keeps a one-plane Cr pre-test at least as strong as its former Cr - 128 >= 3.
+        let red = Pretest::of_band(&HsvThresholds::default());
+        assert!(
+            matches!(red, Pretest::Chroma { a: 0, b: 64, k } if k >= 3 * 64),
+            "{red:?}"
+        );
+        assert!(matches!(
+            Pretest::of_band(&MarkerColour::Dark.thresholds()),
+            Pretest::Luma { .. }
+        ));
     }
 
     proptest! {
@@ -865,13 +1382,13 @@ mod tests {
     fn hue_wraps_around_zero() {
         let t = HsvThresholds::default();
         // Hue ~2 (slightly orange) and ~178 (slightly magenta) are both red.
-        assert!(is_red(200, 20, 10, &t));
-        assert!(is_red(200, 10, 20, &t));
+        assert!(is_marker_colour(200, 20, 10, &t));
+        assert!(is_marker_colour(200, 10, 20, &t));
         // Orange (hue ~15) and pink-purple are not; nor pale or dark red.
-        assert!(!is_red(200, 110, 10, &t));
-        assert!(!is_red(200, 10, 120, &t));
-        assert!(!is_red(214, 206, 188, &t));
-        assert!(!is_red(40, 5, 5, &t));
+        assert!(!is_marker_colour(200, 110, 10, &t));
+        assert!(!is_marker_colour(200, 10, 120, &t));
+        assert!(!is_marker_colour(214, 206, 188, &t));
+        assert!(!is_marker_colour(40, 5, 5, &t));
     }
 
     fn disc(w: u32, h: u32, discs: &[(f64, f64, f64)]) -> RgbImage {

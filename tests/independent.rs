@@ -19,7 +19,22 @@ use common::{col, read_csv, Run};
 /// Radii drawn, mm, one photo each (pressures 10, 30, 50, 70 kPa).
 const RADII_MM: [f64; 4] = [400.0, 160.0, 90.0, 60.0];
 
+/// The markers' paint and the `[detect]` settings for it.
+struct Paint {
+    /// BGR.
+    bgr: [f64; 3],
+    /// Lines of bendscope.toml's `[detect]` table.
+    detect: &'static str,
+}
+
+/// The red markers with the default settings.
+const RED: Paint = Paint {
+    bgr: MARKER_BGR,
+    detect: "",
+};
+
 /// Writes a photo session seen by `cam` with the actuator plane `distance_mm` away.
+#[allow(clippy::too_many_arguments)]
 fn write_session(
     dir: &Path,
     cam: &CvCamera,
@@ -28,6 +43,7 @@ fn write_session(
     calib_distance_mm: (f64, f64),
     seed: u64,
     clutter: bool,
+    paint: &Paint,
 ) {
     fs::create_dir_all(dir.join("calib")).unwrap();
     for (i, view) in calibration_views(cam, 16, (9, 6, 25.0), calib_distance_mm, seed)
@@ -68,6 +84,7 @@ fn write_session(
             first_mm: 6.0,
             spacing_mm: 14.0,
             marker_mm: 3.0,
+            marker_bgr: paint.bgr,
         };
         actuator.draw(&mut canvas, cam, &plane);
         if clutter {
@@ -84,7 +101,10 @@ fn write_session(
     fs::write(dir.join("pressures.csv"), manifest).unwrap();
     fs::write(
         dir.join("bendscope.toml"),
-        format!("model = \"{model}\"\n[scale_board]\nsquare_mm = 10\n"),
+        format!(
+            "model = \"{model}\"\n[scale_board]\nsquare_mm = 10\n[detect]\n{}",
+            paint.detect
+        ),
     )
     .unwrap();
 }
@@ -189,6 +209,7 @@ fn phone_camera() -> CvCamera {
 fn phone_session(
     name: &str,
     clutter: bool,
+    paint: &Paint,
 ) -> (Option<tempfile::TempDir>, std::path::PathBuf, Vec<f64>) {
     let dir = tempfile::tempdir().unwrap();
     let (guard, dir) = keep(dir, name);
@@ -201,6 +222,7 @@ fn phone_session(
         (450.0, 750.0),
         11,
         clutter,
+        paint,
     );
     let errors = radius_errors(&dir, name);
     (guard, session, errors)
@@ -212,7 +234,7 @@ fn phone_session(
 /// was off by 0.09-0.25% here; the board's homography removes it).
 #[test]
 fn opencv_drawn_pinhole_session() {
-    let (_guard, _, errors) = phone_session("phone", false);
+    let (_guard, _, errors) = phone_session("phone", false, &RED);
     assert_within(&errors, "pinhole");
 }
 
@@ -222,7 +244,7 @@ fn opencv_drawn_pinhole_session() {
 /// the bent radii stay within 0.25% (measured: the same radii as without clutter).
 #[test]
 fn opencv_drawn_pinhole_session_with_clutter() {
-    let (_guard, session, errors) = phone_session("clutter", true);
+    let (_guard, session, errors) = phone_session("clutter", true, &RED);
     assert_within(&errors, "pinhole with clutter");
     let (h, frames) = read_csv(&session.join("bendscope-out/per_frame.csv"));
     for f in &frames {
@@ -255,6 +277,54 @@ fn opencv_drawn_fisheye_session() {
         (280.0, 480.0),
         23,
         false,
+        &RED,
     );
     assert_within(&radius_errors(&dir, "gopro"), "fisheye");
+}
+
+/// Green markers with the lab's red clutter in view (the tube into the clamp, the disc
+/// beside the tip, the LED, the red dot beyond the tip): `colour = "green"` measures the
+/// green chain within 0.25% and never sees a red thing (no blob ignored).
+#[test]
+fn opencv_drawn_green_markers_among_red_clutter() {
+    let green = Paint {
+        bgr: [70.0, 160.0, 40.0],
+        detect: "colour = \"green\"\n",
+    };
+    let (_guard, session, errors) = phone_session("green", true, &green);
+    assert_within(&errors, "green markers, red clutter");
+    let (h, frames) = read_csv(&session.join("bendscope-out/per_frame.csv"));
+    for f in &frames {
+        assert_eq!(
+            f[col(&h, "n_ignored")],
+            "0",
+            "no red thing is a candidate: {f:?}"
+        );
+        assert_eq!(f[col(&h, "n_markers")], "8", "{f:?}");
+    }
+}
+
+/// Blue markers (`colour = "blue"`) and black dots (`colour = "dark"`, `v_max` below the
+/// dark-grey clamp block): bent radii within 0.25%.
+#[test]
+fn opencv_drawn_blue_and_dark_markers() {
+    for (name, paint) in [
+        (
+            "blue",
+            Paint {
+                bgr: [180.0, 60.0, 30.0],
+                detect: "colour = \"blue\"\n",
+            },
+        ),
+        (
+            "dark",
+            Paint {
+                bgr: [22.0, 20.0, 20.0],
+                detect: "colour = \"dark\"\nv_max = 50\n",
+            },
+        ),
+    ] {
+        let (_guard, _, errors) = phone_session(name, false, &paint);
+        assert_within(&errors, name);
+    }
 }

@@ -63,6 +63,8 @@ pub struct ArcScene {
     pub clamp_mm: f64,
     /// A red disc that is not a marker: centre and diameter, mm.
     pub distractor: Option<(Point2<f64>, f64)>,
+    /// Marker paint (RGB before lighting; default [`MARKER_RGB`], red).
+    pub marker_rgb: [f64; 3],
 }
 
 impl ArcScene {
@@ -81,6 +83,7 @@ impl ArcScene {
             above_mm: 9.5,
             clamp_mm: 15.0,
             distractor: None,
+            marker_rgb: MARKER_RGB,
         }
     }
 
@@ -169,7 +172,7 @@ impl ArcScene {
             for &m in &self.marker_s_mm {
                 if (s - m).abs() <= 2.0 * r_marker && (p - self.point_at(m, 0.0)).norm() <= r_marker
                 {
-                    return MARKER_RGB;
+                    return self.marker_rgb;
                 }
             }
             return BODY_RGB;
@@ -344,6 +347,7 @@ mod tests {
             above_mm: 9.5,
             clamp_mm: 15.0,
             distractor: None,
+            marker_rgb: MARKER_RGB,
         }
     }
 

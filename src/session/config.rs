@@ -407,7 +407,7 @@ mod tests {
         );
         let e = error_of("[detect]\ns_min = 90\nhue_max_low = 300\n");
         assert!(
-            e.starts_with("line 3: `detect.hue_max_low`: invalid value"),
+            e.starts_with("line 3: `detect.hue_max_low`: 300 is outside 0..180"),
             "{e}"
         );
         let e = error_of("mm_per_px = 0.2\nexpected_markers = \"eight\"\n");

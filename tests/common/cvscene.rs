@@ -259,6 +259,8 @@ pub struct Actuator {
     pub first_mm: f64,
     pub spacing_mm: f64,
     pub marker_mm: f64,
+    /// The markers' paint (BGR), [`MARKER_BGR`] (red) unless set.
+    pub marker_bgr: [f64; 3],
 }
 
 impl Actuator {
@@ -312,7 +314,7 @@ impl Actuator {
             .map(|k| {
                 let centre = self.at(self.first_mm + k as f64 * self.spacing_mm, 0.0);
                 let disc = Self::disc(centre, self.marker_mm);
-                canvas.polygon(&cam.project(pose, &disc), MARKER_BGR);
+                canvas.polygon(&cam.project(pose, &disc), self.marker_bgr);
                 centre
             })
             .collect()
