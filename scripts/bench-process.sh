@@ -8,6 +8,7 @@
 # - a 4K 60 fps 10-bit HEVC video with an audio and a timecode track (as a GoPro
 #   records): frames/s of ffmpeg decode-only and of bendscope, the ratio, and bendscope's
 #   peak memory (max RSS);
+# - the 1080p video again with green markers: its ratio beside red's;
 # - peak memory of bendscope on a 4K H.264 video.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -39,6 +40,18 @@ awk -v n="$frames" -v f="$t_ff" -v b="$t_bs" -v s="$t_seed" 'BEGIN {
   printf "  seed (full-frame)  : %6.1f fps (%.2f s)  = %.2f x decode-only; bendscope is %.2f x faster\n", n / s, s, f / s, s / b
 }'
 grep -E "^GX" target/bench/out1080/per_video.csv | cut -d, -f1-3 | sed 's/^/  result (true radius 90 mm): /'
+# The same video with green markers (`[detect] colour = "green"`: the pre-test scans both
+# chroma planes instead of Cr alone): its ratio to decode-only beside red's.
+dirg=target/bench/proc1080green
+[ -f "$dirg/GX010001.MP4" ] || target/release/examples/bench_video "$dirg" 1920 1080 300 40 30 green
+t_ffg=$(best ffmpeg -hide_banner -loglevel error -threads 0 -i "$dirg/GX010001.MP4" -f null -)
+t_bsg=$(best target/release/bendscope process "$dirg" --force -o target/bench/out1080green)
+awk -v n="$frames" -v f="$t_ffg" -v b="$t_bsg" -v rf="$t_ff" -v rb="$t_bs" 'BEGIN {
+  printf "1080p30 green markers, %d frames\n", n
+  printf "  ffmpeg decode only : %6.1f fps (%.2f s)\n", n / f, f
+  printf "  bendscope process  : %6.1f fps (%.2f s)  = %.2f x decode-only (red: %.2f x; green/red %.3f)\n", n / b, b, f / b, rf / rb, (f / b) / (rf / rb)
+}'
+grep -E "^GX" target/bench/out1080green/per_video.csv | cut -d, -f1-3 | sed 's/^/  result (true radius 90 mm): /'
 /usr/bin/time -v target/release/bendscope process "$dir4k" --force -o target/bench/out4k 2> target/bench/time4k.txt > /dev/null
 echo "4K (3840x2160): peak memory $(awk '/Maximum resident/ { printf "%.0f MB", $6 / 1024 }' target/bench/time4k.txt)"
 dir10=target/bench/proc4k10
