@@ -4,7 +4,10 @@
 //! [`write_atomic_with`] for writers that stream): the bytes go to a temporary file in
 //! the destination folder (tempfile's `NamedTempFile`), which is then renamed over the
 //! destination, so a reader (or a crash) never sees a half-written file, and the
-//! temporary file is removed when anything fails on the way.
+//! temporary file is removed when anything fails on the way. The temporary file is
+//! created with mode 0666 less the process's umask (0644 under the usual 022), as a
+//! plain `open` would make it, not tempfile's private 0600: results on a shared lab
+//! machine are readable by colleagues and a web server.
 //!
 //! [`bounded_file_name`] keeps file names derived from user data (video names) within
 //! what file systems accept; [`content_key`] is the stable fingerprint the caches use.
@@ -44,6 +47,9 @@ pub fn remove_stale_temporaries(dirs: &[PathBuf]) -> usize {
     removed
 }
 
+/// Mode the result files are created with, before the umask.
+pub const OUTPUT_MODE: u32 = 0o666;
+
 /// Writes `bytes` to `path` atomically (temporary file in the same folder, then rename).
 /// Creates the parent folder when missing.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
@@ -61,10 +67,15 @@ pub fn write_atomic_with(
     };
     fs::create_dir_all(&parent)?;
     // Dropped on any error below: the temporary file is removed.
-    let mut tmp = tempfile::Builder::new()
-        .prefix(TEMP_PREFIX)
-        .suffix(TEMP_SUFFIX)
-        .tempfile_in(&parent)?;
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(TEMP_PREFIX).suffix(TEMP_SUFFIX);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        // The mode goes to open(2), which applies the umask.
+        builder.permissions(fs::Permissions::from_mode(OUTPUT_MODE));
+    }
+    let mut tmp = builder.tempfile_in(&parent)?;
     write(tmp.as_file_mut())?;
     tmp.as_file().sync_all()?;
     tmp.persist(path).map_err(|e| e.error)?;
@@ -158,6 +169,29 @@ pub fn hash_parts<'a>(parts: impl IntoIterator<Item = &'a [u8]>) -> u128 {
 
 #[cfg(test)]
 mod tests {
+    /// The process's umask, from /proc/self/status (Linux).
+    #[cfg(target_os = "linux")]
+    fn umask() -> u32 {
+        let status = std::fs::read_to_string("/proc/self/status").unwrap();
+        let line = status.lines().find(|l| l.starts_with("Umask:")).unwrap();
+        u32::from_str_radix(line.split_whitespace().nth(1).unwrap(), 8).unwrap()
+    }
+
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn results_are_created_with_the_umask_not_owner_only() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("a.csv");
+        write_atomic(&p, b"x\n").unwrap();
+        let mode = fs::metadata(&p).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode, OUTPUT_MODE & !umask(), "mode {mode:o}");
+        // Under the usual umask 022: readable by everyone.
+        if umask() == 0o022 {
+            assert_eq!(mode, 0o644);
+        }
+    }
+
     use super::*;
 
     fn names(dir: &Path) -> Vec<std::ffi::OsString> {
