@@ -404,3 +404,43 @@ fn fit_model_finds_the_material_scale_and_the_bottom_thickness() {
     )
     .assert_bad_input(&["per_video.csv"]);
 }
+
+// ---------------------------------------------------------------------------------------
+// Issue 19: tables from European spreadsheets, implausible values, the mesh flag.
+
+#[test]
+fn a_semicolon_table_with_decimal_commas_gives_the_same_coefficients() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let c = [0.10744, 0.0601, 0.000302];
+    let pts: Vec<(f64, f64)> = stretches(1.0, 3.5, 26)
+        .iter()
+        .map(|l| (*l, yeoh(&c, *l)))
+        .collect();
+    tensile_csv(&d.join("comma.csv"), &pts);
+    let text = std::fs::read_to_string(d.join("comma.csv")).unwrap();
+    // A European spreadsheet's CSV: `;` between fields, `,` before the decimals, CRLF.
+    let european = text
+        .replace(',', ";")
+        .replace('.', ",")
+        .replace('\n', "\r\n");
+    assert!(european.starts_with("strain_pct;stress_kpa\r\n0,000000;0,000000000\r\n"));
+    write(&d.join("semicolon.csv"), &format!("\u{feff}{european}"));
+    let mut params = Vec::new();
+    for name in ["comma", "semicolon"] {
+        let run = exec(d, &["material", "fit", &format!("{name}.csv"), "-o", name]);
+        assert_eq!(run.code, 0, "{name}: {run}");
+        assert!(run.stderr.is_empty(), "{name}: {run}");
+        params.push(json(&d.join(name).join("material_fit.json"))["parameters"].clone());
+    }
+    assert_eq!(params[0], params[1]);
+    let got = params[1]["C10_mpa"].as_f64().unwrap();
+    assert!((got / c[0] - 1.0).abs() < 0.01, "{got}");
+    // Another separator is refused, naming it.
+    write(&d.join("pipes.csv"), &text.replace(',', "|"));
+    exec(d, &["material", "fit", "pipes.csv"]).assert_bad_input(&[
+        "pipes.csv",
+        "line 1",
+        "separated by `|`",
+    ]);
+}

@@ -1850,3 +1850,75 @@ fn a_frames_csv_missing_a_frame_is_refused_with_the_row_to_add() {
         &["frames.csv", "no time for colour frame 000002", "add a row"],
     );
 }
+
+// ---------------------------------------------------------------------------------------
+// Issue 19, weak answers that mislead: input tables, fits and warnings.
+
+/// The example's manifest with `sep` between the fields and `pressure(kPa)` written by
+/// `cell` (a decimal comma, a point, ...).
+fn example_manifest(sep: &str, cell: impl Fn(f64) -> String) -> String {
+    let mut text = format!("file{sep}pressure_kpa\r\n");
+    for v in &truth().videos {
+        text.push_str(&format!(
+            "{}{sep}{}\r\n",
+            v.file,
+            cell(v.pressure_kpa + 0.5)
+        ));
+    }
+    text
+}
+
+/// (file, pressure_kpa cell, radius_mm cell) of every per_video.csv row.
+fn radii(c: &Case) -> Vec<(String, String, String)> {
+    let t = c.per_video();
+    t.rows
+        .iter()
+        .map(|r| {
+            (
+                t.get(r, "file"),
+                t.get(r, "pressure_kpa"),
+                t.get(r, "radius_mm"),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn semicolon_and_tab_manifests_with_decimal_commas_measure_like_the_comma_one() {
+    let comma = Case::example();
+    comma.write("pressures.csv", example_manifest(",", |p| format!("{p}")));
+    let run = comma.run();
+    assert_eq!(run.code, 0, "{run}");
+    let want = radii(&comma);
+    assert_eq!(want.len(), truth().videos.len());
+    assert_others_kept(&comma.per_video(), &[]);
+    // A European spreadsheet's CSV (semicolons, decimal commas, a BOM) and a tab-separated
+    // export: the same videos at the same pressures, the same radii to the last digit.
+    for (sep, bom) in [(";", "\u{feff}"), ("\t", "")] {
+        let c = Case::example();
+        let text = example_manifest(sep, |p| format!("{p}").replace('.', ","));
+        assert!(text.contains(&format!("{sep}20,5\r\n")), "{text}");
+        c.write("pressures.csv", format!("{bom}{text}"));
+        let run = c.run();
+        assert_eq!(run.code, 0, "{sep:?}: {run}");
+        assert!(!run.stderr.contains("warning"), "{sep:?}: {run}");
+        assert_eq!(radii(&c), want, "{sep:?}");
+    }
+}
+
+#[test]
+fn a_manifest_split_by_an_odd_separator_is_refused_naming_it() {
+    let c = Case::example();
+    c.write("pressures.csv", example_manifest("|", |p| format!("{p}")));
+    let run = c.run();
+    c.refused(
+        &run,
+        &[
+            "pressures.csv",
+            "line 1",
+            "separated by `|`",
+            "semicolons or tabs",
+        ],
+    );
+    assert!(!run.stderr.contains("no `file` column"), "{run}");
+}
