@@ -1922,3 +1922,167 @@ fn a_manifest_split_by_an_odd_separator_is_refused_naming_it() {
     );
     assert!(!run.stderr.contains("no `file` column"), "{run}");
 }
+
+fn fit_json(c: &Case) -> serde_json::Value {
+    serde_json::from_str(&fs::read_to_string(c.out.join("fit.json")).unwrap()).unwrap()
+}
+
+#[test]
+fn every_video_at_one_pressure_gives_no_fit_and_says_why() {
+    let c = Case::example();
+    let rows: String = truth()
+        .videos
+        .iter()
+        .map(|v| format!("{},40\n", v.file))
+        .collect();
+    c.manifest(&rows);
+    let run = c.run();
+    assert_eq!(run.code, 0, "videos were measured: {run}");
+    assert_eq!(counts(&run), (5, 0), "{run}");
+    let f = fit_json(&c);
+    for k in [
+        "radius_mm_vs_kpa",
+        "curvature_per_m_vs_kpa",
+        "bending_angle_deg_vs_kpa",
+        "radius_mm_vs_unit",
+        "curvature_per_m_vs_unit",
+    ] {
+        assert!(f[k].is_null(), "{k}: {f}");
+    }
+    let notes: Vec<&str> = f["notes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|n| n.as_str().unwrap())
+        .collect();
+    assert_eq!(notes.len(), 1, "{notes:?}");
+    assert!(
+        notes[0].starts_with("no fit of radius vs kPa, curvature vs kPa, angle vs kPa")
+            && notes[0].contains("3 or more distinct x values (pressures), got 1 (40)"),
+        "{notes:?}"
+    );
+    let lines: Vec<&str> = run
+        .stderr
+        .lines()
+        .filter(|l| l.contains("fit.json"))
+        .collect();
+    assert_eq!(lines.len(), 1, "{run}");
+    assert!(
+        lines[0].starts_with("warning: s: fit.json: no fit of") && lines[0].contains("got 1 (40)"),
+        "{run}"
+    );
+}
+
+#[test]
+fn a_zero_kpa_row_is_kept_in_the_tables_and_named_as_left_out_of_the_fits() {
+    let c = Case::example();
+    let rows: String = truth()
+        .videos
+        .iter()
+        .enumerate()
+        .map(|(i, v)| {
+            let p = if i == 0 { 0.0 } else { v.pressure_kpa };
+            format!("{},{p}\n", v.file)
+        })
+        .collect();
+    c.manifest(&rows);
+    let run = c.run();
+    assert_eq!(run.code, 0, "{run}");
+    let first = &truth().videos[0].file;
+    let t = c.per_video();
+    assert_eq!(t.status(first), "ok");
+    assert_eq!(t.num(t.rows_of(first).next().unwrap(), "pressure_kpa"), 0.0);
+    assert_others_kept(&t, &[]);
+    let f = fit_json(&c);
+    assert_eq!(f["radius_mm_vs_kpa"]["n"], 4, "{f}");
+    let note = format!("{first} (0 kPa)");
+    let notes = f["notes"].as_array().unwrap();
+    assert_eq!(notes.len(), 1, "{f}");
+    assert!(
+        notes[0].as_str().unwrap().contains(&note)
+            && notes[0].as_str().unwrap().contains("left out of the fits"),
+        "{f}"
+    );
+    assert_reported_once(
+        &run,
+        &note,
+        &["warning: s: fit.json", "left out of the fits"],
+    );
+}
+
+/// A FEM-shaped steps.csv of y = 300 p^-0.45 + 5 mm at `pressures`.
+fn fake_steps(dir: &Path, pressures: &[f64]) {
+    let mut s = String::from("pressure_kpa,radius_mm,curvature_per_m,bending_angle_deg\n");
+    for p in pressures {
+        let r = 300.0 * p.powf(-0.45) + 5.0;
+        s.push_str(&format!("{p},{r},{},{}\n", 1000.0 / r, 3.0 * p.powf(0.8)));
+    }
+    fs::create_dir_all(dir).unwrap();
+    fs::write(dir.join("steps.csv"), s).unwrap();
+}
+
+#[test]
+fn compare_names_degenerate_input_and_the_direction_of_its_deviation() {
+    let c = Case::bare();
+    fake_steps(&c.root.join("fem"), &[0.0, 10.0, 30.0, 50.0, 70.0, 90.0]);
+    let measured = |rows: &[(f64, f64)]| {
+        let mut s =
+            String::from("file,pressure_kpa,radius_mm,curvature_per_m,bending_angle_deg,status\n");
+        for (i, (p, r)) in rows.iter().enumerate() {
+            s.push_str(&format!(
+                "v{i}.mp4,{p},{r},{},{},ok\n",
+                1000.0 / r,
+                3.0 * p.powf(0.8)
+            ));
+        }
+        fs::create_dir_all(c.root.join("m")).unwrap();
+        fs::write(c.root.join("m/per_video.csv"), s).unwrap();
+    };
+    // Every video at 40 kPa: no curve, and it says so (not "do not overlap").
+    measured(&[(40.0, 61.0), (40.0, 60.5), (40.0, 61.2)]);
+    let run = Run::new(
+        &c.root,
+        &["compare", "--measured", "m", "--fem", "fem", "-o", "r"],
+    );
+    assert_eq!(run.code, 3, "nothing compared: {run}");
+    assert!(!run.stderr.contains("overlap"), "{run}");
+    assert_eq!(run.stderr.matches("got 1 (40)").count(), 3, "{run}");
+    // A rest row at 0 kPa is left out with a note; measured radii 2 mm below the FEM's
+    // give a deviation of +2 mm (simulated - measured), as the summary and help say.
+    let law = |p: f64| 300.0 * p.powf(-0.45) + 5.0;
+    measured(&[
+        (0.0, 900.0),
+        (20.0, law(20.0) - 2.0),
+        (40.0, law(40.0) - 2.0),
+        (60.0, law(60.0) - 2.0),
+        (80.0, law(80.0) - 2.0),
+    ]);
+    let run = Run::new(
+        &c.root,
+        &["compare", "--measured", "m", "--fem", "fem", "-o", "r"],
+    );
+    assert_eq!(run.code, 0, "{run}");
+    let zero: Vec<&str> = run.stderr.lines().filter(|l| l.contains("0 kPa")).collect();
+    assert_eq!(zero.len(), 2, "per_video.csv and steps.csv: {run}");
+    assert!(
+        zero.iter()
+            .all(|l| l.starts_with("note: ") && l.contains("left out of the fits")),
+        "{run}"
+    );
+    let (h, rows) = read_csv(&c.root.join("r/compare.csv"));
+    let k = col(&h, "radius_mm_deviation");
+    for r in &rows {
+        let d: f64 = r[k].parse().unwrap();
+        assert!((d - 2.0).abs() < 0.01, "{d}");
+    }
+    let summary = fs::read_to_string(c.root.join("r/summary.txt")).unwrap();
+    assert!(
+        summary.contains("deviation = simulated - measured"),
+        "{summary}"
+    );
+    let help = Run::new(&c.root, &["compare", "--help"]);
+    assert!(
+        help.stdout.contains("Deviation = simulated - measured"),
+        "{help}"
+    );
+}

@@ -359,7 +359,10 @@ pub fn measure_session(
         Layout::Rgbd(_) => output::RmsUnit::Mm,
         _ => output::RmsUnit::Px,
     };
-    output::write_session(out, &name, &frames, &videos, unit, rms)?;
+    let fits = output::write_session(out, &name, &frames, &videos, unit, rms)?;
+    for n in &fits.notes {
+        notes.push(format!("warning: {name}: fit.json: {n}"));
+    }
     Ok(SessionOutcome {
         out: out.to_path_buf(),
         videos,
