@@ -2010,6 +2010,52 @@ fn a_zero_kpa_row_is_kept_in_the_tables_and_named_as_left_out_of_the_fits() {
     );
 }
 
+/// The example with `expected_markers = n` in its bendscope.toml.
+fn example_expecting(n: usize) -> Case {
+    let c = Case::example();
+    let toml = fs::read_to_string(c.path("bendscope.toml")).unwrap();
+    c.write("bendscope.toml", format!("expected_markers = {n}\n{toml}"));
+    c
+}
+
+#[test]
+fn fewer_expected_markers_than_painted_is_warned_once_per_video() {
+    let c = example_expecting(6);
+    let run = c.run();
+    assert_eq!(run.code, 0, "{run}");
+    for v in &truth().videos {
+        assert_reported_once(
+            &run,
+            &v.file,
+            &[
+                "2 more marker-like blob(s) continue the chain of 6 markers",
+                "only part of the chain is measured",
+                "set expected_markers = 8",
+            ],
+        );
+    }
+    // The frames count them among the ignored blobs.
+    let f = c.per_frame();
+    assert!(
+        f.rows
+            .iter()
+            .all(|r| f.get(r, "status") == "ok" && f.get(r, "n_ignored") == "2"),
+        "{:?}",
+        f.rows
+    );
+    // The cache keeps what a warning needs: a rerun from it warns the same.
+    let again = c.run();
+    assert_eq!(again.code, 0, "{again}");
+    assert_eq!(
+        again.stderr.matches("marker-like").count(),
+        truth().videos.len(),
+        "{again}"
+    );
+    let all = example_expecting(8).run();
+    assert_eq!(all.code, 0, "{all}");
+    assert!(!all.stderr.contains("marker-like"), "{all}");
+}
+
 /// A FEM-shaped steps.csv of y = 300 p^-0.45 + 5 mm at `pressures`.
 fn fake_steps(dir: &Path, pressures: &[f64]) {
     let mut s = String::from("pressure_kpa,radius_mm,curvature_per_m,bending_angle_deg\n");
