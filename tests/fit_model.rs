@@ -444,3 +444,39 @@ fn a_semicolon_table_with_decimal_commas_gives_the_same_coefficients() {
         "separated by `|`",
     ]);
 }
+
+#[test]
+fn a_stretch_of_301_is_warned_naming_the_value_and_the_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // Strain in % under a `strain` (fraction) header: stretches up to 301.
+    let c = [0.0127, 4.23e-4];
+    let mut s = String::from("strain,stress_kpa\n");
+    for l in stretches(1.0, 4.0, 11) {
+        s.push_str(&format!("{},{}\n", 100.0 * (l - 1.0), 1e3 * yeoh(&c, l)));
+    }
+    write(&d.join("t.csv"), &s);
+    let run = exec(
+        d,
+        &["material", "fit", "t.csv", "--model", "yeoh2", "-o", "out"],
+    );
+    assert!(!run.stderr.contains("panicked"), "{run}");
+    let lines: Vec<&str> = run
+        .stderr
+        .lines()
+        .filter(|l| l.contains("stretch 301"))
+        .collect();
+    assert_eq!(lines.len(), 1, "{run}");
+    assert!(
+        lines[0].starts_with(
+            "warning: t.csv: line 12, column strain: stretch 301 is far past where silicones break"
+        ) && lines[0].contains("(10 rows beyond 10)")
+            && lines[0].contains("name the column `strain_pct`"),
+        "{run}"
+    );
+    let j = json(&d.join("out/material_fit.json"));
+    assert!(
+        j["warnings"][0].as_str().unwrap().contains("stretch 301"),
+        "{j}"
+    );
+}

@@ -2056,6 +2056,19 @@ fn fewer_expected_markers_than_painted_is_warned_once_per_video() {
     assert!(!all.stderr.contains("marker-like"), "{all}");
 }
 
+#[test]
+fn an_absurd_acquire_set_point_is_refused_naming_the_value_and_the_key() {
+    let c = Case::bare();
+    fs::write(
+        c.root.join("p.toml"),
+        "[steps]\npressures_kpa = [40, 1e9]\nstabilize_s = 1\nrecord_s = 1\n[regulator]\nport = \"/dev/null\"\n[camera]\nkind = \"webcam\"\n",
+    )
+    .unwrap();
+    let run = Run::new(&c.root, &["acquire", "p.toml", "-o", "s", "--dry-run"]);
+    run.assert_bad_input(&["p.toml", "1000000000 kPa", "700 kPa", "[regulator] max_kpa"]);
+    assert!(!c.s.exists());
+}
+
 /// A FEM-shaped steps.csv of y = 300 p^-0.45 + 5 mm at `pressures`.
 fn fake_steps(dir: &Path, pressures: &[f64]) {
     let mut s = String::from("pressure_kpa,radius_mm,curvature_per_m,bending_angle_deg\n");
@@ -2131,4 +2144,48 @@ fn compare_names_degenerate_input_and_the_direction_of_its_deviation() {
         help.stdout.contains("Deviation = simulated - measured"),
         "{help}"
     );
+}
+
+#[test]
+fn a_material_a_thousand_times_stiffer_than_any_preset_is_warned_with_its_value() {
+    let c = Case::bare();
+    // C1 in kPa where MPa is meant.
+    fs::write(c.root.join("a.toml"), "[material]\nc1 = 107.44\n").unwrap();
+    let run = Run::new(
+        &c.root,
+        &["simulate", "--config", "a.toml", "--print-config"],
+    );
+    assert_eq!(run.code, 0, "{run}");
+    let w: Vec<&str> = run
+        .stderr
+        .lines()
+        .filter(|l| l.starts_with("warning: "))
+        .collect();
+    assert_eq!(w.len(), 1, "{run}");
+    assert!(
+        w[0].contains("[material] c1 = 107.44")
+            && w[0].contains("935x stiffer than the stiffest preset")
+            && w[0].contains("in MPa"),
+        "{run}"
+    );
+    fs::write(
+        c.root.join("b.toml"),
+        "[material]\npreset = \"ecoflex0050\"\nscale = 1e-4\n",
+    )
+    .unwrap();
+    let run = Run::new(
+        &c.root,
+        &["simulate", "--config", "b.toml", "--print-config"],
+    );
+    assert!(
+        run.stderr
+            .contains("preset = \"ecoflex0050\" with scale = 0.0001")
+            && run.stderr.contains("softer than the softest preset"),
+        "{run}"
+    );
+    let run = Run::new(
+        &c.root,
+        &["simulate", "--material", "dragonskin10", "--print-config"],
+    );
+    assert!(run.stderr.is_empty(), "{run}");
 }

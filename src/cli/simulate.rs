@@ -125,6 +125,9 @@ pub fn run(args: &SimulateArgs) -> Result<u8> {
             return Ok(EXIT_BAD_INPUT);
         }
     };
+    for w in cfg.material.warnings() {
+        eprintln!("warning: {w}");
+    }
     if args.print_config {
         super::out!("{}", toml::to_string_pretty(&cfg)?);
         return Ok(EXIT_OK);
