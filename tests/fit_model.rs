@@ -480,3 +480,61 @@ fn a_stretch_of_301_is_warned_naming_the_value_and_the_line() {
         "{j}"
     );
 }
+
+#[test]
+fn fit_model_takes_the_mesh_size_flag_like_simulate() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // The measurement: the reference actuator on a 4 mm mesh.
+    let sim = exec(
+        d,
+        &[
+            "simulate",
+            "--mesh-size",
+            "4",
+            "--pressures",
+            "30,60",
+            "--no-vtu",
+            "-o",
+            "truth",
+        ],
+    );
+    assert_eq!(sim.code, 0, "{sim}");
+    per_video_from_steps(&d.join("truth/steps.csv"), &d.join("measured"));
+    // Fitted on the same 4 mm mesh (not the default 1.5 mm), the start is the truth.
+    let run = exec(
+        d,
+        &[
+            "fit-model",
+            "--measured",
+            "measured",
+            "--free",
+            "material.scale",
+            "--mesh-size",
+            "4",
+            "-o",
+            "fit",
+        ],
+    );
+    assert_eq!(run.code, 0, "{run}");
+    let j = json(&d.join("fit/fit_model.json"));
+    let scale = j["parameters"]["material.scale"].as_f64().unwrap();
+    assert!((scale - 1.0).abs() < 1e-3, "scale {scale}: {run}");
+    assert!(j["max_rel_dev_pct"].as_f64().unwrap() < 0.05, "{j}");
+    let fitted: toml::Table =
+        toml::from_str(&std::fs::read_to_string(d.join("fit/fitted.toml")).unwrap()).unwrap();
+    assert_eq!(fitted["mesh"]["size_mm"].as_float(), Some(4.0));
+    exec(
+        d,
+        &[
+            "fit-model",
+            "--measured",
+            "measured",
+            "--free",
+            "material.scale",
+            "--mesh-size",
+            "0",
+        ],
+    )
+    .assert_bad_input(&["mesh size", "0 mm: must be positive"]);
+}

@@ -2147,6 +2147,31 @@ fn compare_names_degenerate_input_and_the_direction_of_its_deviation() {
 }
 
 #[test]
+fn simulate_help_print_config_and_readme_agree_on_the_default_mesh() {
+    let c = Case::bare();
+    let printed = Run::new(&c.root, &["simulate", "--print-config"]);
+    assert_eq!(printed.code, 0, "{printed}");
+    let cfg: toml::Table = toml::from_str(&printed.stdout).unwrap();
+    let size = cfg["mesh"]["size_mm"].as_float().unwrap();
+    assert_eq!(size, bendscope::fem::actuator::DEFAULT_MESH_SIZE_MM);
+    let help = Run::new(&c.root, &["simulate", "--help"]);
+    let line = help
+        .stdout
+        .lines()
+        .skip_while(|l| !l.contains("--mesh-size"))
+        .take(3)
+        .collect::<Vec<_>>()
+        .join(" ");
+    assert!(line.contains(&format!("[default: {size}]")), "{help}");
+    let readme = fs::read_to_string(common::root().join("README.md")).unwrap();
+    assert!(
+        readme.contains(&format!("the default mesh size is {size} mm")),
+        "README"
+    );
+    assert!(!readme.contains("default 2 mm mesh"), "README");
+}
+
+#[test]
 fn a_material_a_thousand_times_stiffer_than_any_preset_is_warned_with_its_value() {
     let c = Case::bare();
     // C1 in kPa where MPa is meant.

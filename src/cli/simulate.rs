@@ -29,7 +29,7 @@ pub struct SimulateArgs {
     /// Output folder.
     #[arg(short, long, value_name = "OUT", default_value = "fem-out")]
     pub output: PathBuf,
-    /// Largest element edge, mm [default: 2].
+    /// Largest element edge, mm [default: 1.5].
     #[arg(
         long,
         value_name = "MM",
