@@ -1,8 +1,10 @@
 //! Experiment against simulation: both curves of a quantity vs pressure (radius,
 //! curvature, bending angle, blocked force) are fitted with the power law
 //! y = a p^b + c ([`crate::fit::fit_power_law`]), evaluated on a common pressure grid over
-//! the range both cover, and compared: the deviation curve, its RMSE and its largest
-//! magnitude. The two need not share pressure points.
+//! the range both cover, and compared: the deviation curve (simulated − measured, in the
+//! quantity's unit), its RMSE (also in % of the measured fit's RMS) and its largest
+//! magnitude. The two need not share pressure points. Points at or below 0 kPa cannot
+//! enter the power law (p^b at 0); they are left out of the fits, with a note.
 
 use std::path::Path;
 
@@ -120,7 +122,7 @@ pub struct QuantityComparison {
     pub measured: Vec<f64>,
     /// Simulated fit on the grid.
     pub fem: Vec<f64>,
-    /// RMS of (simulated − measured) on the grid.
+    /// RMS of the deviation, simulated − measured, on the grid (unit of the quantity).
     pub rmse: f64,
     /// Largest |simulated − measured| on the grid.
     pub max_abs_deviation: f64,
@@ -130,6 +132,24 @@ pub struct QuantityComparison {
     pub rmse_pct: f64,
 }
 
+/// The text of the deviation's direction (help, summary.txt).
+pub const DEVIATION_MEANING: &str = "deviation = simulated - measured (FEM fit minus measured fit, in the quantity's unit; RMSE % relative to the RMS of the measured fit)";
+
+/// The points of `c` at a positive pressure (the power law's x^b needs x > 0).
+fn positive_part(c: &Curve) -> Curve {
+    let (pressure_kpa, value) = c
+        .pressure_kpa
+        .iter()
+        .zip(&c.value)
+        .filter(|(p, _)| **p > 0.0)
+        .map(|(p, v)| (*p, *v))
+        .unzip();
+    Curve {
+        pressure_kpa,
+        value,
+    }
+}
+
 fn range(v: &[f64]) -> (f64, f64) {
     v.iter()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
@@ -137,17 +157,21 @@ fn range(v: &[f64]) -> (f64, f64) {
         })
 }
 
-/// Fits both curves and compares them on the overlap of their pressure ranges.
+/// Fits both curves (their points at a positive pressure) and compares them on the
+/// overlap of their pressure ranges. Disjoint ranges are an error first; a curve that
+/// cannot be fitted (too few distinct pressures) is one before a range of a single
+/// point is called "no overlap".
 pub fn compare_quantity(
     name: &str,
     measured: &Curve,
     fem: &Curve,
 ) -> Result<QuantityComparison, CompareError> {
+    let (measured, fem) = (positive_part(measured), positive_part(fem));
     let (m0, m1) = range(&measured.pressure_kpa);
     let (f0, f1) = range(&fem.pressure_kpa);
-    let (lo, hi) = (m0.max(f0), m1.min(f1));
-    if !(hi > lo) {
-        return Err(CompareError::NoOverlap { m0, m1, f0, f1 });
+    let no_overlap = CompareError::NoOverlap { m0, m1, f0, f1 };
+    if m1 < f0 || f1 < m0 {
+        return Err(no_overlap);
     }
     let fit = |c: &Curve, what: &str| {
         fit_power_law(&c.pressure_kpa, &c.value).map_err(|e| CompareError::Fit {
@@ -155,8 +179,12 @@ pub fn compare_quantity(
             why: e.to_string(),
         })
     };
-    let mf = fit(measured, "measured")?;
-    let ff = fit(fem, "simulated")?;
+    let mf = fit(&measured, "measured")?;
+    let ff = fit(&fem, "simulated")?;
+    let (lo, hi) = (m0.max(f0), m1.min(f1));
+    if !(hi > lo) {
+        return Err(no_overlap);
+    }
     let grid: Vec<f64> = (0..GRID_POINTS)
         .map(|k| lo + (hi - lo) * k as f64 / (GRID_POINTS - 1) as f64)
         .collect();
@@ -207,6 +235,26 @@ pub struct CompareReport {
     pub results: Vec<QuantityComparison>,
     /// Quantities that could not be compared, with why.
     pub warnings: Vec<String>,
+    /// Points left out of the fits (at or below 0 kPa), by table.
+    pub notes: Vec<String>,
+}
+
+/// A note naming the rows of `table` at or below 0 kPa (left out of the fits), if any.
+fn zero_pressure_note(table: &Path) -> Result<Option<String>, CompareError> {
+    let p = &read_columns(table, &["pressure_kpa"])?[0];
+    let zero: Vec<String> = p
+        .iter()
+        .filter(|p| **p <= 0.0)
+        .map(|p| format!("{p}"))
+        .collect();
+    Ok((!zero.is_empty()).then(|| {
+        format!(
+            "{}: {} row(s) at or below 0 kPa ({} kPa) left out of the fits (y = a p^b + c needs p > 0)",
+            table.display(),
+            zero.len(),
+            zero.join(", ")
+        )
+    }))
 }
 
 /// Compares `measured` (a `process` output folder) with `fem` (a `simulate` output
@@ -260,11 +308,19 @@ pub fn compare_to(
     }
     std::fs::create_dir_all(out).map_err(output)?;
     let mut results: Vec<QuantityComparison> = Vec::new();
+    let mut notes = Vec::new();
+    for table in [&per_video, &steps] {
+        notes.extend(zero_pressure_note(table)?);
+    }
     let mut summary = format!(
-        "bendscope compare: measured {} vs simulated {}\nfits y = a p^b + c, compared on a common pressure grid\n\n",
+        "bendscope compare: measured {} vs simulated {}\nfits y = a p^b + c, compared on a common pressure grid; {DEVIATION_MEANING}\n",
         measured.display(),
         fem.display()
     );
+    for n in &notes {
+        let _ = writeln!(summary, "note: {n}");
+    }
+    summary.push('\n');
     let mut warnings = Vec::new();
     for (name, title, axis, m, f) in &pairs {
         let c = match compare_quantity(name, m, f) {
@@ -378,6 +434,7 @@ pub fn compare_to(
         summary,
         results,
         warnings,
+        notes,
     })
 }
 
@@ -447,6 +504,38 @@ mod tests {
         assert!(
             e.contains("do not overlap") && e.contains("12.0-97.0"),
             "{e}"
+        );
+    }
+
+    #[test]
+    fn one_measured_pressure_is_no_fit_and_zero_kpa_points_are_left_out() {
+        let law = |p: f64| 300.0 * p.powf(-0.45) + 5.0;
+        let fem = Curve {
+            pressure_kpa: (0..=23).map(|k| 5.0 * k as f64).collect(),
+            value: (0..=23).map(|k| law(5.0 * k as f64).min(1e6)).collect(),
+        };
+        let one = Curve {
+            pressure_kpa: vec![40.0; 4],
+            value: vec![60.0, 60.2, 59.9, 60.1],
+        };
+        let e = compare_quantity("radius_mm", &one, &fem)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("measured radius_mm: ") && e.contains("got 1 (40)"),
+            "{e}"
+        );
+        // A rest row at 0 kPa (radius huge) and the FEM's 0 kPa step: left out, so the
+        // identical laws agree.
+        let measured = Curve {
+            pressure_kpa: vec![0.0, 12.0, 41.0, 66.0, 97.0],
+            value: vec![5000.0, law(12.0), law(41.0), law(66.0), law(97.0)],
+        };
+        let c = compare_quantity("radius_mm", &measured, &fem).unwrap();
+        assert!(c.rmse < 1e-3, "{}", c.rmse);
+        assert_eq!(
+            (c.grid_kpa[0], c.measured_fit.n, c.fem_fit.n),
+            (12.0, 4, 23)
         );
     }
 }

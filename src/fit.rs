@@ -44,6 +44,18 @@ pub enum FitError {
         /// The offending value.
         x: f64,
     },
+    /// Too few distinct x values for the power law's three parameters: with one x (every
+    /// video at one pressure) or two, any number of curves pass through the points, and
+    /// a "fit" would be one of them, with a meaningless R^2.
+    #[error("y = a x^b + c has 3 parameters and needs points at {needed} or more distinct x values (pressures), got {distinct} ({values}): measure at more pressures")]
+    TooFewDistinctX {
+        /// Distinct x values given.
+        distinct: usize,
+        /// Distinct x values needed.
+        needed: usize,
+        /// Those values, for the message.
+        values: String,
+    },
     /// x and y differ in length.
     #[error("x has {x} values and y has {y}")]
     LengthMismatch {
@@ -607,6 +619,27 @@ pub fn fit_plane_robust(points: &[nalgebra::Point3<f64>], band: f64) -> Result<P
     Ok(plane)
 }
 
+/// Distinct x values (pressures) the power law y = a x^b + c needs: one per parameter.
+pub const POWER_LAW_MIN_DISTINCT_X: usize = 3;
+
+/// x values closer than this share of the largest |x| are the same pressure.
+pub const DISTINCT_X_REL: f64 = 1e-9;
+
+/// The distinct values of `x` (sorted; values within [`DISTINCT_X_REL`] of the largest
+/// |x| are one).
+pub fn distinct_values(x: &[f64]) -> Vec<f64> {
+    let mut v: Vec<f64> = x.to_vec();
+    v.sort_by(f64::total_cmp);
+    let tol = DISTINCT_X_REL * v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let mut out: Vec<f64> = Vec::with_capacity(v.len());
+    for x in v {
+        if out.last().is_none_or(|l| x - l > tol) {
+            out.push(x);
+        }
+    }
+    out
+}
+
 /// The fitted power law y = a x^b + c.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct PowerLawFit {
@@ -683,8 +716,9 @@ impl LeastSquaresProblem<f64, Dyn, U3> for PowerLaw<'_> {
     }
 }
 
-/// Levenberg-Marquardt fit of y = a x^b + c (x > 0), started from the best of a grid of
-/// offsets c with a log-log regression for a and b at each.
+/// Levenberg-Marquardt fit of y = a x^b + c (x > 0, at [`POWER_LAW_MIN_DISTINCT_X`] or
+/// more distinct x), started from the best of a grid of offsets c with a log-log
+/// regression for a and b at each.
 pub fn fit_power_law(x: &[f64], y: &[f64]) -> Result<PowerLawFit, FitError> {
     if x.len() != y.len() {
         return Err(FitError::LengthMismatch {
@@ -701,6 +735,18 @@ pub fn fit_power_law(x: &[f64], y: &[f64]) -> Result<PowerLawFit, FitError> {
     }
     if let Some(&bad) = x.iter().find(|v| !(v.is_finite() && **v > 0.0)) {
         return Err(FitError::NonPositiveX { x: bad });
+    }
+    let distinct = distinct_values(x);
+    if distinct.len() < POWER_LAW_MIN_DISTINCT_X {
+        return Err(FitError::TooFewDistinctX {
+            distinct: distinct.len(),
+            needed: POWER_LAW_MIN_DISTINCT_X,
+            values: distinct
+                .iter()
+                .map(|v| format!("{v}"))
+                .collect::<Vec<_>>()
+                .join(", "),
+        });
     }
     if y.iter().any(|v| !v.is_finite()) {
         return Err(FitError::Degenerate {
@@ -987,6 +1033,37 @@ mod tests {
             fit_power_law(&[1.0, 2.0, 3.0], &[1.0, 2.0]),
             Err(FitError::LengthMismatch { .. })
         ));
+    }
+
+    #[test]
+    fn one_or_two_distinct_pressures_give_no_power_law() {
+        // Every video at 40 kPa, radii scattered as real ones: no curve is determined.
+        let e = fit_power_law(&[40.0; 5], &[60.1, 59.8, 60.3, 60.0, 59.9]).unwrap_err();
+        assert_eq!(
+            e,
+            FitError::TooFewDistinctX {
+                distinct: 1,
+                needed: 3,
+                values: "40".into()
+            }
+        );
+        assert!(
+            e.to_string()
+                .contains("got 1 (40): measure at more pressures"),
+            "{e}"
+        );
+        let e = fit_power_law(&[20.0, 20.0, 50.0, 50.0], &[90.0, 91.0, 60.0, 61.0]).unwrap_err();
+        assert!(
+            matches!(e, FitError::TooFewDistinctX { distinct: 2, .. }),
+            "{e}"
+        );
+        assert!(e.to_string().contains("(20, 50)"), "{e}");
+        // Three distinct pressures are enough, repeats included.
+        let law = |p: f64| 300.0 * p.powf(-0.45) + 5.0;
+        let x = [20.0, 20.0, 50.0, 80.0, 80.0 * (1.0 + 1e-12)];
+        assert_eq!(distinct_values(&x), vec![20.0, 50.0, 80.0]);
+        let f = fit_power_law(&x, &x.map(law)).unwrap();
+        assert!((f.eval(35.0) - law(35.0)).abs() < 1e-6 * law(35.0), "{f:?}");
     }
 
     proptest! {

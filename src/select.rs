@@ -242,6 +242,45 @@ pub fn select_markers(
         })
 }
 
+/// Round candidates outside `chain` that continue it at either end, one after the other:
+/// each the nearest unused candidate (of [`FIRST_STEP_NEIGHBOURS`]) whose addition keeps
+/// every gate of a marker chain (alike size, the chain's spacing, its turn on the arc).
+/// More than 0 after a pick of `n` markers means more markers are painted than `n`
+/// (or a marker-like dot lies exactly where the next marker would be): only part of the
+/// actuator is measured.
+pub fn chain_continuation(candidates: &[Candidate], chain: &[usize]) -> usize {
+    let mut count = 0;
+    let mut chain = chain.to_vec();
+    for _end in 0..2 {
+        while chain.len() >= 2 {
+            let last = candidates[chain[chain.len() - 1]].point;
+            let mut options: Vec<usize> = (0..candidates.len())
+                .filter(|j| candidates[*j].elongation <= MAX_ELONGATION && !chain.contains(j))
+                .collect();
+            options.sort_by(|a, b| {
+                (candidates[*a].point - last)
+                    .norm()
+                    .total_cmp(&(candidates[*b].point - last).norm())
+            });
+            let next = options.into_iter().take(FIRST_STEP_NEIGHBOURS).find(|&j| {
+                let mut longer = chain.clone();
+                longer.push(j);
+                shape_cost(candidates, &longer).is_some()
+            });
+            match next {
+                Some(j) => {
+                    chain.push(j);
+                    count += 1;
+                }
+                None => break,
+            }
+        }
+        // The other end: the chain reversed.
+        chain.reverse();
+    }
+    count
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -330,6 +369,34 @@ mod tests {
             m[1..].to_vec(),
             "near the previous clamped end"
         );
+    }
+
+    #[test]
+    fn blobs_continuing_a_short_pick_are_counted_at_both_ends() {
+        let m = arc(8, 200.0, 50.0);
+        let mut cands: Vec<Candidate> = m.iter().copied().map(disc).collect();
+        // Distractors that do not continue the chain: a tube, a blob beside the tip, a
+        // dot two spacings beyond it, a far LED.
+        let dir = (m[7] - m[6]).normalize();
+        cands.push(Candidate {
+            point: Point2::new(60.0, 320.0),
+            area_px: 900.0,
+            elongation: 8.0,
+        });
+        cands.push(disc(m[7] + nalgebra::Vector2::new(-dir.y, dir.x) * 20.0));
+        cands.push(disc(m[7] + dir * 100.0));
+        cands.push(disc(Point2::new(500.0, 50.0)));
+        let left = ChainStart::Side(ClampSide::Left);
+        for (n, more) in [(8, 0), (6, 2), (5, 3), (3, 5)] {
+            let pick = select_markers(&cands, n, left, None).unwrap();
+            assert_eq!(chain_continuation(&cands, &pick), more, "{n} of 8");
+        }
+        // Markers 2..7 picked: one continues at each end.
+        assert_eq!(chain_continuation(&cands, &[1, 2, 3, 4, 5, 6]), 2);
+        // A blob of ten times a marker's area is not alike (AREA_FACTOR): it ends the chain.
+        let mut plain: Vec<Candidate> = m.iter().copied().map(disc).collect();
+        plain[7].area_px = 500.0;
+        assert_eq!(chain_continuation(&plain, &[0, 1, 2, 3, 4, 5]), 1);
     }
 
     #[test]

@@ -5,6 +5,11 @@
 //! and precise about what is wrong in it:
 //!
 //! - a UTF-8 byte order mark (spreadsheets write one) is dropped;
+//! - the separator is found in the header line: a comma, a semicolon or a tab, whichever
+//!   it has most of outside quotes (a European spreadsheet's default is `;` with decimal
+//!   commas); with a semicolon or a tab, numbers may have a decimal comma (`40,5`). A
+//!   header split by another character ([`ODD_SEPARATORS`]: `|`, `:`, ...) is refused,
+//!   naming it, rather than read as one column;
 //! - line ends may be LF, CRLF or CR; blank lines are skipped;
 //! - fields may be quoted (`"a, b"`, `"say ""hi"""`), also across lines, with spaces
 //!   around the quotes; quoting is otherwise checked as RFC 4180 has it: a `"` in an
@@ -38,6 +43,85 @@ use crate::io::write_atomic;
 
 /// The UTF-8 byte order mark.
 const UTF8_BOM: &[u8] = b"\xEF\xBB\xBF";
+
+/// Characters that separate a header's columns in files bendscope does not read (a header
+/// with one of them and no comma, semicolon or tab is refused naming it).
+pub const ODD_SEPARATORS: [char; 5] = ['|', ':', '^', '~', '!'];
+
+/// The separator of a table file's fields, found in its header line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Separator {
+    /// `,` (numbers with a decimal point only).
+    #[default]
+    Comma,
+    /// `;` (a European spreadsheet's CSV: numbers may have a decimal comma).
+    Semicolon,
+    /// A tab (numbers may have a decimal comma).
+    Tab,
+}
+
+impl Separator {
+    /// The byte between fields.
+    pub fn byte(self) -> u8 {
+        match self {
+            Separator::Comma => b',',
+            Separator::Semicolon => b';',
+            Separator::Tab => b'\t',
+        }
+    }
+
+    /// Its name, for messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            Separator::Comma => "comma",
+            Separator::Semicolon => "semicolon",
+            Separator::Tab => "tab",
+        }
+    }
+
+    /// The separator of a file whose header record is `header`: the one of comma,
+    /// semicolon and tab found most often outside quotes (a tie goes to the comma, then
+    /// the semicolon); a comma when there is none of them (one column). An error is an
+    /// odd separator ([`ODD_SEPARATORS`]) found instead.
+    pub fn of_header(header: &str) -> Result<Separator, char> {
+        let mut counts = [0usize; 3];
+        let mut odd = None;
+        let mut quoted = false;
+        for c in header.chars() {
+            match c {
+                '"' => quoted = !quoted,
+                _ if quoted => {}
+                ',' => counts[0] += 1,
+                ';' => counts[1] += 1,
+                '\t' => counts[2] += 1,
+                c if ODD_SEPARATORS.contains(&c) => {
+                    odd.get_or_insert(c);
+                }
+                _ => {}
+            }
+        }
+        let all = [Separator::Comma, Separator::Semicolon, Separator::Tab];
+        let best = (0..3).fold(0, |b, k| if counts[k] > counts[b] { k } else { b });
+        match (counts[best], odd) {
+            (0, Some(c)) => Err(c),
+            _ => Ok(all[best]),
+        }
+    }
+}
+
+/// `raw` as a number, with a decimal comma (`40,5`, one comma and no point) read as a
+/// decimal point when `decimal_comma` holds.
+fn parse_number(raw: &str, decimal_comma: bool) -> Option<f64> {
+    if let Ok(v) = raw.parse::<f64>() {
+        return Some(v);
+    }
+    let one_comma = raw.bytes().filter(|b| *b == b',').count() == 1 && !raw.contains('.');
+    if decimal_comma && one_comma {
+        raw.replace(',', ".").parse::<f64>().ok()
+    } else {
+        None
+    }
+}
 
 /// A problem with a table file: where it is (file, and line and column when known) and
 /// what to do.
@@ -82,6 +166,7 @@ impl TableError {
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Table {
     path: PathBuf,
+    separator: Separator,
     header_line: usize,
     columns: Vec<String>,
     /// Cells by column, then row.
@@ -145,18 +230,19 @@ fn line_of_offset(bytes: &[u8], offset: usize) -> usize {
     1 + breaks - crlf
 }
 
-/// Checks the quoting of one record (RFC 4180) and returns it as polars should read it:
-/// a field is either unquoted and free of `"`, or quoted (inner quotes doubled), with
-/// optional spaces or tabs around the quotes, which are dropped. An error is the byte
+/// Checks the quoting of one record (RFC 4180) with fields separated by `sep` and returns
+/// it as polars should read it: a field is either unquoted and free of `"`, or quoted
+/// (inner quotes doubled), with optional spaces (or tabs, when tabs do not separate the
+/// fields) around the quotes, which are dropped. An error is the byte
 /// offset of the first problem and what it is.
 ///
 /// polars accepts a `"` inside an unquoted field as text, but its record splitting (like
 /// [`records`]) still counts it, so one stray quote silently merges the lines after it;
 /// and it rejects text after a closing quote with a message about data types. Both are
 /// reported here instead, at their line.
-fn normalize_quotes(rec: &str) -> Result<String, (usize, &'static str)> {
+fn normalize_quotes(rec: &str, sep: u8) -> Result<String, (usize, &'static str)> {
     let b = rec.as_bytes();
-    let blank = |c: &u8| *c == b' ' || *c == b'\t';
+    let blank = |c: &u8| *c == b' ' || (*c == b'\t' && sep != b'\t');
     let mut out = String::with_capacity(rec.len());
     let mut i = 0;
     loop {
@@ -189,8 +275,8 @@ fn normalize_quotes(rec: &str) -> Result<String, (usize, &'static str)> {
             }
             match b.get(i) {
                 None => return Ok(out),
-                Some(b',') => {
-                    out.push(',');
+                Some(c) if *c == sep => {
+                    out.push(char::from(sep));
                     i += 1;
                 }
                 Some(_) => {
@@ -203,7 +289,7 @@ fn normalize_quotes(rec: &str) -> Result<String, (usize, &'static str)> {
         } else {
             while let Some(&c) = b.get(i) {
                 match c {
-                    b',' => break,
+                    c if c == sep => break,
                     b'"' => {
                         return Err((
                             i,
@@ -217,23 +303,23 @@ fn normalize_quotes(rec: &str) -> Result<String, (usize, &'static str)> {
             if i >= b.len() {
                 return Ok(out);
             }
-            out.push(',');
+            out.push(char::from(sep));
             i += 1;
         }
     }
 }
 
-/// Reads `text` (records already cleaned: one per line, LF) with polars as text cells,
-/// row-major, without a header. polars is called under `catch_unwind`: it is a large
+/// Reads `text` (records already cleaned: one per line, LF, fields separated by `sep`)
+/// with polars as text cells, row-major, without a header. polars is called under `catch_unwind`: it is a large
 /// parser fed with user files, and a panic in it must become an error, not a crash.
-fn polars_rows(text: String) -> Result<Vec<Vec<String>>, String> {
+fn polars_rows(text: String, sep: u8) -> Result<Vec<Vec<String>>, String> {
     let read = || -> Result<DataFrame, String> {
         CsvReadOptions::default()
             .with_has_header(false)
             .with_infer_schema_length(Some(0))
             .with_raise_if_empty(false)
             .with_n_threads(Some(1))
-            .map_parse_options(|o| o.with_truncate_ragged_lines(true))
+            .map_parse_options(|o| o.with_truncate_ragged_lines(true).with_separator(sep))
             .into_reader_with_file_handle(Cursor::new(text.into_bytes()))
             .finish()
             .map_err(|e| e.to_string())
@@ -283,9 +369,18 @@ impl Table {
                 ..Table::default()
             });
         };
+        let separator = Separator::of_header(first.text).map_err(|c| TableError {
+            path: path.to_path_buf(),
+            line: Some(first.line),
+            column: None,
+            why: format!(
+                "the header's columns are separated by `{c}`: bendscope reads commas, semicolons or tabs; save the file as CSV (comma- or semicolon-separated)"
+            ),
+        })?;
+        let sep = separator.byte();
         let mut cleaned = String::with_capacity(text.len() + recs.len());
         for r in &recs {
-            let rec = normalize_quotes(r.text).map_err(|(offset, why)| TableError {
+            let rec = normalize_quotes(r.text, sep).map_err(|(offset, why)| TableError {
                 path: path.to_path_buf(),
                 line: Some(r.line + line_of_offset(r.text.as_bytes(), offset) - 1),
                 column: None,
@@ -294,7 +389,7 @@ impl Table {
             cleaned.push_str(&rec);
             cleaned.push('\n');
         }
-        let rows = polars_rows(cleaned).map_err(|e| {
+        let rows = polars_rows(cleaned, sep).map_err(|e| {
             // polars' messages run over several lines, with hints for its Python API.
             let first = e.lines().next().unwrap_or_default();
             TableError::file(
@@ -328,6 +423,7 @@ impl Table {
         }
         Ok(Table {
             path: path.to_path_buf(),
+            separator,
             header_line: first.line,
             columns,
             cells,
@@ -338,6 +434,17 @@ impl Table {
     /// The file the table came from.
     pub fn path(&self) -> &Path {
         &self.path
+    }
+
+    /// The separator found in the header line (a comma for an empty file).
+    pub fn separator(&self) -> Separator {
+        self.separator
+    }
+
+    /// `raw` (a cell's text, trimmed) as a number: a decimal comma (`40,5`) reads as
+    /// 40.5 when the file is semicolon- or tab-separated. `None` when it is not one.
+    pub fn number(&self, raw: &str) -> Option<f64> {
+        parse_number(raw, self.separator != Separator::Comma)
     }
 
     /// Header names, trimmed, in file order (empty for an empty file).
@@ -431,13 +538,15 @@ impl Table {
     }
 
     /// The cell at `row`, `col` as a number (surrounding spaces ignored; `inf` and `nan`
-    /// are numbers too: check finiteness where it matters). The error names the file,
-    /// the line and the column.
+    /// are numbers too: check finiteness where it matters; a decimal comma as
+    /// [`Table::number`] reads it). The error names the file, the line and the column.
     pub fn f64_at(&self, row: usize, col: usize) -> Result<f64, TableError> {
         let raw = self.cell(row, col).trim();
-        raw.parse::<f64>().map_err(|_| {
+        self.number(raw).ok_or_else(|| {
             let why = if raw.is_empty() {
                 "empty cell: give a number".to_string()
+            } else if self.separator == Separator::Comma && parse_number(raw, true).is_some() {
+                format!("`{raw}` is not a number: a decimal comma needs a semicolon- or tab-separated file (write a decimal point here)")
             } else {
                 format!("`{raw}` is not a number")
             };
@@ -639,6 +748,55 @@ mod tests {
             assert!(e.why.contains(what), "{text:?}: {e}");
             assert!(!e.to_string().contains('\n'), "{e}");
         }
+    }
+
+    #[test]
+    fn semicolons_and_tabs_separate_fields_and_allow_decimal_commas() {
+        let t = parse("\u{feff}file;pressure_kpa;note\r\nGX010001.MP4;40,5;\"a; b, c\"\r\nGX010002.MP4; 55.25 ;x\r\n");
+        assert_eq!(t.separator(), Separator::Semicolon);
+        assert_eq!(t.columns(), ["file", "pressure_kpa", "note"]);
+        assert_eq!(t.len(), 2);
+        assert_eq!(t.cell(0, 2), "a; b, c");
+        assert_eq!(t.f64_at(0, 1).unwrap(), 40.5);
+        assert_eq!(t.f64_at(1, 1).unwrap(), 55.25);
+        let e = parse("a;b\n1,2,3;4\n").f64_at(0, 0).unwrap_err();
+        assert!(e.to_string().contains("`1,2,3` is not a number"), "{e}");
+        let t = parse("time_s\tpressure_kpa\n0,5\t\"12,75\"\n1\t-3,5e1\n");
+        assert_eq!(t.separator(), Separator::Tab);
+        assert_eq!(t.columns(), ["time_s", "pressure_kpa"]);
+        assert_eq!(
+            (t.f64_at(0, 0).unwrap(), t.f64_at(0, 1).unwrap()),
+            (0.5, 12.75)
+        );
+        assert_eq!(t.f64_at(1, 1).unwrap(), -35.0);
+        // Commas outnumber the semicolons (quoted ones do not count): a comma file, where
+        // a decimal comma is an error that says why.
+        let t = parse("\"a;b;c\",x;y,z\n\"40,5\",1,2\n");
+        assert_eq!(t.separator(), Separator::Comma);
+        assert_eq!(t.columns(), ["a;b;c", "x;y", "z"]);
+        let e = t.f64_at(0, 0).unwrap_err().to_string();
+        assert!(
+            e.contains("`40,5` is not a number: a decimal comma needs a semicolon"),
+            "{e}"
+        );
+        // One column: no separator needed.
+        assert_eq!(parse("time_s\n1.5\n").f64_at(0, 0).unwrap(), 1.5);
+    }
+
+    #[test]
+    fn a_header_split_by_another_character_is_refused_naming_it() {
+        for (text, c) in [
+            ("file|pressure_kpa\nGX010001.MP4|40\n", '|'),
+            ("\n\nstrain_pct:stress_kpa\n1:2\n", ':'),
+        ] {
+            let e = Table::parse(text.as_bytes(), Path::new("x.csv")).unwrap_err();
+            assert_eq!(e.line, Some(if c == '|' { 1 } else { 3 }), "{e}");
+            let msg = e.to_string();
+            assert!(msg.contains(&format!("separated by `{c}`")), "{msg}");
+            assert!(msg.contains("commas, semicolons or tabs"), "{msg}");
+        }
+        // Inside quotes it is text.
+        assert_eq!(parse("\"a|b\"\n1\n").columns(), ["a|b"]);
     }
 
     #[test]

@@ -283,3 +283,63 @@ fn pareto_front_is_feasible_non_dominated_and_checked_with_the_fem() {
     assert!(fem.is_finite() && fem > 0.0, "{fem}");
     assert!(dir.path().join("opt/runs/1/steps.csv").exists());
 }
+
+#[test]
+fn bounds_and_an_optimum_past_the_designs_are_warned_and_marked_beside_the_fem_check() {
+    let dir = tempfile::tempdir().unwrap();
+    let plan =
+        std::fs::read_to_string(common::root().join("examples/plans/optimize-curvature.toml"))
+            .unwrap()
+            .replace(
+                "\"../../fixtures/designs/two-factor.csv\"",
+                &format!("{:?}", designs()),
+            )
+            .replace("min = 3.0", "min = 1.0");
+    assert!(plan.contains("min = 1.0"), "{plan}");
+    std::fs::write(dir.path().join("plan.toml"), plan).unwrap();
+    let run = Run::new(
+        dir.path(),
+        &[
+            "optimize",
+            "plan.toml",
+            "-o",
+            "opt",
+            "--resimulate",
+            "1",
+            "--mesh-size",
+            "6",
+        ],
+    );
+    assert!(run.code == 0 || run.code == 1, "{run}");
+    assert!(!run.stderr.contains("panicked"), "{run}");
+    assert!(
+        run.stderr.contains(
+            "warning: input geometry.f: the bounds 1 to 7.5 reach past the designs (3 to 7.5)"
+        ),
+        "{run}"
+    );
+    let s = json(&dir.path().join("opt/summary.json"));
+    let f = s["best"][0]["x"][0].as_f64().unwrap();
+    // The thinner the bottom, the more it bends: the optimum leaves the designs.
+    assert!(f < 3.0, "optimum f = {f}");
+    let warnings: Vec<&str> = s["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|w| w.as_str().unwrap())
+        .collect();
+    assert_eq!(warnings.len(), 2, "{warnings:?}");
+    assert!(
+        warnings[1].starts_with(&format!(
+            "the optimum lies outside the designs: geometry.f = {f} (designs: 3 to 7.5)"
+        )),
+        "{warnings:?}"
+    );
+    let (h, v) = read_csv(&dir.path().join("opt/verified.csv"));
+    let e = h.iter().position(|c| c == "extrapolated").unwrap();
+    assert_eq!(v[0][e], format!("geometry.f = {f} (designs: 3 to 7.5)"));
+    assert!(
+        run.stdout.contains("; extrapolated: geometry.f = "),
+        "{run}"
+    );
+}

@@ -404,3 +404,137 @@ fn fit_model_finds_the_material_scale_and_the_bottom_thickness() {
     )
     .assert_bad_input(&["per_video.csv"]);
 }
+
+// ---------------------------------------------------------------------------------------
+// Issue 19: tables from European spreadsheets, implausible values, the mesh flag.
+
+#[test]
+fn a_semicolon_table_with_decimal_commas_gives_the_same_coefficients() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let c = [0.10744, 0.0601, 0.000302];
+    let pts: Vec<(f64, f64)> = stretches(1.0, 3.5, 26)
+        .iter()
+        .map(|l| (*l, yeoh(&c, *l)))
+        .collect();
+    tensile_csv(&d.join("comma.csv"), &pts);
+    let text = std::fs::read_to_string(d.join("comma.csv")).unwrap();
+    // A European spreadsheet's CSV: `;` between fields, `,` before the decimals, CRLF.
+    let european = text
+        .replace(',', ";")
+        .replace('.', ",")
+        .replace('\n', "\r\n");
+    assert!(european.starts_with("strain_pct;stress_kpa\r\n0,000000;0,000000000\r\n"));
+    write(&d.join("semicolon.csv"), &format!("\u{feff}{european}"));
+    let mut params = Vec::new();
+    for name in ["comma", "semicolon"] {
+        let run = exec(d, &["material", "fit", &format!("{name}.csv"), "-o", name]);
+        assert_eq!(run.code, 0, "{name}: {run}");
+        assert!(run.stderr.is_empty(), "{name}: {run}");
+        params.push(json(&d.join(name).join("material_fit.json"))["parameters"].clone());
+    }
+    assert_eq!(params[0], params[1]);
+    let got = params[1]["C10_mpa"].as_f64().unwrap();
+    assert!((got / c[0] - 1.0).abs() < 0.01, "{got}");
+    // Another separator is refused, naming it.
+    write(&d.join("pipes.csv"), &text.replace(',', "|"));
+    exec(d, &["material", "fit", "pipes.csv"]).assert_bad_input(&[
+        "pipes.csv",
+        "line 1",
+        "separated by `|`",
+    ]);
+}
+
+#[test]
+fn a_stretch_of_301_is_warned_naming_the_value_and_the_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // Strain in % under a `strain` (fraction) header: stretches up to 301.
+    let c = [0.0127, 4.23e-4];
+    let mut s = String::from("strain,stress_kpa\n");
+    for l in stretches(1.0, 4.0, 11) {
+        s.push_str(&format!("{},{}\n", 100.0 * (l - 1.0), 1e3 * yeoh(&c, l)));
+    }
+    write(&d.join("t.csv"), &s);
+    let run = exec(
+        d,
+        &["material", "fit", "t.csv", "--model", "yeoh2", "-o", "out"],
+    );
+    assert!(!run.stderr.contains("panicked"), "{run}");
+    let lines: Vec<&str> = run
+        .stderr
+        .lines()
+        .filter(|l| l.contains("stretch 301"))
+        .collect();
+    assert_eq!(lines.len(), 1, "{run}");
+    assert!(
+        lines[0].starts_with(
+            "warning: t.csv: line 12, column strain: stretch 301 is far past where silicones break"
+        ) && lines[0].contains("(10 rows beyond 10)")
+            && lines[0].contains("name the column `strain_pct`"),
+        "{run}"
+    );
+    let j = json(&d.join("out/material_fit.json"));
+    assert!(
+        j["warnings"][0].as_str().unwrap().contains("stretch 301"),
+        "{j}"
+    );
+}
+
+#[test]
+fn fit_model_takes_the_mesh_size_flag_like_simulate() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // The measurement: the reference actuator on a 4 mm mesh.
+    let sim = exec(
+        d,
+        &[
+            "simulate",
+            "--mesh-size",
+            "4",
+            "--pressures",
+            "30,60",
+            "--no-vtu",
+            "-o",
+            "truth",
+        ],
+    );
+    assert_eq!(sim.code, 0, "{sim}");
+    per_video_from_steps(&d.join("truth/steps.csv"), &d.join("measured"));
+    // Fitted on the same 4 mm mesh (not the default 1.5 mm), the start is the truth.
+    let run = exec(
+        d,
+        &[
+            "fit-model",
+            "--measured",
+            "measured",
+            "--free",
+            "material.scale",
+            "--mesh-size",
+            "4",
+            "-o",
+            "fit",
+        ],
+    );
+    assert_eq!(run.code, 0, "{run}");
+    let j = json(&d.join("fit/fit_model.json"));
+    let scale = j["parameters"]["material.scale"].as_f64().unwrap();
+    assert!((scale - 1.0).abs() < 1e-3, "scale {scale}: {run}");
+    assert!(j["max_rel_dev_pct"].as_f64().unwrap() < 0.05, "{j}");
+    let fitted: toml::Table =
+        toml::from_str(&std::fs::read_to_string(d.join("fit/fitted.toml")).unwrap()).unwrap();
+    assert_eq!(fitted["mesh"]["size_mm"].as_float(), Some(4.0));
+    exec(
+        d,
+        &[
+            "fit-model",
+            "--measured",
+            "measured",
+            "--free",
+            "material.scale",
+            "--mesh-size",
+            "0",
+        ],
+    )
+    .assert_bad_input(&["mesh size", "0 mm: must be positive"]);
+}

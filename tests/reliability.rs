@@ -1850,3 +1850,367 @@ fn a_frames_csv_missing_a_frame_is_refused_with_the_row_to_add() {
         &["frames.csv", "no time for colour frame 000002", "add a row"],
     );
 }
+
+// ---------------------------------------------------------------------------------------
+// Issue 19, weak answers that mislead: input tables, fits and warnings.
+
+/// The example's manifest with `sep` between the fields and `pressure(kPa)` written by
+/// `cell` (a decimal comma, a point, ...).
+fn example_manifest(sep: &str, cell: impl Fn(f64) -> String) -> String {
+    let mut text = format!("file{sep}pressure_kpa\r\n");
+    for v in &truth().videos {
+        text.push_str(&format!(
+            "{}{sep}{}\r\n",
+            v.file,
+            cell(v.pressure_kpa + 0.5)
+        ));
+    }
+    text
+}
+
+/// (file, pressure_kpa cell, radius_mm cell) of every per_video.csv row.
+fn radii(c: &Case) -> Vec<(String, String, String)> {
+    let t = c.per_video();
+    t.rows
+        .iter()
+        .map(|r| {
+            (
+                t.get(r, "file"),
+                t.get(r, "pressure_kpa"),
+                t.get(r, "radius_mm"),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn semicolon_and_tab_manifests_with_decimal_commas_measure_like_the_comma_one() {
+    let comma = Case::example();
+    comma.write("pressures.csv", example_manifest(",", |p| format!("{p}")));
+    let run = comma.run();
+    assert_eq!(run.code, 0, "{run}");
+    let want = radii(&comma);
+    assert_eq!(want.len(), truth().videos.len());
+    assert_others_kept(&comma.per_video(), &[]);
+    // A European spreadsheet's CSV (semicolons, decimal commas, a BOM) and a tab-separated
+    // export: the same videos at the same pressures, the same radii to the last digit.
+    for (sep, bom) in [(";", "\u{feff}"), ("\t", "")] {
+        let c = Case::example();
+        let text = example_manifest(sep, |p| format!("{p}").replace('.', ","));
+        assert!(text.contains(&format!("{sep}20,5\r\n")), "{text}");
+        c.write("pressures.csv", format!("{bom}{text}"));
+        let run = c.run();
+        assert_eq!(run.code, 0, "{sep:?}: {run}");
+        assert!(!run.stderr.contains("warning"), "{sep:?}: {run}");
+        assert_eq!(radii(&c), want, "{sep:?}");
+    }
+}
+
+#[test]
+fn a_manifest_split_by_an_odd_separator_is_refused_naming_it() {
+    let c = Case::example();
+    c.write("pressures.csv", example_manifest("|", |p| format!("{p}")));
+    let run = c.run();
+    c.refused(
+        &run,
+        &[
+            "pressures.csv",
+            "line 1",
+            "separated by `|`",
+            "semicolons or tabs",
+        ],
+    );
+    assert!(!run.stderr.contains("no `file` column"), "{run}");
+}
+
+fn fit_json(c: &Case) -> serde_json::Value {
+    serde_json::from_str(&fs::read_to_string(c.out.join("fit.json")).unwrap()).unwrap()
+}
+
+#[test]
+fn every_video_at_one_pressure_gives_no_fit_and_says_why() {
+    let c = Case::example();
+    let rows: String = truth()
+        .videos
+        .iter()
+        .map(|v| format!("{},40\n", v.file))
+        .collect();
+    c.manifest(&rows);
+    let run = c.run();
+    assert_eq!(run.code, 0, "videos were measured: {run}");
+    assert_eq!(counts(&run), (5, 0), "{run}");
+    let f = fit_json(&c);
+    for k in [
+        "radius_mm_vs_kpa",
+        "curvature_per_m_vs_kpa",
+        "bending_angle_deg_vs_kpa",
+        "radius_mm_vs_unit",
+        "curvature_per_m_vs_unit",
+    ] {
+        assert!(f[k].is_null(), "{k}: {f}");
+    }
+    let notes: Vec<&str> = f["notes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|n| n.as_str().unwrap())
+        .collect();
+    assert_eq!(notes.len(), 1, "{notes:?}");
+    assert!(
+        notes[0].starts_with("no fit of radius vs kPa, curvature vs kPa, angle vs kPa")
+            && notes[0].contains("3 or more distinct x values (pressures), got 1 (40)"),
+        "{notes:?}"
+    );
+    let lines: Vec<&str> = run
+        .stderr
+        .lines()
+        .filter(|l| l.contains("fit.json"))
+        .collect();
+    assert_eq!(lines.len(), 1, "{run}");
+    assert!(
+        lines[0].starts_with("warning: s: fit.json: no fit of") && lines[0].contains("got 1 (40)"),
+        "{run}"
+    );
+}
+
+#[test]
+fn a_zero_kpa_row_is_kept_in_the_tables_and_named_as_left_out_of_the_fits() {
+    let c = Case::example();
+    let rows: String = truth()
+        .videos
+        .iter()
+        .enumerate()
+        .map(|(i, v)| {
+            let p = if i == 0 { 0.0 } else { v.pressure_kpa };
+            format!("{},{p}\n", v.file)
+        })
+        .collect();
+    c.manifest(&rows);
+    let run = c.run();
+    assert_eq!(run.code, 0, "{run}");
+    let first = &truth().videos[0].file;
+    let t = c.per_video();
+    assert_eq!(t.status(first), "ok");
+    assert_eq!(t.num(t.rows_of(first).next().unwrap(), "pressure_kpa"), 0.0);
+    assert_others_kept(&t, &[]);
+    let f = fit_json(&c);
+    assert_eq!(f["radius_mm_vs_kpa"]["n"], 4, "{f}");
+    let note = format!("{first} (0 kPa)");
+    let notes = f["notes"].as_array().unwrap();
+    assert_eq!(notes.len(), 1, "{f}");
+    assert!(
+        notes[0].as_str().unwrap().contains(&note)
+            && notes[0].as_str().unwrap().contains("left out of the fits"),
+        "{f}"
+    );
+    assert_reported_once(
+        &run,
+        &note,
+        &["warning: s: fit.json", "left out of the fits"],
+    );
+}
+
+/// The example with `expected_markers = n` in its bendscope.toml.
+fn example_expecting(n: usize) -> Case {
+    let c = Case::example();
+    let toml = fs::read_to_string(c.path("bendscope.toml")).unwrap();
+    c.write("bendscope.toml", format!("expected_markers = {n}\n{toml}"));
+    c
+}
+
+#[test]
+fn fewer_expected_markers_than_painted_is_warned_once_per_video() {
+    let c = example_expecting(6);
+    let run = c.run();
+    assert_eq!(run.code, 0, "{run}");
+    for v in &truth().videos {
+        assert_reported_once(
+            &run,
+            &v.file,
+            &[
+                "2 more marker-like blob(s) continue the chain of 6 markers",
+                "only part of the chain is measured",
+                "set expected_markers = 8",
+            ],
+        );
+    }
+    // The frames count them among the ignored blobs.
+    let f = c.per_frame();
+    assert!(
+        f.rows
+            .iter()
+            .all(|r| f.get(r, "status") == "ok" && f.get(r, "n_ignored") == "2"),
+        "{:?}",
+        f.rows
+    );
+    // The cache keeps what a warning needs: a rerun from it warns the same.
+    let again = c.run();
+    assert_eq!(again.code, 0, "{again}");
+    assert_eq!(
+        again.stderr.matches("marker-like").count(),
+        truth().videos.len(),
+        "{again}"
+    );
+    let all = example_expecting(8).run();
+    assert_eq!(all.code, 0, "{all}");
+    assert!(!all.stderr.contains("marker-like"), "{all}");
+}
+
+#[test]
+fn an_absurd_acquire_set_point_is_refused_naming_the_value_and_the_key() {
+    let c = Case::bare();
+    fs::write(
+        c.root.join("p.toml"),
+        "[steps]\npressures_kpa = [40, 1e9]\nstabilize_s = 1\nrecord_s = 1\n[regulator]\nport = \"/dev/null\"\n[camera]\nkind = \"webcam\"\n",
+    )
+    .unwrap();
+    let run = Run::new(&c.root, &["acquire", "p.toml", "-o", "s", "--dry-run"]);
+    run.assert_bad_input(&["p.toml", "1000000000 kPa", "700 kPa", "[regulator] max_kpa"]);
+    assert!(!c.s.exists());
+}
+
+/// A FEM-shaped steps.csv of y = 300 p^-0.45 + 5 mm at `pressures`.
+fn fake_steps(dir: &Path, pressures: &[f64]) {
+    let mut s = String::from("pressure_kpa,radius_mm,curvature_per_m,bending_angle_deg\n");
+    for p in pressures {
+        let r = 300.0 * p.powf(-0.45) + 5.0;
+        s.push_str(&format!("{p},{r},{},{}\n", 1000.0 / r, 3.0 * p.powf(0.8)));
+    }
+    fs::create_dir_all(dir).unwrap();
+    fs::write(dir.join("steps.csv"), s).unwrap();
+}
+
+#[test]
+fn compare_names_degenerate_input_and_the_direction_of_its_deviation() {
+    let c = Case::bare();
+    fake_steps(&c.root.join("fem"), &[0.0, 10.0, 30.0, 50.0, 70.0, 90.0]);
+    let measured = |rows: &[(f64, f64)]| {
+        let mut s =
+            String::from("file,pressure_kpa,radius_mm,curvature_per_m,bending_angle_deg,status\n");
+        for (i, (p, r)) in rows.iter().enumerate() {
+            s.push_str(&format!(
+                "v{i}.mp4,{p},{r},{},{},ok\n",
+                1000.0 / r,
+                3.0 * p.powf(0.8)
+            ));
+        }
+        fs::create_dir_all(c.root.join("m")).unwrap();
+        fs::write(c.root.join("m/per_video.csv"), s).unwrap();
+    };
+    // Every video at 40 kPa: no curve, and it says so (not "do not overlap").
+    measured(&[(40.0, 61.0), (40.0, 60.5), (40.0, 61.2)]);
+    let run = Run::new(
+        &c.root,
+        &["compare", "--measured", "m", "--fem", "fem", "-o", "r"],
+    );
+    assert_eq!(run.code, 3, "nothing compared: {run}");
+    assert!(!run.stderr.contains("overlap"), "{run}");
+    assert_eq!(run.stderr.matches("got 1 (40)").count(), 3, "{run}");
+    // A rest row at 0 kPa is left out with a note; measured radii 2 mm below the FEM's
+    // give a deviation of +2 mm (simulated - measured), as the summary and help say.
+    let law = |p: f64| 300.0 * p.powf(-0.45) + 5.0;
+    measured(&[
+        (0.0, 900.0),
+        (20.0, law(20.0) - 2.0),
+        (40.0, law(40.0) - 2.0),
+        (60.0, law(60.0) - 2.0),
+        (80.0, law(80.0) - 2.0),
+    ]);
+    let run = Run::new(
+        &c.root,
+        &["compare", "--measured", "m", "--fem", "fem", "-o", "r"],
+    );
+    assert_eq!(run.code, 0, "{run}");
+    let zero: Vec<&str> = run.stderr.lines().filter(|l| l.contains("0 kPa")).collect();
+    assert_eq!(zero.len(), 2, "per_video.csv and steps.csv: {run}");
+    assert!(
+        zero.iter()
+            .all(|l| l.starts_with("note: ") && l.contains("left out of the fits")),
+        "{run}"
+    );
+    let (h, rows) = read_csv(&c.root.join("r/compare.csv"));
+    let k = col(&h, "radius_mm_deviation");
+    for r in &rows {
+        let d: f64 = r[k].parse().unwrap();
+        assert!((d - 2.0).abs() < 0.01, "{d}");
+    }
+    let summary = fs::read_to_string(c.root.join("r/summary.txt")).unwrap();
+    assert!(
+        summary.contains("deviation = simulated - measured"),
+        "{summary}"
+    );
+    let help = Run::new(&c.root, &["compare", "--help"]);
+    assert!(
+        help.stdout.contains("Deviation = simulated - measured"),
+        "{help}"
+    );
+}
+
+#[test]
+fn simulate_help_print_config_and_readme_agree_on_the_default_mesh() {
+    let c = Case::bare();
+    let printed = Run::new(&c.root, &["simulate", "--print-config"]);
+    assert_eq!(printed.code, 0, "{printed}");
+    let cfg: toml::Table = toml::from_str(&printed.stdout).unwrap();
+    let size = cfg["mesh"]["size_mm"].as_float().unwrap();
+    assert_eq!(size, bendscope::fem::actuator::DEFAULT_MESH_SIZE_MM);
+    let help = Run::new(&c.root, &["simulate", "--help"]);
+    let line = help
+        .stdout
+        .lines()
+        .skip_while(|l| !l.contains("--mesh-size"))
+        .take(3)
+        .collect::<Vec<_>>()
+        .join(" ");
+    assert!(line.contains(&format!("[default: {size}]")), "{help}");
+    let readme = fs::read_to_string(common::root().join("README.md")).unwrap();
+    assert!(
+        readme.contains(&format!("the default mesh size is {size} mm")),
+        "README"
+    );
+    assert!(!readme.contains("default 2 mm mesh"), "README");
+}
+
+#[test]
+fn a_material_a_thousand_times_stiffer_than_any_preset_is_warned_with_its_value() {
+    let c = Case::bare();
+    // C1 in kPa where MPa is meant.
+    fs::write(c.root.join("a.toml"), "[material]\nc1 = 107.44\n").unwrap();
+    let run = Run::new(
+        &c.root,
+        &["simulate", "--config", "a.toml", "--print-config"],
+    );
+    assert_eq!(run.code, 0, "{run}");
+    let w: Vec<&str> = run
+        .stderr
+        .lines()
+        .filter(|l| l.starts_with("warning: "))
+        .collect();
+    assert_eq!(w.len(), 1, "{run}");
+    assert!(
+        w[0].contains("[material] c1 = 107.44")
+            && w[0].contains("935x stiffer than the stiffest preset")
+            && w[0].contains("in MPa"),
+        "{run}"
+    );
+    fs::write(
+        c.root.join("b.toml"),
+        "[material]\npreset = \"ecoflex0050\"\nscale = 1e-4\n",
+    )
+    .unwrap();
+    let run = Run::new(
+        &c.root,
+        &["simulate", "--config", "b.toml", "--print-config"],
+    );
+    assert!(
+        run.stderr
+            .contains("preset = \"ecoflex0050\" with scale = 0.0001")
+            && run.stderr.contains("softer than the softest preset"),
+        "{run}"
+    );
+    let run = Run::new(
+        &c.root,
+        &["simulate", "--material", "dragonskin10", "--print-config"],
+    );
+    assert!(run.stderr.is_empty(), "{run}");
+}

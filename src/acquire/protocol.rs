@@ -44,6 +44,10 @@ pub const DEFAULT_CAMERA_TIMEOUT_S: f64 = 5.0;
 pub const MAX_RATE_HZ: f64 = 200.0;
 /// Most set points a protocol may hold.
 pub const MAX_SET_POINTS: usize = 10_000;
+/// Highest set point without `[regulator] max_kpa`, kPa: the range of the pressure sensor
+/// in the README's wiring (MPX5700DP, 0..700 kPa). A set point above it is refused as a
+/// typo (a unit or a digit); give `max_kpa` for a bench that goes further.
+pub const DEFAULT_MAX_KPA: f64 = 700.0;
 
 /// A checked acquisition protocol.
 #[derive(Debug, Clone, PartialEq)]
@@ -148,7 +152,8 @@ pub struct RegulatorConfig {
     pub retries: u32,
     /// Wait for the first answer after opening the port, s.
     pub boot_s: f64,
-    /// Highest set point allowed, kPa (a protocol asking more is refused), if given.
+    /// Highest set point allowed, kPa (a protocol asking more is refused), if given;
+    /// else [`DEFAULT_MAX_KPA`] holds.
     pub max_kpa: Option<f64>,
 }
 
@@ -303,16 +308,22 @@ impl Protocol {
         };
         let regulator = regulator_config(raw.regulator).map_err(bad)?;
         let camera = camera_config(raw.camera).map_err(bad)?;
-        if let Some(max) = regulator.max_kpa {
-            let top = match &plan {
-                Plan::Steps(s) => s.pressures_kpa.iter().copied().fold(0.0, f64::max),
-                Plan::Ramp(r) => r.top_kpa,
-            };
-            if top > max {
+        let top = match &plan {
+            Plan::Steps(s) => s.pressures_kpa.iter().copied().fold(0.0, f64::max),
+            Plan::Ramp(r) => r.top_kpa,
+        };
+        match regulator.max_kpa {
+            Some(max) if top > max => {
                 return Err(bad(format!(
                     "a set point of {top} kPa exceeds the regulator's max_kpa = {max}: lower the pressures"
                 )));
             }
+            None if top > DEFAULT_MAX_KPA => {
+                return Err(bad(format!(
+                    "a set point of {top} kPa exceeds {DEFAULT_MAX_KPA} kPa, the limit without [regulator] max_kpa (the README wiring's sensor range): lower the pressures (check their unit), or set [regulator] max_kpa to your bench's range"
+                )));
+            }
+            _ => {}
         }
         Ok(Protocol {
             plan,
@@ -594,6 +605,25 @@ mod tests {
         .unwrap_err()
         .to_string();
         assert!(too_high.contains("max_kpa"), "{too_high}");
+        // Without max_kpa, the default limit holds: 1e9 kPa is a typo, 700 kPa is not.
+        let absurd = parse("[steps]\npressures_kpa = [40, 1e9]\nstabilize_s = 1\nrecord_s = 1")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            absurd.contains("1000000000 kPa exceeds 700 kPa")
+                && absurd.contains("[regulator] max_kpa"),
+            "{absurd}"
+        );
+        assert!(parse("[steps]\npressures_kpa = [700]\nstabilize_s = 1\nrecord_s = 1").is_ok());
+        let bar = parse("[steps]\npressures = [8]\nunit = \"bar\"\nstabilize_s = 1\nrecord_s = 1")
+            .unwrap_err()
+            .to_string();
+        assert!(bar.contains("800 kPa exceeds 700 kPa"), "{bar}");
+        let allowed = Protocol::parse(
+            "[steps]\npressures_kpa = [900]\nstabilize_s = 1\nrecord_s = 1\n[regulator]\nport = \"x\"\nmax_kpa = 1000\n[camera]\nkind = \"webcam\"",
+            Path::new("p.toml"),
+        );
+        assert!(allowed.is_ok(), "{allowed:?}");
     }
 
     #[test]

@@ -6,15 +6,19 @@ use anyhow::Result;
 use bendscope::compare::compare_to;
 use clap::Args;
 
-use super::{EXIT_OK, EXIT_PARTIAL};
+use super::{EXIT_NOTHING, EXIT_OK, EXIT_PARTIAL};
 
 /// Compare measured bending with the simulation.
 #[derive(Debug, Args)]
 #[command(
     after_help = "Reads MEASURED/per_video.csv (bendscope process) and FEM/steps.csv (+ force.csv) \
 (bendscope simulate). Each curve is fitted with y = a p^b + c and the fits are compared on a common pressure grid \
-over the range both cover. Writes in REPORT: compare.csv (the curves and their deviation), summary.txt, \
-compare.json and plots/ (PNG + SVG)."
+over the range both cover (rows at 0 kPa are left out of the fits, with a note). \
+Deviation = simulated - measured (FEM fit minus measured fit, in the quantity's unit: a positive radius deviation is a simulated \
+radius larger than measured); RMSE % is relative to the RMS of the measured fit. \
+Writes in REPORT: compare.csv (per quantity: NAME_measured, NAME_fem, NAME_deviation on the grid), summary.txt, \
+compare.json and plots/ (PNG + SVG).
+Exit codes: 0 every quantity compared, 1 some could not be (why on stderr), 2 bad input, 3 none could be compared."
 )]
 pub struct CompareArgs {
     /// Output folder of `bendscope process` (per_video.csv).
@@ -39,11 +43,16 @@ pub fn run(args: &CompareArgs) -> Result<u8> {
         args.force.as_deref(),
         &args.output,
     )?;
+    for n in &report.notes {
+        eprintln!("note: {n}");
+    }
     for w in &report.warnings {
         eprintln!("warning: {w}");
     }
     super::out!("{}-> {}", report.summary, args.output.display());
-    Ok(if report.warnings.is_empty() {
+    Ok(if report.results.is_empty() {
+        EXIT_NOTHING
+    } else if report.warnings.is_empty() {
         EXIT_OK
     } else {
         EXIT_PARTIAL

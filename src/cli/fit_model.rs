@@ -15,7 +15,7 @@ use super::{EXIT_BAD_INPUT, EXIT_NOTHING, EXIT_OK, EXIT_PARTIAL};
 #[derive(Debug, Args)]
 #[command(
     after_help = "NAME: a config field, section.field (geometry.f, material.c1, material.scale: a factor on every material coefficient) or a field name found in one section; bounds NAME=LO:HI (default: the config's value / and x 5).
-Each evaluation simulates the config (its mesh and solver settings) at the measured pressures; a coarse mesh (--mesh-size 3-4 in the config) keeps the fit to minutes.
+Each evaluation simulates the config (its mesh and solver settings) at the measured pressures; a coarse mesh (--mesh-size 3 or 4, or [mesh] size_mm in the config) keeps the fit to minutes.
 Outputs in OUT: fitted.toml (the config with the fitted values, for simulate --config), fit_model.json, fit_model.csv, plots/fit_model.png|svg."
 )]
 pub struct FitModelArgs {
@@ -31,31 +31,46 @@ pub struct FitModelArgs {
     /// Quantity fitted (relative deviations at every measured pressure).
     #[arg(long, value_enum, default_value = "radius")]
     pub quantity: Quantity,
+    /// Largest element edge of every simulation, mm; overrides the config's [mesh] size_mm
+    /// as in simulate [default: the config's].
+    #[arg(
+        long,
+        value_name = "MM",
+        visible_alias = "mesh-size-mm",
+        allow_hyphen_values = true
+    )]
+    pub mesh_size: Option<f64>,
     /// Output folder.
     #[arg(short, long, value_name = "DIR", default_value = "fit-model")]
     pub output: PathBuf,
 }
 
-fn read_config(path: &Option<PathBuf>) -> Result<ActuatorConfig> {
-    let Some(path) = path else {
-        return Ok(ActuatorConfig::default());
+/// The config (`path`, else the reference actuator) with `mesh_size` set, checked.
+fn read_config(path: &Option<PathBuf>, mesh_size: Option<f64>) -> Result<ActuatorConfig> {
+    let mut cfg = match path {
+        None => ActuatorConfig::default(),
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("cannot read actuator config {}", path.display()))?;
+            toml::from_str(&text).map_err(|e| {
+                anyhow!(
+                    "{} is not a valid actuator config: {} (see bendscope simulate --print-config)",
+                    path.display(),
+                    e.message()
+                )
+            })?
+        }
     };
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("cannot read actuator config {}", path.display()))?;
-    let cfg: ActuatorConfig = toml::from_str(&text).map_err(|e| {
-        anyhow!(
-            "{} is not a valid actuator config: {} (see bendscope simulate --print-config)",
-            path.display(),
-            e.message()
-        )
-    })?;
+    if let Some(h) = mesh_size {
+        cfg.mesh.size_mm = h;
+    }
     cfg.validate()?;
     Ok(cfg)
 }
 
 /// Runs `bendscope fit-model`.
 pub fn run(args: &FitModelArgs) -> Result<u8> {
-    let inputs = read_config(&args.config).and_then(|cfg| {
+    let inputs = read_config(&args.config, args.mesh_size).and_then(|cfg| {
         let free = parse_free(&args.free, &cfg)?;
         let measured = Measured::read(&args.measured)?;
         Ok((cfg, free, measured))

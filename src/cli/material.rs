@@ -84,6 +84,9 @@ fn run_fit(args: &FitArgs) -> Result<u8> {
             return Ok(EXIT_BAD_INPUT);
         }
     };
+    for w in &data.warnings {
+        eprintln!("warning: {w}");
+    }
     let fit = match fit_material(&data, args.model, args.nonnegative) {
         Ok(f) => f,
         Err(e) => {

@@ -13,7 +13,8 @@ use super::{EXIT_BAD_INPUT, EXIT_OK, EXIT_PARTIAL};
 #[derive(Debug, Args)]
 #[command(
     after_help = "One [[objective]]: Bayesian optimization (egobox-ego) -> evaluations.csv; two: NSGA-II Pareto front -> pareto.csv, plots/pareto.png. \
-Both: verified.csv (surrogate mean, std and FEM value per column of the re-simulated designs), runs/<k>/ (their FEM outputs), models/ (one surrogate per column), summary.json. \
+Both: verified.csv (surrogate mean, std and FEM value per column of the re-simulated designs; extrapolated: their inputs outside the designs' range), runs/<k>/ (their FEM outputs), models/ (one surrogate per column), summary.json. \
+Input bounds or an optimum beyond the designs' range are warned about (the surrogates extrapolate there). \
 See examples/plans/optimize.toml for the plan format."
 )]
 pub struct OptimizeArgs {
@@ -90,6 +91,9 @@ pub fn run(args: &OptimizeArgs) -> Result<u8> {
             .collect::<Vec<_>>()
             .join(",")
     };
+    for w in &report.warnings {
+        eprintln!("warning: {w}");
+    }
     if report.best.is_empty() || !report.best[0].feasible {
         eprintln!("warning: no design meets every constraint on the surrogates");
     }
@@ -127,8 +131,13 @@ pub fn run(args: &OptimizeArgs) -> Result<u8> {
             })
             .collect::<Vec<_>>()
             .join("; ");
+        let beyond = if v.extrapolated.is_empty() {
+            String::new()
+        } else {
+            format!("; extrapolated: {}", v.extrapolated.join(", "))
+        };
         super::out!(
-            "FEM check {}: {}: {cols}; constraints {} ({})",
+            "FEM check {}: {}: {cols}; constraints {} ({}){beyond}",
             k + 1,
             fmt_x(&v.x),
             if v.feasible_fem { "met" } else { "NOT met" },

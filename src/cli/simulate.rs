@@ -29,7 +29,7 @@ pub struct SimulateArgs {
     /// Output folder.
     #[arg(short, long, value_name = "OUT", default_value = "fem-out")]
     pub output: PathBuf,
-    /// Largest element edge, mm [default: 2].
+    /// Largest element edge, mm [default: 1.5].
     #[arg(
         long,
         value_name = "MM",
@@ -125,6 +125,9 @@ pub fn run(args: &SimulateArgs) -> Result<u8> {
             return Ok(EXIT_BAD_INPUT);
         }
     };
+    for w in cfg.material.warnings() {
+        eprintln!("warning: {w}");
+    }
     if args.print_config {
         super::out!("{}", toml::to_string_pretty(&cfg)?);
         return Ok(EXIT_OK);

@@ -278,6 +278,24 @@ impl Default for MaterialConfig {
 }
 
 impl MaterialConfig {
+    /// Warnings about values that are valid but implausible: a C1 (times `scale`) far
+    /// softer or stiffer than every preset ([`super::material::c1_warning`]).
+    pub fn warnings(&self) -> Vec<String> {
+        let c1 = self.c1.unwrap_or(self.preset.yeoh().c1);
+        let given = match self.c1 {
+            Some(v) => format!("[material] c1 = {v}"),
+            None => format!("[material] preset = \"{}\"", self.preset.name()),
+        };
+        let what = if self.scale == 1.0 {
+            given
+        } else {
+            format!("{given} with scale = {}", self.scale)
+        };
+        super::material::c1_warning(self.scale * c1, &what)
+            .into_iter()
+            .collect()
+    }
+
     /// The Yeoh material (coefficients times `scale`), checked.
     pub fn yeoh(&self) -> Result<Yeoh, FemError> {
         if !(self.scale.is_finite() && self.scale > 0.0) {

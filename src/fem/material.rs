@@ -43,6 +43,40 @@ pub struct Yeoh {
 /// silicone is nearly incompressible; results should be reported with their sensitivity.
 pub const DEFAULT_BULK_TO_SHEAR: f64 = 1000.0;
 
+/// How far C1 may lie below the softest preset's or above the stiffest preset's before
+/// [`c1_warning`] speaks: silicones span about 10x (Ecoflex 00-10 to Sylgard 184); 100x
+/// is a unit slip (kPa or Pa written for MPa) or a digit too many.
+pub const IMPLAUSIBLE_C1_FACTOR: f64 = 100.0;
+
+/// A warning naming `c1_mpa` when it is more than [`IMPLAUSIBLE_C1_FACTOR`] softer than
+/// the softest preset or stiffer than the stiffest; `what` names the value (`[material]
+/// c1 = 107 MPa`).
+pub fn c1_warning(c1_mpa: f64, what: &str) -> Option<String> {
+    let c1 = |p: &MaterialPreset| p.yeoh().c1;
+    let soft = MaterialPreset::ALL
+        .iter()
+        .min_by(|a, b| c1(a).total_cmp(&c1(b)))?;
+    let stiff = MaterialPreset::ALL
+        .iter()
+        .max_by(|a, b| c1(a).total_cmp(&c1(b)))?;
+    let (lo, hi) = (c1(soft), c1(stiff));
+    if c1_mpa * IMPLAUSIBLE_C1_FACTOR < lo {
+        Some(format!(
+            "{what}: C1 = {c1_mpa} MPa is {:.0}x softer than the softest preset ({}, C1 = {lo} MPa): the coefficients are in MPa; check the value and its unit",
+            lo / c1_mpa,
+            soft.name()
+        ))
+    } else if c1_mpa > IMPLAUSIBLE_C1_FACTOR * hi {
+        Some(format!(
+            "{what}: C1 = {c1_mpa} MPa is {:.0}x stiffer than the stiffest preset ({}, C1 = {hi} MPa): the coefficients are in MPa (was it given in kPa?); check the value and its unit",
+            c1_mpa / hi,
+            stiff.name()
+        ))
+    } else {
+        None
+    }
+}
+
 /// Named material presets of method.md §4.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
@@ -89,6 +123,30 @@ impl MaterialPreset {
     /// Every preset's name, for messages.
     pub const NAMES: &'static str =
         "proposed, stiffer, softer, ecoflex0030, ecoflex0050, dragonskin10 or dragonskin20";
+
+    /// Every preset.
+    pub const ALL: [MaterialPreset; 7] = [
+        MaterialPreset::Proposed,
+        MaterialPreset::Stiffer,
+        MaterialPreset::Softer,
+        MaterialPreset::Ecoflex0030,
+        MaterialPreset::Ecoflex0050,
+        MaterialPreset::DragonSkin10,
+        MaterialPreset::DragonSkin20,
+    ];
+
+    /// Its name in a config (`preset = "..."`).
+    pub fn name(&self) -> &'static str {
+        match self {
+            MaterialPreset::Proposed => "proposed",
+            MaterialPreset::Stiffer => "stiffer",
+            MaterialPreset::Softer => "softer",
+            MaterialPreset::Ecoflex0030 => "ecoflex0030",
+            MaterialPreset::Ecoflex0050 => "ecoflex0050",
+            MaterialPreset::DragonSkin10 => "dragonskin10",
+            MaterialPreset::DragonSkin20 => "dragonskin20",
+        }
+    }
 
     /// The Yeoh coefficients with the default bulk modulus.
     pub fn yeoh(&self) -> Yeoh {
@@ -199,6 +257,23 @@ impl HyperelasticMaterial for Yeoh {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_c1_far_beyond_every_preset_is_warned_with_its_value() {
+        let w = c1_warning(107.44, "[material] c1 = 107.44").unwrap();
+        assert!(
+            w.starts_with("[material] c1 = 107.44: C1 = 107.44 MPa is 935x stiffer than the stiffest preset (softer, C1 = 0.11488 MPa)"),
+            "{w}"
+        );
+        let w = c1_warning(1e-5, "x").unwrap();
+        assert!(
+            w.contains("1270x softer than the softest preset (ecoflex0050"),
+            "{w}"
+        );
+        for plausible in [0.0127, 0.005, 0.5, 0.10744] {
+            assert_eq!(c1_warning(plausible, "x"), None, "{plausible}");
+        }
+    }
 
     fn proposed() -> Yeoh {
         MaterialPreset::Proposed.yeoh()

@@ -34,7 +34,14 @@ pub struct TensileData {
     pub stress_mpa: Vec<f64>,
     /// The stress unit of the file (its header's).
     pub stress_unit: StressUnit,
+    /// Implausible values, each naming its line (a stretch past where silicones break).
+    pub warnings: Vec<String>,
 }
+
+/// Largest plausible stretch of a silicone tensile test: Ecoflex 00-30, among the most
+/// extensible, breaks near stretch 10 (900% elongation); beyond it the column is likely
+/// in another unit (strain in % read as a fraction, a length in mm).
+pub const MAX_PLAUSIBLE_STRETCH: f64 = 10.0;
 
 /// A stress unit of a data file's header.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -84,13 +91,27 @@ impl TensileData {
     pub fn read(path: &Path) -> Result<TensileData, MaterialFitError> {
         let table = Table::read(path)?;
         let find = |names: &[&str]| names.iter().find_map(|n| table.column(n));
-        let (strain_col, to_stretch): (usize, fn(f64) -> f64) =
+        // The column, stretch from its value, and what a too large stretch likely means.
+        type ToStretch = fn(f64) -> f64;
+        let (strain_col, to_stretch, unit_hint): (usize, ToStretch, &str) =
             if let Some(c) = find(&["stretch", "lambda", "stretch_ratio"]) {
-                (c, |v| v)
+                (
+                    c,
+                    |v| v,
+                    "if the column is a strain in %, name it `strain_pct`",
+                )
             } else if let Some(c) = find(&["strain", "strain_mm_per_mm", "strain_fraction"]) {
-                (c, |v| 1.0 + v)
+                (
+                    c,
+                    |v| 1.0 + v,
+                    "if the strain is in %, name the column `strain_pct`",
+                )
             } else if let Some(c) = find(&["strain_pct", "strain_percent"]) {
-                (c, |v| 1.0 + v / 100.0)
+                (
+                    c,
+                    |v| 1.0 + v / 100.0,
+                    "check the unit of the strain column",
+                )
             } else {
                 return Err(table
                     .header_error(format!("no stretch or strain column: {HEADER_HINT}"))
@@ -129,7 +150,11 @@ impl TensileData {
             stretch: Vec::with_capacity(table.len()),
             stress_mpa: Vec::with_capacity(table.len()),
             stress_unit: unit,
+            warnings: vec![],
         };
+        // (row, value) of the largest implausible stretch, and how many there are.
+        let mut too_long: Option<(usize, f64)> = None;
+        let mut n_too_long = 0;
         for row in 0..table.len() {
             let s = table.f64_at(row, strain_col)?;
             let p = table.f64_at(row, stress_col)?;
@@ -148,8 +173,31 @@ impl TensileData {
                     .error_at(Some(row), Some(stress_col), "the stress must be finite")
                     .into());
             }
+            if lambda > MAX_PLAUSIBLE_STRETCH {
+                n_too_long += 1;
+                if too_long.is_none_or(|(_, l)| lambda > l) {
+                    too_long = Some((row, lambda));
+                }
+            }
             data.stretch.push(lambda);
             data.stress_mpa.push(p * unit.mpa());
+        }
+        if let Some((row, lambda)) = too_long {
+            let others = match n_too_long {
+                1 => String::new(),
+                n => format!(" ({n} rows beyond {MAX_PLAUSIBLE_STRETCH})"),
+            };
+            data.warnings.push(
+                table
+                    .error_at(
+                        Some(row),
+                        Some(strain_col),
+                        format!(
+                            "stretch {lambda} is far past where silicones break (below stretch ~{MAX_PLAUSIBLE_STRETCH}){others}: {unit_hint}"
+                        ),
+                    )
+                    .to_string(),
+            );
         }
         Ok(data)
     }
@@ -337,6 +385,7 @@ mod tests {
                 .map(|l| m.uniaxial_nominal_stress(*l))
                 .collect(),
             stress_unit: StressUnit::Mpa,
+            warnings: vec![],
         }
     }
 
@@ -382,5 +431,23 @@ mod tests {
         let d = exact(ModelKind::Yeoh3, &[0.1, 0.01, 0.001], &[1.2, 1.5, 2.0]);
         let e = fit_material(&d, ModelKind::Yeoh3, false).unwrap_err();
         assert!(e.to_string().contains("at least 4"), "{e}");
+    }
+
+    #[test]
+    fn a_stretch_past_any_silicone_is_warned_at_its_line() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("t.csv");
+        // A strain column in %, named as a fraction: stretches 11, 301, 151.
+        std::fs::write(&p, "strain,stress_kpa\n0,0\n10,50\n300,200\n150,120\n").unwrap();
+        let data = TensileData::read(&p).unwrap();
+        assert_eq!(data.stretch, vec![1.0, 11.0, 301.0, 151.0]);
+        assert_eq!(data.warnings.len(), 1, "{:?}", data.warnings);
+        let w = &data.warnings[0];
+        assert!(
+            w.ends_with("t.csv: line 4, column strain: stretch 301 is far past where silicones break (below stretch ~10) (3 rows beyond 10): if the strain is in %, name the column `strain_pct`"),
+            "{w}"
+        );
+        std::fs::write(&p, "strain_pct,stress_kpa\n0,0\n10,50\n300,200\n900,600\n").unwrap();
+        assert!(TensileData::read(&p).unwrap().warnings.is_empty());
     }
 }

@@ -75,6 +75,8 @@ pub struct MaterialFitReport {
     pub fit: MaterialFit,
     /// The `[material]` block written, or why none was.
     pub material_block: MaterialBlock,
+    /// Implausible values of the data (also on stderr).
+    pub warnings: Vec<String>,
 }
 
 fn output(e: impl std::fmt::Display) -> MaterialFitError {
@@ -197,6 +199,7 @@ pub fn write_material_fit(
         std_errors: map(&fit.std_errors),
         fit: fit.clone(),
         material_block: block,
+        warnings: data.warnings.clone(),
     };
     write_json(&out.join("material_fit.json"), &report).map_err(output)?;
     Ok(report)
@@ -219,6 +222,7 @@ mod tests {
             stress_mpa: l.iter().map(|x| m.uniaxial_nominal_stress(*x)).collect(),
             stretch: l,
             stress_unit: StressUnit::Kpa,
+            warnings: vec![],
         };
         let fit = fit_material(&data, ModelKind::Yeoh2, false).unwrap();
         let MaterialBlock::Yeoh { c1, c2, c3 } = material_block(&fit) else {

@@ -128,6 +128,8 @@ pub struct Problem {
     pub columns: Vec<String>,
     /// Surrogate of each column (`None`: `height_mm`, computed from the geometry).
     pub models: Vec<Option<SurrogateModel>>,
+    /// (min, max) of each input over the designs (the surrogates extrapolate beyond).
+    pub design_ranges: Vec<(f64, f64)>,
 }
 
 impl Problem {
@@ -158,12 +160,54 @@ impl Problem {
                 }
             })
             .collect::<Result<Vec<_>, _>>()?;
+        let design_ranges = (0..inputs.len())
+            .map(|j| {
+                designs
+                    .x
+                    .iter()
+                    .map(|x| x[j])
+                    .filter(|v| v.is_finite())
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+                        (lo.min(v), hi.max(v))
+                    })
+            })
+            .collect();
         Ok(Problem {
             plan: loaded.plan.clone(),
             base: loaded.base.clone(),
             columns,
             models,
+            design_ranges,
         })
+    }
+
+    /// The plan's input bounds that reach past the designs' range of that input, each as
+    /// a warning: the surrogates extrapolate there.
+    pub fn bounds_beyond_designs(&self) -> Vec<String> {
+        self.plan
+            .inputs
+            .iter()
+            .zip(&self.design_ranges)
+            .filter(|(i, (lo, hi))| i.min < *lo || i.max > *hi)
+            .map(|(i, (lo, hi))| {
+                format!(
+                    "input {}: the bounds {} to {} reach past the designs ({lo} to {hi}): the surrogates extrapolate there, trust the FEM check (verified.csv) over them",
+                    i.name, i.min, i.max
+                )
+            })
+            .collect()
+    }
+
+    /// Inputs of design `x` outside the designs' range (`name = v (designs: lo to hi)`).
+    pub fn outside_designs(&self, x: &[f64]) -> Vec<String> {
+        self.plan
+            .inputs
+            .iter()
+            .zip(&self.design_ranges)
+            .zip(x)
+            .filter(|((_, (lo, hi)), v)| **v < *lo || **v > *hi)
+            .map(|((i, (lo, hi)), v)| format!("{} = {v} (designs: {lo} to {hi})", i.name))
+            .collect()
     }
 
     /// Index of `column` in [`Problem::columns`].
@@ -293,6 +337,8 @@ pub struct OptimizeReport {
     pub best: Vec<Evaluation>,
     /// The re-simulated designs.
     pub verified: Vec<verify::Verified>,
+    /// Extrapolation past the designs: input bounds beyond them, an optimum outside them.
+    pub warnings: Vec<String>,
 }
 
 /// Options of a run beside the plan.
@@ -326,6 +372,7 @@ pub fn optimize_to(
             )?;
         }
     }
+    let mut warnings = problem.bounds_beyond_designs();
     let n_resim = options.resimulate.unwrap_or(loaded.plan.resimulate);
     let (method, evaluated, best) = if problem.plan.objectives.len() == 1 {
         progress("bayesian optimization");
@@ -349,6 +396,16 @@ pub fn optimize_to(
     } else {
         best.iter().take(n_resim).cloned().collect()
     };
+    if let Some(first) = best.first() {
+        let outside = problem.outside_designs(&first.x);
+        if !outside.is_empty() {
+            warnings.push(format!(
+                "the {} lies outside the designs: {}: the surrogates extrapolate; see the FEM check (verified.csv, column extrapolated)",
+                if method == "nsga2" { "front's first design" } else { "optimum" },
+                outside.join(", ")
+            ));
+        }
+    }
     let verified = verify::resimulate(&problem, &chosen, &out.join("runs"), progress)?;
     verify::write_verified(&out.join("verified.csv"), &problem, &verified)
         .map_err(|e| io(&out.join("verified.csv"), &e))?;
@@ -375,6 +432,7 @@ pub fn optimize_to(
         evaluations: evaluated.len(),
         best,
         verified,
+        warnings,
     };
     write_json(&out.join("summary.json"), &report)
         .map_err(|e| io(&out.join("summary.json"), &e))?;

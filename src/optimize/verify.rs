@@ -30,6 +30,9 @@ pub struct Verified {
     pub status: String,
     /// Folder of the run (relative to the output folder).
     pub run: String,
+    /// Inputs outside the designs' range (the surrogates extrapolated there), as
+    /// `name = v (designs: lo to hi)`; empty inside.
+    pub extrapolated: Vec<String>,
 }
 
 /// The value of `column` (`name@P`) in a ramp's steps; NaN when absent.
@@ -101,13 +104,15 @@ pub fn resimulate(
             feasible_fem,
             status,
             run: format!("runs/{name}"),
+            extrapolated: problem.outside_designs(&e.x),
         });
     }
     Ok(out)
 }
 
 /// Writes `verified.csv`: per design its inputs, then per column the surrogate's mean and
-/// std and the FEM's value, then whether the FEM meets the constraints, and the status.
+/// std and the FEM's value, then whether the FEM meets the constraints, the status, the
+/// run folder and the inputs outside the designs' range (`extrapolated`, empty inside).
 pub fn write_verified(path: &Path, problem: &Problem, rows: &[Verified]) -> Result<(), TableError> {
     let mut cols = vec![Column::int(
         "rank",
@@ -142,5 +147,9 @@ pub fn write_verified(path: &Path, problem: &Problem, rows: &[Verified]) -> Resu
         rows.iter().map(|r| r.status.clone()),
     ));
     cols.push(Column::text("run", rows.iter().map(|r| r.run.clone())));
+    cols.push(Column::text(
+        "extrapolated",
+        rows.iter().map(|r| r.extrapolated.join("; ")),
+    ));
     write_csv(path, &cols)
 }

@@ -12,7 +12,7 @@ use crate::detect::{
 use crate::fit::{bending_angle_along_markers_deg, fit_circle_3d, fit_circle_pratt};
 use crate::rgbd::{markers_on_depth_plane, RgbdIntrinsics};
 use crate::scale::apply_homography;
-use crate::select::{select_markers, Candidate};
+use crate::select::{chain_continuation, select_markers, Candidate};
 use crate::session::SessionConfig;
 use crate::video::Pixels;
 
@@ -83,6 +83,9 @@ pub struct FrameMeasurement {
     pub markers_px: Vec<Point2<f64>>,
     /// Red blobs not taken as markers (same space as `markers_px`).
     pub ignored_px: Vec<Point2<f64>>,
+    /// Of the ignored blobs, those that continue the marker chain at either end (alike
+    /// size, spacing and turn: [`chain_continuation`]); 0 when rejected.
+    pub n_continuing: usize,
     /// Circle centre, undistorted px (plane only).
     pub center_px: Point2<f64>,
     /// Radius, undistorted px (plane only; infinite for collinear markers).
@@ -107,6 +110,7 @@ impl FrameMeasurement {
             n_markers: n,
             markers_px: vec![],
             ignored_px: vec![],
+            n_continuing: 0,
             center_px: Point2::new(f64::NAN, f64::NAN),
             radius_px: f64::NAN,
             radius_mm: f64::NAN,
@@ -179,12 +183,13 @@ pub fn measure_frame<S: PixelSource>(
             },
         );
     }
-    let order: Vec<usize> = if inside.len() == expected_markers {
+    let (order, n_continuing): (Vec<usize>, usize) = if inside.len() == expected_markers {
         let pts: Vec<Point2<f64>> = inside.iter().map(|&i| working[i]).collect();
-        order_marker_indices(&pts, tracker.start)
+        let order = order_marker_indices(&pts, tracker.start)
             .into_iter()
             .map(|k| inside[k])
-            .collect()
+            .collect();
+        (order, 0)
     } else {
         let candidates: Vec<Candidate> = inside
             .iter()
@@ -207,7 +212,10 @@ pub fn measure_frame<S: PixelSource>(
             tracker.start,
             tracker.previous.as_deref(),
         ) {
-            Ok(order) => order.into_iter().map(|k| inside[k]).collect(),
+            Ok(order) => {
+                let more = chain_continuation(&candidates, &order);
+                (order.into_iter().map(|k| inside[k]).collect(), more)
+            }
             Err(e) => {
                 return FrameMeasurement::rejected(
                     found,
@@ -249,11 +257,53 @@ pub fn measure_frame<S: PixelSource>(
         }
         tracker.previous = Some(m.markers_px.clone());
     }
+    let n_continuing = if m.status.is_ok() { n_continuing } else { 0 };
     FrameMeasurement {
         n_markers: expected_markers.min(found),
         ignored_px,
+        n_continuing,
         ..m
     }
+}
+
+/// Share of a video's measured frames in which blobs must continue the marker chain for
+/// [`chain_continues_warning`] to speak (a red thing passing by in a few frames is not
+/// a marker line).
+pub const CONTINUING_FRAMES_SHARE: f64 = 0.5;
+
+/// A warning when, in at least [`CONTINUING_FRAMES_SHARE`] of the measured `frames`,
+/// marker-like blobs continue the chain of `expected_markers`: more markers are painted
+/// than `expected_markers` says, and only part of the chain is measured. Names the
+/// count seen most often.
+pub fn chain_continues_warning(
+    frames: &[super::records::FrameRecord],
+    expected_markers: usize,
+) -> Option<String> {
+    let ok: Vec<usize> = frames
+        .iter()
+        .filter(|f| f.status.is_ok())
+        .map(|f| f.n_continuing)
+        .collect();
+    let with = ok.iter().filter(|n| **n > 0).count();
+    if with == 0 || (with as f64) < CONTINUING_FRAMES_SHARE * ok.len() as f64 {
+        return None;
+    }
+    let mut counts = std::collections::BTreeMap::<usize, usize>::new();
+    for n in ok.iter().filter(|n| **n > 0) {
+        *counts.entry(*n).or_default() += 1;
+    }
+    let more = counts
+        .iter()
+        .max_by_key(|(n, c)| (**c, std::cmp::Reverse(**n)))
+        .map(|(n, _)| *n)
+        .unwrap_or(0);
+    Some(format!(
+        "{more} more marker-like blob(s) continue the chain of {expected_markers} markers (alike size and spacing, on its arc) in {with} of {} measured frames: only part of the chain is measured; if the actuator has {} markers, set expected_markers = {} in {}",
+        ok.len(),
+        expected_markers + more,
+        expected_markers + more,
+        crate::session::CONFIG
+    ))
 }
 
 fn measure_plane(
@@ -285,6 +335,7 @@ fn measure_plane(
     FrameMeasurement {
         n_markers: n,
         ignored_px: vec![],
+        n_continuing: 0,
         center_px: circle.center,
         radius_px: circle.radius,
         radius_mm: circle_mm.radius,
@@ -326,6 +377,7 @@ fn measure_depth(
     FrameMeasurement {
         n_markers: n,
         ignored_px: vec![],
+        n_continuing: 0,
         center_px: Point2::new(f64::NAN, f64::NAN),
         radius_px: f64::NAN,
         radius_mm: c.circle.radius,

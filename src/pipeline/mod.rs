@@ -325,6 +325,9 @@ pub fn measure_session(
             VideoStatus::Ok => {}
             other => notes.push(format!("warning: {}: {other}", item.file)),
         }
+        if let Some(w) = frame::chain_continues_warning(&item.frames, config.expected_markers) {
+            notes.push(format!("warning: {}: {w}", item.file));
+        }
         match binned {
             Some(bin_kpa) if record.status.is_measured() => {
                 for (p, stats) in stats::bin_by_pressure(&item.frames, bin_kpa) {
@@ -359,7 +362,10 @@ pub fn measure_session(
         Layout::Rgbd(_) => output::RmsUnit::Mm,
         _ => output::RmsUnit::Px,
     };
-    output::write_session(out, &name, &frames, &videos, unit, rms)?;
+    let fits = output::write_session(out, &name, &frames, &videos, unit, rms)?;
+    for n in &fits.notes {
+        notes.push(format!("warning: {name}: fit.json: {n}"));
+    }
     Ok(SessionOutcome {
         out: out.to_path_buf(),
         videos,
@@ -714,6 +720,7 @@ fn frame_record(
         pressure_kpa,
         n_markers: m.n_markers,
         n_ignored: m.ignored_px.len(),
+        n_continuing: m.n_continuing,
         radius_px: m.radius_px,
         radius_mm: m.radius_mm,
         curvature_per_m: m.curvature_per_m,

@@ -31,32 +31,51 @@ pub struct SessionFits {
     pub radius_mm_vs_unit: Option<PowerLawFit>,
     /// Curvature (1/m) vs pressure in the manifest's unit.
     pub curvature_per_m_vs_unit: Option<PowerLawFit>,
-    /// Why a fit is missing.
+    /// Why a fit is missing, and the measured rows a fit had to leave out (each note
+    /// is also a warning on stderr).
     pub notes: Vec<String>,
 }
 
-/// Fits the measured rows (pressure > 0, finite values).
+/// Fits the measured rows (pressure > 0, finite values). Rows at or below 0 kPa stay in
+/// the tables but cannot enter y = a x^b + c (x^b at x = 0): a note names them. Fits
+/// that fail for the same reason (too few distinct pressures) share one note.
 pub fn fit_records(rows: &[VideoRecord], unit: PressureUnit) -> SessionFits {
+    let measured = || rows.iter().filter(|r| r.status.is_measured());
     let mut notes = Vec::new();
+    let at_zero: Vec<String> = measured()
+        .filter(|r| r.pressure_kpa.is_finite() && r.pressure_kpa <= 0.0)
+        .map(|r| format!("{} ({} kPa)", r.file, r.pressure_kpa))
+        .collect();
+    if !at_zero.is_empty() {
+        notes.push(format!(
+            "{} measured row(s) at or below 0 kPa are kept in the tables and left out of the fits (y = a x^b + c needs x > 0): {}",
+            at_zero.len(),
+            at_zero.join(", ")
+        ));
+    }
+    // (fit names, reason) of the fits that failed, grouped by reason.
+    let mut failed: Vec<(Vec<String>, String)> = Vec::new();
     let mut fit = |name: &str,
                    x: fn(&VideoRecord) -> f64,
                    y: fn(&VideoRecord) -> f64|
      -> Option<PowerLawFit> {
-        let (xs, ys): (Vec<f64>, Vec<f64>) = rows
-            .iter()
-            .filter(|r| r.status.is_measured())
+        let (xs, ys): (Vec<f64>, Vec<f64>) = measured()
             .map(|r| (x(r), y(r)))
             .filter(|(a, b)| a.is_finite() && *a > 0.0 && b.is_finite())
             .unzip();
         match fit_power_law(&xs, &ys) {
             Ok(f) => Some(f),
             Err(e) => {
-                notes.push(format!("{name}: {e}"));
+                let why = e.to_string();
+                match failed.iter_mut().find(|(_, w)| *w == why) {
+                    Some((names, _)) => names.push(name.to_string()),
+                    None => failed.push((vec![name.to_string()], why)),
+                }
                 None
             }
         }
     };
-    SessionFits {
+    let mut fits = SessionFits {
         model: "y = a * x^b + c",
         radius_mm_vs_kpa: fit("radius vs kPa", |r| r.pressure_kpa, |r| r.stats.radius_mm),
         curvature_per_m_vs_kpa: fit(
@@ -77,7 +96,12 @@ pub fn fit_records(rows: &[VideoRecord], unit: PressureUnit) -> SessionFits {
             |r| r.stats.curvature_per_m,
         ),
         notes,
+    };
+    for (names, why) in failed {
+        fits.notes
+            .push(format!("no fit of {}: {why}", names.join(", ")));
     }
+    fits
 }
 
 /// The unit of the fit RMS column: px for video sessions, mm for RGB-D.
@@ -166,7 +190,8 @@ pub fn write_per_video_csv(
     Ok(())
 }
 
-/// Writes every output of a session named `name` into `out`.
+/// Writes every output of a session named `name` into `out`; returns its fits (their
+/// notes are for the user).
 pub fn write_session(
     out: &Path,
     name: &str,
@@ -174,7 +199,7 @@ pub fn write_session(
     videos: &[VideoRecord],
     unit: PressureUnit,
     rms: RmsUnit,
-) -> Result<(), PipelineError> {
+) -> Result<SessionFits, PipelineError> {
     write_per_frame_csv(&out.join("per_frame.csv"), frames, rms)?;
     write_per_video_csv(&out.join("per_video.csv"), videos, unit, rms)?;
     let fits = fit_records(videos, unit);
@@ -190,7 +215,7 @@ pub fn write_session(
             plots: &plots,
         },
     )?;
-    Ok(())
+    Ok(fits)
 }
 
 /// Draws the session's plots; returns their stems relative to OUT (each has a .png and
@@ -373,5 +398,49 @@ mod tests {
             "{r:?}"
         );
         assert_eq!(r.n, 6);
+    }
+
+    #[test]
+    fn one_pressure_gives_no_fit_and_zero_kpa_rows_are_named() {
+        let rows: Vec<VideoRecord> = (0..5)
+            .map(|i| row(&format!("v{i}.mp4"), 40.0, 60.0 + 0.1 * i as f64))
+            .collect();
+        let f = fit_records(&rows, PressureUnit::Bar);
+        assert!(f.radius_mm_vs_kpa.is_none() && f.curvature_per_m_vs_kpa.is_none());
+        assert!(f.bending_angle_deg_vs_kpa.is_none() && f.radius_mm_vs_unit.is_none());
+        // One note per reason: the kPa fits' and the bar fits' (other values).
+        assert_eq!(f.notes.len(), 2, "{:?}", f.notes);
+        assert!(
+            f.notes[0].starts_with("no fit of radius vs kPa, curvature vs kPa, angle vs kPa: ")
+                && f.notes[0].contains("got 1 (40)"),
+            "{:?}",
+            f.notes
+        );
+        assert!(
+            f.notes[1].starts_with("no fit of radius vs unit, curvature vs unit: ")
+                && f.notes[1].contains("got 1 (0.4)"),
+            "{:?}",
+            f.notes
+        );
+        let json = serde_json::to_string(&f).unwrap();
+        assert!(json.contains("\"radius_mm_vs_kpa\":null"), "{json}");
+        // A 0 kPa row is kept out of the fits, by name; the others are fitted.
+        let mut rows: Vec<VideoRecord> = (1..=5)
+            .map(|i| {
+                let p = 15.0 * i as f64;
+                row("v", p, 800.0 * p.powf(-0.8) + 10.0)
+            })
+            .collect();
+        rows.insert(0, row("rest.mp4", 0.0, 500.0));
+        let f = fit_records(&rows, PressureUnit::Kpa);
+        assert_eq!(f.radius_mm_vs_kpa.unwrap().n, 5);
+        assert_eq!(f.notes.len(), 1, "{:?}", f.notes);
+        assert!(
+            f.notes[0].contains("1 measured row(s) at or below 0 kPa")
+                && f.notes[0].contains("left out of the fits")
+                && f.notes[0].contains("rest.mp4 (0 kPa)"),
+            "{:?}",
+            f.notes
+        );
     }
 }

@@ -141,6 +141,10 @@ pub struct FrameRecord {
     pub n_markers: usize,
     /// Red blobs found besides the markers (not used).
     pub n_ignored: usize,
+    /// Of those, the ones that continue the marker chain like more markers (not in
+    /// per_frame.csv; kept in the cache so that a cached video warns too).
+    #[serde(default)]
+    pub n_continuing: usize,
     /// Radius, undistorted px (NaN for RGB-D, where the circle is fitted in mm).
     #[serde(with = "non_finite")]
     pub radius_px: f64,
@@ -176,6 +180,7 @@ impl FrameRecord {
             pressure_kpa,
             n_markers: 0,
             n_ignored: 0,
+            n_continuing: 0,
             radius_px: f64::NAN,
             radius_mm: f64::NAN,
             curvature_per_m: f64::NAN,

@@ -167,7 +167,8 @@ pub fn read_manifest(session: &Path) -> Result<Manifest, SessionError> {
         }
         let upper = file.to_ascii_uppercase();
         named.entry(upper.clone()).or_insert((lineno, file.clone()));
-        let pressure: f64 = match raw.parse::<f64>() {
+        // A decimal comma reads in a semicolon- or tab-separated manifest.
+        let pressure: f64 = match table.number(raw).ok_or(()) {
             Ok(v) if v.is_finite() && v >= 0.0 => v,
             Ok(v) => {
                 issues.push(issue(format!(
