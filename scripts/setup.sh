@@ -11,6 +11,7 @@ PKGS=(
   libfontconfig1-dev fonts-dejavu-core
   parallel
   socat
+  chromium
 )
 
 missing=()

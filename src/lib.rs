@@ -40,6 +40,7 @@ pub mod detect;
 pub mod fem;
 pub mod fit;
 pub mod fit_model;
+pub mod inspect;
 pub mod io;
 pub mod material_fit;
 pub mod optimize;

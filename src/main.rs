@@ -23,6 +23,7 @@ fn main() -> ExitCode {
         cli::Command::Acquire(a) => cli::acquire::run(a),
         cli::Command::Material(a) => cli::material::run(a),
         cli::Command::FitModel(a) => cli::fit_model::run(a),
+        cli::Command::Inspect(a) => cli::inspect::run(a),
     };
     match result {
         Ok(code) => ExitCode::from(code),

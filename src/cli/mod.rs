@@ -17,6 +17,7 @@ pub mod compare;
 pub mod control;
 pub mod demo;
 pub mod fit_model;
+pub mod inspect;
 pub mod material;
 pub mod optimize;
 pub mod process;
@@ -81,6 +82,8 @@ pub enum Command {
     Material(material::MaterialArgs),
     /// Fit model parameters (geometry, material) to a measurement (process output).
     FitModel(fit_model::FitModelArgs),
+    /// Show a frame's marker mask in a page with colour sliders; suggest a [detect] setting.
+    Inspect(inspect::InspectArgs),
 }
 
 /// A progress bar on stderr (drawn only when stderr is a terminal).
