@@ -806,3 +806,158 @@ fn a_webcam_is_recorded_through_ffmpeg() {
         assert!((8..=20).contains(&frames), "{f}: {frames} frames");
     }
 }
+
+/// Width, height and frame count of a video's first stream (ffprobe), or why not.
+fn probe(path: &Path) -> Result<(u32, u32, u32), String> {
+    let out = Command::new("ffprobe")
+        .args([
+            "-v",
+            "error",
+            "-count_frames",
+            "-select_streams",
+            "v:0",
+            "-show_entries",
+            "stream=width,height,nb_read_frames",
+            "-of",
+            "csv=p=0",
+        ])
+        .arg(path)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout).trim().to_string();
+    let v: Vec<u32> = text.split(',').filter_map(|s| s.parse().ok()).collect();
+    match v[..] {
+        [w, h, n] if n > 0 => Ok((w, h, n)),
+        _ => Err(format!(
+            "{}: no video stream ({text}; {})",
+            path.display(),
+            String::from_utf8_lossy(&out.stderr).trim()
+        )),
+    }
+}
+
+const LAVFI: &str =
+    "kind = \"webcam\"\nformat = \"lavfi\"\ndevice = \"testsrc=size=160x120:rate=10,realtime\"";
+
+#[test]
+fn a_webcam_recorder_dies_with_a_killed_acquire_and_the_rerun_records_every_set_point() {
+    let b = Bench::new();
+    let reg = RegState::new(RegMode::Normal);
+    let sim = RegSim::start(b.path(), &reg);
+    let plan = "[steps]\npressures_kpa = [10, 20, 30]\nstabilize_s = 0.05\nrecord_s = 1.5";
+    let protocol = b.protocol(plan, &sim.port, LAVFI);
+    let s = b.session();
+    let mut acquire = Command::new(common::exe())
+        .args([
+            "acquire",
+            protocol.to_str().unwrap(),
+            "-o",
+            s.to_str().unwrap(),
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    // The second set point's recorder, a moment into its recording.
+    let t = Instant::now();
+    let ffmpeg = loop {
+        let children = common::children_of(acquire.id());
+        let recording = children.iter().find(|(_, c)| c == "ffmpeg");
+        if let (true, Some((pid, _))) = (s.join("webcam_001.mp4").exists(), recording) {
+            break *pid;
+        }
+        assert!(t.elapsed() < Duration::from_secs(20), "no second recording");
+        thread::sleep(Duration::from_millis(10));
+    };
+    let _guard = common::KillOnDrop(ffmpeg);
+    thread::sleep(Duration::from_millis(500));
+    acquire.kill().unwrap();
+    acquire.wait().unwrap();
+    let t = Instant::now();
+    while common::running(ffmpeg) {
+        assert!(
+            t.elapsed() < Duration::from_secs(2),
+            "the webcam's ffmpeg (pid {ffmpeg}) outlived the acquire killed with SIGKILL"
+        );
+        thread::sleep(Duration::from_millis(20));
+    }
+    // The rerun records what is left; every set point ends with a playable video.
+    drop(sim);
+    let _sim = RegSim::start(b.path(), &reg);
+    let run = b.acquire(&protocol);
+    assert_eq!(run.code, 0, "{run}");
+    assert!(run.stdout.contains("3 of 3"), "{run}");
+    let files: Vec<(String, f64)> = (1..=3)
+        .map(|k| (format!("webcam_00{k}.mp4"), 10.0 * k as f64))
+        .collect();
+    assert_eq!(manifest(&s), files);
+    thread::sleep(Duration::from_millis(500));
+    for (f, _) in &files {
+        let (w, h, frames) = probe(&s.join(f)).unwrap();
+        assert_eq!((w, h), (160, 120), "{f}");
+        // 1.5 s at 10 fps, give or take ffmpeg's start-up and the stop request.
+        assert!((12..=30).contains(&frames), "{f}: {frames} frames");
+    }
+    assert!(!s.join(".recorder.pid").exists());
+}
+
+#[test]
+fn webcam_size_and_fps_apply_to_lavfi_and_an_unplayable_recording_is_recorded_again() {
+    let b = Bench::new();
+    let reg = RegState::new(RegMode::Normal);
+    let sim = RegSim::start(b.path(), &reg);
+    let plan = "[steps]\npressures_kpa = [10, 20]\nstabilize_s = 0.05\nrecord_s = 1.0";
+    let camera = format!("{LAVFI}\nsize = \"80x60\"\nfps = 5");
+    let protocol = b.protocol(plan, &sim.port, &camera);
+    let run = b.acquire(&protocol);
+    assert_eq!(run.code, 0, "{run}");
+    let s = b.session();
+    for f in ["webcam_001.mp4", "webcam_002.mp4"] {
+        let (w, h, frames) = probe(&s.join(f)).unwrap();
+        assert_eq!((w, h), (80, 60), "{f}: size applied");
+        // 1 s at 5 fps (the graph's 10 fps resampled).
+        assert!((3..=10).contains(&frames), "{f}: {frames} frames");
+    }
+    // A recording the log calls done but that holds no video (an earlier recorder
+    // wrote over it): recorded again by the rerun, the broken file kept aside.
+    let len = fs::metadata(s.join("webcam_002.mp4")).unwrap().len() as usize;
+    fs::write(s.join("webcam_002.mp4"), vec![0u8; len]).unwrap();
+    drop(sim);
+    let _sim = RegSim::start(b.path(), &reg);
+    let before = sets(&reg).len();
+    let run = b.acquire(&protocol);
+    assert_eq!(run.code, 0, "{run}");
+    assert!(
+        run.stderr
+            .contains("step 2: webcam_002.mp4 is not a playable recording")
+            && run.stderr.contains("recorded again"),
+        "{run}"
+    );
+    assert_eq!(sets(&reg)[before..], [20.0, 0.0]);
+    assert!(probe(&s.join("webcam_002.mp4")).is_ok());
+    assert!(s.join("webcam_002.mp4.unplayable").is_file());
+    assert_eq!(manifest(&s).len(), 2);
+}
+
+#[test]
+fn stabilize_s_is_required_by_steps_and_its_absence_is_named() {
+    let b = Bench::new();
+    let help = Run::new(b.path(), &["acquire", "--help"]);
+    assert!(help.stdout.contains("stabilize_s (required)"), "{help}");
+    let p = b.protocol(
+        "[steps]\npressures_kpa = [10]\nrecord_s = 1",
+        Path::new("/dev/null"),
+        LAVFI,
+    );
+    let run = Run::new(
+        b.path(),
+        &[
+            "acquire",
+            p.to_str().unwrap(),
+            "-o",
+            b.session().to_str().unwrap(),
+            "--dry-run",
+        ],
+    );
+    run.assert_bad_input(&["protocol.toml", "missing field `stabilize_s`"]);
+}

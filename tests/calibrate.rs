@@ -427,3 +427,114 @@ fn nonsense_numbers_are_refused() {
     );
     assert_eq!(run.code, 2, "{run}");
 }
+
+/// Copies the photos (not the other files) of fixture folder `from` into `to`.
+fn copy_photos(from: &str, to: &std::path::Path) {
+    fs::create_dir_all(to).unwrap();
+    for e in fs::read_dir(fixture(from)).unwrap() {
+        let p = e.unwrap().path();
+        if p.extension().is_some_and(|x| x == "jpg" || x == "png") {
+            fs::copy(&p, to.join(p.file_name().unwrap())).unwrap();
+        }
+    }
+}
+
+#[test]
+fn copies_of_one_photo_count_once_and_give_the_calibration_of_the_distinct_views() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    copy_photos("opencv-left", &d.join("distinct"));
+    copy_photos("opencv-left", &d.join("copies"));
+    for k in 1..=15 {
+        fs::copy(
+            fixture("opencv-left/left01.jpg"),
+            d.join(format!("copies/left01_copy{k:02}.jpg")),
+        )
+        .unwrap();
+    }
+    let calibrate = |folder: &str| {
+        let run = Run::new(
+            d,
+            &[
+                "calibrate",
+                folder,
+                "--model",
+                "pinhole",
+                "--fix-aspect-ratio",
+                "-o",
+                &format!("{folder}.yaml"),
+            ],
+        );
+        assert_eq!(run.code, 0, "{run}");
+        (
+            run,
+            read_calibration(&d.join(format!("{folder}.yaml"))).unwrap(),
+        )
+    };
+    let (_, distinct) = calibrate("distinct");
+    let (run, copies) = calibrate("copies");
+    assert!(
+        run.stdout.contains(
+            "from 13 view(s) (28 given, 15 duplicates of another view dropped), 0 rejected"
+        ),
+        "{run}"
+    );
+    assert!(
+        run.stdout
+            .contains("rejected left01_copy15.jpg: duplicate of left01.jpg"),
+        "{run}"
+    );
+    assert_eq!(copies.views_used, distinct.views_used);
+    let same = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs().max(1.0);
+    for (a, b) in [
+        (copies.fx(), distinct.fx()),
+        (copies.fy(), distinct.fy()),
+        (copies.cx(), distinct.cx()),
+        (copies.cy(), distinct.cy()),
+        (
+            copies.avg_reprojection_error,
+            distinct.avg_reprojection_error,
+        ),
+    ] {
+        assert!(same(a, b), "{a} vs {b} (the distinct views alone)");
+    }
+    for (a, b) in copies.distortion.iter().zip(&distinct.distortion) {
+        assert!(same(*a, *b), "distortion {a} vs {b}");
+    }
+}
+
+#[test]
+fn the_default_output_is_named_after_the_session_and_never_replaces_another_camera() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    copy_photos("opencv-left", &d.join("bench-a/calib"));
+    copy_photos("fisheye/calib", &d.join("bench-b/calib"));
+    let a = Run::new(d, &["calibrate", "bench-a/calib", "--model", "pinhole"]);
+    assert_eq!(a.code, 0, "{a}");
+    let b = Run::new(d, &["calibrate", "bench-b/calib"]);
+    assert_eq!(b.code, 0, "{b}");
+    let (ya, yb) = (
+        d.join("calibration/bench-a.yaml"),
+        d.join("calibration/bench-b.yaml"),
+    );
+    assert_eq!(read_calibration(&ya).unwrap().image_width, 640);
+    assert!(read_calibration(&yb).unwrap().image_width != 640);
+    assert!(!d.join("calibration/calib.yaml").exists());
+    // Recalibrating the same camera replaces its file.
+    let again = Run::new(d, &["calibrate", "bench-a/calib", "--model", "pinhole"]);
+    assert_eq!(again.code, 0, "{again}");
+    // Another camera's file at the default name is not replaced without --force.
+    fs::copy(&ya, &yb).unwrap();
+    let before = fs::read(&yb).unwrap();
+    Run::new(d, &["calibrate", "bench-b/calib"]).assert_bad_input(&[
+        "calibration/bench-b.yaml",
+        "another camera",
+        "640x480",
+        "-o FILE",
+        "--force",
+    ]);
+    assert_eq!(fs::read(&yb).unwrap(), before);
+    let forced = Run::new(d, &["calibrate", "bench-b/calib", "--force"]);
+    assert_eq!(forced.code, 0, "{forced}");
+    assert!(read_calibration(&yb).unwrap().image_width != 640);
+}

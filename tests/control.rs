@@ -330,3 +330,81 @@ fn bad_input_is_one_line_and_exit_2() {
     Run::new(dir.path(), &["control", "--plant", "p", "--ramp", "0:10"])
         .assert_bad_input(&["--ramp", "FROM_DEG:TO_DEG:SECONDS"]);
 }
+
+/// Runs `bendscope args` in `cwd`; its exit code and peak resident memory, kB (the
+/// child's own `ru_maxrss`, from wait4).
+fn run_with_peak_rss_kb(cwd: &Path, args: &[&str]) -> (i32, i64) {
+    let child = std::process::Command::new(common::exe())
+        .args(args)
+        .current_dir(cwd)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let pid = child.id() as libc::pid_t;
+    let mut status = 0;
+    // SAFETY: rusage is plain data; wait4 fills it for the child just started.
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    let waited = unsafe { libc::wait4(pid, &mut status, 0, &mut usage) };
+    assert_eq!(waited, pid);
+    (libc::WEXITSTATUS(status), usage.ru_maxrss)
+}
+
+#[test]
+fn a_long_run_streams_with_bounded_memory_and_a_too_long_one_is_refused_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let plant = dir.path().join("linear");
+    fs::create_dir_all(&plant).unwrap();
+    let mut csv = String::from("pressure_kpa,bending_angle_deg\n");
+    for p in (0..=200).step_by(20) {
+        csv.push_str(&format!("{p},{}\n", 0.8 * p as f64));
+    }
+    fs::write(plant.join("steps.csv"), csv).unwrap();
+    let args = |duration: &'static str| {
+        vec![
+            "control",
+            "--plant",
+            "linear",
+            "--step",
+            "50",
+            "--kp",
+            "1",
+            "--ki",
+            "5",
+            "--tau-s",
+            "0.3",
+            "--duration-s",
+            duration,
+            "-o",
+            "out",
+        ]
+    };
+    // 1e6 s at 100 Hz: refused before anything runs, with the size it would write.
+    let t = std::time::Instant::now();
+    Run::new(dir.path(), &args("1e6")).assert_bad_input(&[
+        "--duration-s",
+        "100000001 samples",
+        "7.0 GB",
+        "at most 10000000 samples",
+        "--sample-time-s",
+    ]);
+    assert!(t.elapsed() < std::time::Duration::from_secs(5));
+    assert!(!dir.path().join("out").exists());
+    // 10,000 s at 100 Hz (1,000,001 samples, ~60 MB of CSV): memory stays bounded.
+    let (code, peak_kb) = run_with_peak_rss_kb(dir.path(), &args("10000"));
+    assert_eq!(code, 0);
+    let out = dir.path().join("out");
+    let text = fs::read_to_string(out.join("control.csv")).unwrap();
+    assert_eq!(text.lines().count(), 1_000_002);
+    assert!(text.ends_with("\n"));
+    let last = text.lines().last().unwrap();
+    assert!(last.starts_with("10000.0000,50.0000,"), "{last}");
+    let m = metrics(&out);
+    assert!(m["step"]["steady_state_error_deg"].as_f64().unwrap().abs() < 0.05);
+    println!("peak RSS of a 1,000,001-sample run: {} MB", peak_kb / 1024);
+    assert!(
+        peak_kb < 150 * 1024,
+        "peak resident memory {} MB for 1,000,001 samples",
+        peak_kb / 1024
+    );
+}

@@ -194,3 +194,77 @@ fn write(dir: &Path, rel: &str, text: &str) {
     std::fs::create_dir_all(p.parent().unwrap()).unwrap();
     std::fs::write(p, text).unwrap();
 }
+
+/// Every file under `dir` with its bytes, sorted by path.
+fn snapshot(dir: &Path) -> Vec<(std::path::PathBuf, Vec<u8>)> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir(dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.is_dir() {
+            out.extend(snapshot(&p));
+        } else {
+            let bytes = std::fs::read(&p).unwrap();
+            out.push((p, bytes));
+        }
+    }
+    out.sort();
+    out
+}
+
+#[test]
+fn render_refuses_a_folder_that_holds_a_session_unless_forced() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // A recorded session: videos, manifest, scale photo, calibration photos.
+    common::copy_dir(&common::fixture("sessions/example"), &d.join("recorded"));
+    let before = snapshot(&d.join("recorded"));
+    let sim = Run::new(
+        d,
+        &[
+            "simulate",
+            "--mesh-size",
+            "4",
+            "--pressures",
+            "20",
+            "--no-vtu",
+            "-o",
+            "fem",
+        ],
+    );
+    assert_eq!(sim.code, 0, "{sim}");
+    let render = |extra: &[&str]| {
+        let mut args = vec![
+            "render",
+            "--fem",
+            "fem",
+            "--gopro-like",
+            "320x240",
+            "--frames",
+            "1",
+            "--calib-views",
+            "0",
+            "--supersample",
+            "1",
+            "-o",
+            "recorded",
+        ];
+        args.extend_from_slice(extra);
+        Run::new(d, &args)
+    };
+    render(&[]).assert_bad_input(&[
+        "already holds a session",
+        "GX010101.MP4",
+        "calib/",
+        "pressures.csv",
+        "--force",
+    ]);
+    assert!(
+        snapshot(&d.join("recorded")) == before,
+        "the recorded session was changed"
+    );
+    // --force renders over it: its manifest is the rendered one.
+    let forced = render(&["--force"]);
+    assert_eq!(forced.code, 0, "{forced}");
+    let manifest = std::fs::read_to_string(d.join("recorded/pressures.csv")).unwrap();
+    assert_eq!(manifest, "file,pressure_kpa\nGX010101.MP4,20\n");
+}

@@ -321,3 +321,128 @@ fn walls_meeting_are_warned_about_without_contact_and_held_apart_with_it() {
     let gap = held["min_wall_gap_mm"].as_f64().unwrap();
     assert!(gap < 0.0 && gap > -0.01, "{gap}");
 }
+
+/// The pressures a run's config.toml asks for, kPa.
+fn config_pressures(out: &Path) -> Vec<f64> {
+    let text = std::fs::read_to_string(out.join("config.toml")).unwrap();
+    let cfg: bendscope::fem::actuator::ActuatorConfig = toml::from_str(&text).unwrap();
+    cfg.pressures_kpa().unwrap()
+}
+
+/// Every result file in `out` belongs to the run of its config.toml: each pressure of
+/// steps.csv, markers.csv and side_face.json is one the config asks for, and
+/// summary.json counts the config's steps. Returns how many steps steps.csv holds
+/// (`None`: no steps.csv).
+fn assert_results_match_the_config(out: &Path) -> Option<usize> {
+    let asked = config_pressures(out);
+    let known = |p: f64, file: &str| {
+        assert!(
+            asked.iter().any(|a| (a - p).abs() < 1e-9),
+            "{file} holds {p} kPa, which config.toml {asked:?} does not ask for: results of another run"
+        )
+    };
+    for file in ["steps.csv", "markers.csv"] {
+        if out.join(file).exists() {
+            let (h, rows) = read_csv(&out.join(file));
+            let c = col(&h, "pressure_kpa");
+            for r in &rows {
+                known(r[c], file);
+            }
+        }
+    }
+    if let Ok(text) = std::fs::read_to_string(out.join("side_face.json")) {
+        let face: serde_json::Value = serde_json::from_str(&text).unwrap();
+        for s in face["steps"].as_array().unwrap() {
+            known(s["pressure_kpa"].as_f64().unwrap(), "side_face.json");
+        }
+    }
+    if let Ok(text) = std::fs::read_to_string(out.join("summary.json")) {
+        let s: serde_json::Value = serde_json::from_str(&text).unwrap();
+        assert_eq!(
+            s["steps_requested"].as_u64(),
+            Some(asked.len() as u64),
+            "summary.json is another run's"
+        );
+    }
+    out.join("steps.csv")
+        .exists()
+        .then(|| read_csv(&out.join("steps.csv")).1.len())
+}
+
+#[test]
+fn ctrl_c_into_an_earlier_output_never_leaves_the_new_config_beside_old_results() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let first = Run::new(
+        d,
+        &[
+            "simulate",
+            "--mesh-size",
+            "4",
+            "--pressures",
+            "15,25",
+            "-o",
+            "fem",
+        ],
+    );
+    assert_eq!(first.code, 0, "{first}");
+    let out = d.join("fem");
+    assert_eq!(assert_results_match_the_config(&out), Some(2));
+    let old_config = std::fs::read_to_string(out.join("config.toml")).unwrap();
+    // Another actuator (its own pressures and mesh), stopped with Ctrl-C once it has
+    // written its config.
+    let mut child = std::process::Command::new(common::exe())
+        .args([
+            "simulate",
+            "--mesh-size",
+            "3.5",
+            "--pressures",
+            "10:100:10",
+            "-o",
+            "fem",
+        ])
+        .current_dir(d)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let t = std::time::Instant::now();
+    while !std::fs::read_to_string(out.join("config.toml")).is_ok_and(|c| c != old_config) {
+        assert!(
+            t.elapsed() < std::time::Duration::from_secs(60),
+            "no new config"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(2));
+    }
+    let kill = std::process::Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let status = child.wait().unwrap();
+    assert!(!status.success(), "the run was stopped before its end");
+    // The new config with none of the old results: at most the new run's own.
+    assert_eq!(config_pressures(&out).len(), 10);
+    assert_eq!(assert_results_match_the_config(&out), None);
+    assert!(!out.join("summary.json").exists(), "{status}");
+    // Run to its end, the folder holds that run, whole.
+    let again = Run::new(
+        d,
+        &[
+            "simulate",
+            "--mesh-size",
+            "4",
+            "--pressures",
+            "15,25",
+            "--no-vtu",
+            "-o",
+            "fem",
+        ],
+    );
+    assert_eq!(again.code, 0, "{again}");
+    assert_eq!(assert_results_match_the_config(&out), Some(2));
+    assert!(
+        !out.join("vtu").exists(),
+        "the stopped run's VTK files are gone"
+    );
+}

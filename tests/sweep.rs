@@ -307,3 +307,72 @@ fn simulate_model_analytic_writes_the_ramp_instantly() {
     assert!((nominal - 13.2 / 78.0).abs() < 1e-5, "{nominal}");
     assert_eq!(rows[0][col(&h, "bending_angle_deg")], "0.0000");
 }
+
+#[test]
+fn sigterm_stops_the_running_points_records_them_interrupted_and_the_rerun_completes() {
+    let tmp = tempfile::tempdir().unwrap();
+    let plan = write_plan(tmp.path(), PLAN);
+    let out = tmp.path().join("sw");
+    let mut sweep = Command::new(common::exe())
+        .args(["sweep", plan.to_str().unwrap(), "-o", "sw", "--jobs", "1"])
+        .current_dir(tmp.path())
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The first point's process, once it runs.
+    let t = std::time::Instant::now();
+    let point = loop {
+        let started = std::fs::read_to_string(out.join("runs/p001/status.json"))
+            .is_ok_and(|s| s.contains("running"));
+        let children = common::children_of(sweep.id());
+        if let Some((pid, _)) = children.iter().find(|(_, c)| c.starts_with("bendscope")) {
+            if started {
+                break *pid;
+            }
+        }
+        assert!(
+            t.elapsed() < std::time::Duration::from_secs(30),
+            "no point started"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    };
+    let _guard = common::KillOnDrop(point);
+    let kill = Command::new("kill")
+        .args(["-TERM", &sweep.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let exit = sweep.wait().unwrap();
+    let mut stderr = String::new();
+    std::io::Read::read_to_string(&mut sweep.stderr.take().unwrap(), &mut stderr).unwrap();
+    assert_eq!(exit.code(), Some(130), "{exit}: {stderr}");
+    assert!(stderr.contains("run the same command again"), "{stderr}");
+    // No point outlives the sweep.
+    let t = std::time::Instant::now();
+    while common::running(point) {
+        assert!(
+            t.elapsed() < std::time::Duration::from_secs(2),
+            "point process {point} outlived the sweep"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let status = std::fs::read_to_string(out.join("runs/p001/status.json")).unwrap();
+    assert!(status.contains("\"interrupted\""), "{status}");
+    let (h, rows) = read_csv(&out.join("designs.csv"));
+    let s = col(&h, "status");
+    assert_eq!(
+        rows.iter().map(|r| r[s].as_str()).collect::<Vec<_>>(),
+        ["interrupted", "pending"]
+    );
+    // The rerun runs both points to the end.
+    let r = Run::new(
+        tmp.path(),
+        &["sweep", "plan.toml", "-o", "sw", "--jobs", "1"],
+    );
+    assert_eq!(r.code, 0, "{r}");
+    assert!(r.stderr.contains("2 to run"), "{r}");
+    let (h, rows) = read_csv(&out.join("designs.csv"));
+    let s = col(&h, "status");
+    assert!(rows.iter().all(|r| r[s] == "ok"), "{rows:?}");
+}

@@ -237,6 +237,16 @@ pub fn acquire(
         why: format!("cannot create the folder: {e}"),
     })?;
     let rows = session::prepare(session, &protocol, &text)?;
+    // Before any device: a recorder an earlier, killed run left running must not write
+    // into the session beside this run's.
+    if let CameraConfig::Webcam(_) = &protocol.camera {
+        if let Some(pid) = camera::stop_earlier_recorder(session)? {
+            note(
+                NoteKind::Warning,
+                &format!("an earlier run's recorder (ffmpeg, pid {pid}) was still writing into the session: stopped it; its unfinished recording is recorded again"),
+            );
+        }
+    }
     let mut regulator = SerialRegulator::open(&protocol.regulator)?;
     note(
         NoteKind::Progress,
@@ -401,6 +411,49 @@ impl Run<'_> {
         result
     }
 
+    /// Recordings the log calls done whose files are missing or not playable (a
+    /// recorder an earlier run left writing over them): their rows are dropped, so their
+    /// set points are recorded again, and an unplayable file is moved aside
+    /// ([`session::unplayable_name`]).
+    fn drop_unplayable(&mut self) -> Result<(), AcquireError> {
+        let mut dropped = false;
+        let mut i = 0;
+        while i < self.rows.len() {
+            let row = &self.rows[i];
+            let bad = if row.is_ok() {
+                row.files.iter().find_map(|f| {
+                    let path = self.session.join(f);
+                    session::playable_video(&path)
+                        .err()
+                        .map(|why| (f.clone(), path, why))
+                })
+            } else {
+                None
+            };
+            let Some((file, path, why)) = bad else {
+                i += 1;
+                continue;
+            };
+            let step = row.step;
+            if path.exists() {
+                let _ = std::fs::rename(&path, self.session.join(session::unplayable_name(&file)));
+            }
+            (self.note)(
+                NoteKind::Warning,
+                &format!(
+                    "step {step}: {file} is not a playable recording ({why}): moved aside as {}; the set point is recorded again",
+                    session::unplayable_name(&file)
+                ),
+            );
+            self.rows.remove(i);
+            dropped = true;
+        }
+        if dropped {
+            self.save()?;
+        }
+        Ok(())
+    }
+
     /// Fetches recordings an earlier run left on the camera.
     fn fetch_pending(&mut self) -> Result<(), AcquireError> {
         for i in 0..self.rows.len() {
@@ -419,6 +472,7 @@ impl Run<'_> {
     }
 
     fn steps(&mut self, plan: &StepPlan) -> Result<(), AcquireError> {
+        self.drop_unplayable()?;
         self.fetch_pending()?;
         let todo: Vec<SetPoint> = plan
             .set_points()
@@ -470,24 +524,29 @@ impl Run<'_> {
             } else {
                 String::new()
             };
-            self.rows.push(LogRow {
-                step: sp.step,
-                repeat: sp.repeat,
-                set_kpa: sp.pressure_kpa,
-                files: files.iter().map(|f| f.name.clone()).collect(),
-                camera_files: files.iter().map(|f| f.source.clone()).collect(),
-                measured,
-                record_s,
-                status: format!("{STATUS_NOT_DOWNLOADED}: not fetched yet"),
-                note,
-            });
-            let index = self.rows.len() - 1;
+            // In step order (a set point recorded again comes back to its place).
+            let index = self.rows.partition_point(|r| r.step < sp.step);
+            self.rows.insert(
+                index,
+                LogRow {
+                    step: sp.step,
+                    repeat: sp.repeat,
+                    set_kpa: sp.pressure_kpa,
+                    files: files.iter().map(|f| f.name.clone()).collect(),
+                    camera_files: files.iter().map(|f| f.source.clone()).collect(),
+                    measured,
+                    record_s,
+                    status: format!("{STATUS_NOT_DOWNLOADED}: not fetched yet"),
+                    note,
+                },
+            );
             self.fetch(index)?;
         }
         Ok(())
     }
 
     fn ramp(&mut self, plan: &RampPlan) -> Result<(), AcquireError> {
+        self.drop_unplayable()?;
         if let Some(row) = self.rows.first() {
             if row.is_ok() {
                 (self.note)(NoteKind::Progress, "the ramp is already recorded: nothing to do (acquire into a new folder for another)");

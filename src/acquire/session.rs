@@ -146,6 +146,23 @@ pub fn prepare(
     Ok(rows)
 }
 
+/// Ok when `path` is a video with a decodable frame of a video stream (through
+/// [`crate::video::VideoReader`]); else why not. A recording its recorder left unfinished
+/// (killed, or overwritten by another) fails this.
+pub fn playable_video(path: &Path) -> Result<(), String> {
+    let mut reader = crate::video::VideoReader::open(path).map_err(|e| e.to_string())?;
+    match reader.advance() {
+        Some(_) => Ok(()),
+        None => Err(format!("{}: no frame could be decoded", path.display())),
+    }
+}
+
+/// Name a recording that is not playable is moved aside to (kept for inspection; no
+/// session reader takes it for a video).
+pub fn unplayable_name(file: &str) -> String {
+    format!("{file}.unplayable")
+}
+
 /// Reads an acquisition log written by [`write_log`].
 pub fn read_log(path: &Path) -> Result<Vec<LogRow>, AcquireError> {
     let t = Table::read(path)?;

@@ -351,6 +351,56 @@ fn min_corner_spacing(corners: &Vector<Point2f>, board: &Board) -> f64 {
     best
 }
 
+/// Two views whose corners lie within this RMS distance of each other (same board
+/// ordering, or the board's 180-degree ordering) are one view shown twice, px: copies
+/// of a photo, or shots that did not move the board. Counting them twice would weigh
+/// that pose twice and report a coverage the board never had.
+pub const DUPLICATE_VIEW_RMS_PX: f64 = 1.0;
+
+/// Start of the reason [`drop_duplicate_views`] gives a dropped view.
+pub const DUPLICATE_REASON: &str = "duplicate of ";
+
+/// RMS distance between the corners of `a` and `b`, the smaller of the same ordering
+/// and the reversed one (OpenCV may start a symmetric board at either end); `None` for
+/// views of different sizes or corner counts.
+pub fn corner_rms_px(a: &BoardView, b: &BoardView) -> Option<f64> {
+    if (a.width, a.height) != (b.width, b.height) || a.corners.len() != b.corners.len() {
+        return None;
+    }
+    let n = a.corners.len().max(1) as f64;
+    let rms = |pairs: &mut dyn Iterator<Item = (&Point2<f64>, &Point2<f64>)>| {
+        (pairs.map(|(p, q)| (p - q).norm_squared()).sum::<f64>() / n).sqrt()
+    };
+    let same = rms(&mut a.corners.iter().zip(b.corners.iter()));
+    let reversed = rms(&mut a.corners.iter().zip(b.corners.iter().rev()));
+    Some(same.min(reversed))
+}
+
+/// Keeps the first of each set of near-identical views ([`DUPLICATE_VIEW_RMS_PX`]) in
+/// input order; the others are returned as rejected, naming the view they repeat.
+pub fn drop_duplicate_views(views: &[BoardView]) -> (Vec<BoardView>, Vec<RejectedView>) {
+    let mut kept: Vec<BoardView> = Vec::with_capacity(views.len());
+    let mut dropped = Vec::new();
+    for v in views {
+        let twin = kept
+            .iter()
+            .filter_map(|k| corner_rms_px(k, v).map(|d| (k, d)))
+            .filter(|(_, d)| *d < DUPLICATE_VIEW_RMS_PX)
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        match twin {
+            Some((k, d)) => dropped.push(RejectedView {
+                name: v.name.clone(),
+                reason: format!(
+                    "{DUPLICATE_REASON}{} (corners within {d:.2} px RMS): counted once",
+                    k.name
+                ),
+            }),
+            None => kept.push(v.clone()),
+        }
+    }
+    (kept, dropped)
+}
+
 /// Reads every view's size cheaply and checks they agree; returns (width, height).
 pub fn common_size(views: &[BoardView]) -> Result<(u32, u32), CalibError> {
     let first = views.first().ok_or(CalibError::NoViews {

@@ -9,11 +9,14 @@
 //! - [`field`]: the valid field of a calibration, the smaller of the field the board
 //!   covered and the field over which the distortion polynomial is monotonic.
 //! - [`file`]: read and write calibration files (OpenCV `FileStorage` YAML).
+//! - [`destination`]: where `calibrate` writes by default, and not over another
+//!   camera's file.
 //! - [`undistort`]: raw pixel <-> undistorted pixel for points, full-frame maps and the
 //!   crop rectangle free of the black border, inside the valid field.
 
 pub mod corners;
 pub mod coverage;
+pub mod destination;
 pub mod field;
 pub mod file;
 pub mod solve;
@@ -122,6 +125,14 @@ pub enum CalibError {
         path: PathBuf,
         /// The cause.
         source: std::io::Error,
+    },
+    /// The output file holds another camera's calibration.
+    #[error("{path} holds {why}: give -o FILE for this camera, or --force to replace it")]
+    OtherCamera {
+        /// The file.
+        path: PathBuf,
+        /// What it holds and how it differs.
+        why: String,
     },
     /// Video and calibration frame sizes cannot be reconciled.
     #[error("video is {width}x{height} but the calibration was made at {calib_width}x{calib_height} (another aspect ratio): calibrate at the video's resolution")]
@@ -391,6 +402,15 @@ impl Calibration {
             &self.distortion,
             self.coverage.as_ref().map(|c| c.field_angle_deg),
         )
+    }
+
+    /// Views left out because they repeated another view
+    /// ([`corners::drop_duplicate_views`]).
+    pub fn duplicate_views(&self) -> usize {
+        self.views_rejected
+            .iter()
+            .filter(|r| r.reason.starts_with(corners::DUPLICATE_REASON))
+            .count()
     }
 
     /// True when [`Calibration::for_resolution`] would scale (not copy) for this size.

@@ -14,7 +14,7 @@ use opencv::calib3d;
 use opencv::core::{Mat, Point2f, Point3f, Size, TermCriteria, TermCriteria_Type, Vector};
 use opencv::prelude::*;
 
-use super::corners::{common_size, BoardView, Detections};
+use super::corners::{common_size, drop_duplicate_views, BoardView, Detections};
 use super::coverage::{coverage_grid, half_diagonal_share, Coverage};
 use super::cv::{matrix3_from_mat, values_from_mat};
 use super::{Board, CalibError, Calibration, CameraModel, RejectedView, ViewError};
@@ -39,14 +39,18 @@ pub struct CalibrationSettings {
     pub fix_aspect_ratio: bool,
 }
 
-/// Calibrates a camera from the views where a board was found. Views OpenCV finds
-/// ill-conditioned (fisheye) are dropped and listed; too few usable views is an error.
+/// Calibrates a camera from the views where a board was found. A view that repeats an
+/// earlier one (its corners within [`super::corners::DUPLICATE_VIEW_RMS_PX`]) and views
+/// OpenCV finds ill-conditioned (fisheye) are dropped and listed; too few usable views is
+/// an error.
 pub fn calibrate(
     detections: &Detections,
     settings: &CalibrationSettings,
 ) -> Result<Calibration, CalibError> {
-    let mut views: Vec<BoardView> = detections.views.clone();
+    // One pose shown twice (copies of a photo) counts once.
+    let (mut views, duplicates) = drop_duplicate_views(&detections.views);
     let mut rejected: Vec<RejectedView> = detections.rejected.clone();
+    rejected.extend(duplicates);
     let needed = match settings.model {
         CameraModel::Fisheye => MIN_VIEWS_FISHEYE,
         CameraModel::Pinhole => MIN_VIEWS_PINHOLE,

@@ -17,11 +17,11 @@ use super::{EXIT_BAD_INPUT, EXIT_OK, EXIT_PARTIAL};
 #[derive(Debug, Args)]
 #[command(
     after_help = "PROTOCOL.toml: [steps] pressures_kpa = [40, 55, 70] (or pressures = \"40:115:15\", unit = \"kPa\"|\"bar\"|\"psi\"), \
-stabilize_s, record_s, repeats, vent_at_end, sample_hz; or [ramp] rate_kpa_s, top_kpa, start_kpa, log_hz, stabilize_s; \
+stabilize_s (required), record_s (required), repeats (1), vent_at_end (true), sample_hz (10); or [ramp] rate_kpa_s, top_kpa, start_kpa (0), log_hz, stabilize_s (0); \
 [regulator] port, baud (115200), timeout_s, retries, boot_s, max_kpa; [camera] kind = \"gopro\" with url = \"http://172.2X.1YZ.51:8080\", \
-or kind = \"webcam\" with device, size, fps, input_format. \
+or kind = \"webcam\" with device, size, fps, input_format (format = \"lavfi\": size and fps scale and resample the graph's output). \
 SESSION gets the videos, pressures.csv (or pressure_log.csv), protocol.toml and acquisition_log.csv. \
-Ctrl-C, a lost camera or a regulator error vents to 0 kPa and keeps what was recorded; the same command resumes. \
+Ctrl-C (or SIGTERM), a lost camera or a regulator error vents to 0 kPa and keeps what was recorded; the same command resumes. \
 Exit codes: 0 done, 1 stopped early (recordings kept, rerun to resume), 2 bad protocol or a device unreachable (nothing recorded)."
 )]
 pub struct AcquireArgs {

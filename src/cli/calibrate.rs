@@ -4,6 +4,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use bendscope::calib::corners::{detect_views, display_name, DetectSettings, ViewSource};
+use bendscope::calib::destination::{check_replaces_same_camera, default_calibration_path};
 use bendscope::calib::field::NO_LIMIT_DEG;
 use bendscope::calib::file::write_calibration;
 use bendscope::calib::{
@@ -40,9 +41,13 @@ pub struct CalibrateArgs {
     /// Frames sampled evenly from each video.
     #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u32).range(3..))]
     pub frames: u32,
-    /// Output file [default: calibration/<folder-or-camera-name>.yaml].
+    /// Output file [default: calibration/<folder-or-camera-name>.yaml; a folder called
+    /// calib is named after the folder above it].
     #[arg(short, long, value_name = "FILE")]
     pub output: Option<PathBuf>,
+    /// Replace the default output even when it holds another camera's calibration.
+    #[arg(long)]
+    pub force: bool,
     /// Longest side (px) at which boards are searched; larger views are downscaled first.
     #[arg(long, default_value_t = 1280, value_parser = clap::value_parser!(u32).range(320..))]
     pub detect_px: u32,
@@ -132,25 +137,6 @@ fn video_frames(path: &Path, frames: u32) -> Result<Vec<ViewSource>, CalibError>
         .collect())
 }
 
-/// Default output: calibration/<name>.yaml, name from the first path's folder or stem.
-fn default_output(paths: &[PathBuf]) -> PathBuf {
-    let first = &paths[0];
-    let name = if first.is_dir() {
-        std::fs::canonicalize(first)
-            .ok()
-            .and_then(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
-    } else if has_extension(first, VIDEO_EXTENSIONS) {
-        first.file_stem().map(|n| n.to_string_lossy().into_owned())
-    } else {
-        std::fs::canonicalize(first).ok().and_then(|p| {
-            p.parent()
-                .and_then(|d| d.file_name())
-                .map(|n| n.to_string_lossy().into_owned())
-        })
-    };
-    PathBuf::from("calibration").join(format!("{}.yaml", name.unwrap_or_else(|| "camera".into())))
-}
-
 /// Runs `bendscope calibrate`.
 pub fn run(args: &CalibrateArgs) -> Result<u8> {
     let board = Board::new(args.board.cols, args.board.rows, args.square_mm)?;
@@ -182,23 +168,38 @@ pub fn run(args: &CalibrateArgs) -> Result<u8> {
             fix_aspect_ratio: args.fix_aspect_ratio,
         },
     )?;
-    let out = args
-        .output
-        .clone()
-        .unwrap_or_else(|| default_output(&args.paths));
+    let out = match &args.output {
+        Some(path) => path.clone(),
+        None => {
+            let path = default_calibration_path(&args.paths[0]);
+            if !args.force {
+                check_replaces_same_camera(&path, &calib)?;
+            }
+            path
+        }
+    };
     write_calibration(&out, &calib).with_context(|| format!("writing {}", out.display()))?;
     print_summary(&calib, &out);
     Ok(EXIT_OK)
 }
 
 fn print_summary(c: &Calibration, out: &Path) {
+    let duplicates = c.duplicate_views();
     super::out!(
-        "{} calibration of {}x{} from {} view(s), {} rejected",
+        "{} calibration of {}x{} from {} view(s){}, {} rejected",
         c.model.name(),
         c.image_width,
         c.image_height,
         c.views_used.len(),
-        c.views_rejected.len()
+        if duplicates > 0 {
+            format!(
+                " ({} given, {duplicates} duplicates of another view dropped)",
+                c.views_used.len() + duplicates
+            )
+        } else {
+            String::new()
+        },
+        c.views_rejected.len() - duplicates
     );
     super::out!(
         "  fx = {:.2}  fy = {:.2}  cx = {:.2}  cy = {:.2} px",

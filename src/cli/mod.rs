@@ -37,6 +37,9 @@ pub const EXIT_PARTIAL: u8 = 1;
 pub const EXIT_BAD_INPUT: u8 = 2;
 /// Exit code: nothing could be measured.
 pub const EXIT_NOTHING: u8 = 3;
+/// Exit code of a run stopped by SIGINT (Ctrl-C) or SIGTERM that kept what it had
+/// done (`sweep`): 128 + SIGINT, what a shell reports for a command Ctrl-C stopped.
+pub const EXIT_INTERRUPTED: u8 = 130;
 
 /// Measure soft pneumatic bending actuators from video and compare them with a
 /// finite-element model.

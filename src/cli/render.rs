@@ -6,7 +6,9 @@ use std::time::Instant;
 
 use anyhow::{anyhow, Context, Result};
 use bendscope::calib::file::read_calibration;
-use bendscope::render::session::{read_side_face, render_fem_session, FemRenderSettings};
+use bendscope::render::session::{
+    check_render_target, read_side_face, render_fem_session, FemRenderSettings,
+};
 use clap::Args;
 
 use super::EXIT_OK;
@@ -17,6 +19,7 @@ use super::EXIT_OK;
     after_help = "Writes into SESSION: one H.264 video per FEM pressure step (GX01xxxx.MP4), pressures.csv, \
 scale.jpg (a 9x6 board of 10 mm squares in the actuator plane), calib/ (board photos through the same camera), \
 bendscope.toml and truth.json (camera, and per video the radius and bending angle of the rendered marker centres).
+A SESSION that already holds a session (videos, pressures.csv, scale.jpg, calib/ ...) is refused unless --force.
 Then: bendscope process SESSION."
 )]
 pub struct RenderArgs {
@@ -76,6 +79,10 @@ pub struct RenderArgs {
     /// Random seed (noise, jitter, board poses).
     #[arg(long, default_value_t = 7)]
     pub seed: u64,
+    /// Render into SESSION even when it already holds a session (its videos, scale photo,
+    /// pressures.csv and calib/ are replaced).
+    #[arg(long)]
+    pub force: bool,
 }
 
 impl RenderArgs {
@@ -97,6 +104,7 @@ impl RenderArgs {
 
 /// Runs `bendscope render`.
 pub fn run(args: &RenderArgs) -> Result<u8> {
+    check_render_target(&args.output, args.force)?;
     let camera = match (&args.calibration, &args.gopro_like) {
         (Some(path), _) => read_calibration(path)
             .with_context(|| format!("cannot use {} as the camera", path.display()))?,

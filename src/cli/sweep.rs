@@ -1,6 +1,8 @@
 //! `bendscope sweep`: multi-factor design sweeps, run locally or emitted for a cluster.
 
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 
 use anyhow::{Context, Result};
 use bendscope::sweep::collect::collect;
@@ -13,7 +15,7 @@ use bendscope::sweep::run::{
 use bendscope::sweep::SweepError;
 use clap::{Args, Subcommand, ValueEnum};
 
-use super::{EXIT_BAD_INPUT, EXIT_NOTHING, EXIT_OK, EXIT_PARTIAL};
+use super::{EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_NOTHING, EXIT_OK, EXIT_PARTIAL};
 
 /// Run a multi-factor design (factorial or Latin hypercube) of simulations.
 #[derive(Debug, Args)]
@@ -21,6 +23,7 @@ use super::{EXIT_BAD_INPUT, EXIT_NOTHING, EXIT_OK, EXIT_PARTIAL};
 #[command(
     after_help = "Outputs in DIR: designs.csv (one row per point: id, status, seconds, the factors, radius_mm@P ... cavity_volume_mm3@P per kept pressure P, height_mm), failures.csv, \
 runs/<id>/ (config.toml, steps.csv, summary.json, log, status.json), sweep.json. Running again resumes: finished points are skipped.
+Ctrl-C or SIGTERM stops the running points (status interrupted), writes designs.csv and exits 130; running again resumes them.
 Plan format: see examples/plans/two-factor.toml and the README."
 )]
 pub struct SweepArgs {
@@ -155,12 +158,18 @@ pub fn run(args: &SweepArgs) -> Result<u8> {
                 args.jobs.unwrap_or(0)
             );
         }
+        let stop = Arc::new(AtomicBool::new(false));
+        let flag = Arc::clone(&stop);
+        if let Err(e) = ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst)) {
+            eprintln!("warning: Ctrl-C cannot be caught ({e}): a stopped sweep may leave its points running");
+        }
         let bar = super::progress_bar(prepared.pending.len() as u64, "sweep");
         run_pool(
             &prepared.dir,
             &prepared.pending,
             jobs,
             &exe,
+            &stop,
             &mut |id, s| {
                 bar.set_message(format!("{id} {}", s.status.as_str()));
                 bar.inc(1);
@@ -170,6 +179,13 @@ pub fn run(args: &SweepArgs) -> Result<u8> {
             },
         )?;
         bar.finish_and_clear();
+        if stop.load(Ordering::SeqCst) {
+            run_collect(&prepared.dir)?;
+            eprintln!(
+                "interrupted: the running points were stopped (status interrupted); run the same command again to resume"
+            );
+            return Ok(EXIT_INTERRUPTED);
+        }
     }
     run_collect(&prepared.dir)
 }

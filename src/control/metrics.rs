@@ -37,22 +37,162 @@ pub struct StepMetrics {
     pub steady_state_error_deg: f64,
 }
 
+/// [`TrackingMetrics`] gathered one sample at a time (a run too long to keep).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TrackingAccumulator {
+    sample_s: f64,
+    samples: usize,
+    sum_abs_deg: f64,
+    sum_sq_deg2: f64,
+    max_abs_deg: f64,
+}
+
+impl TrackingAccumulator {
+    /// Nothing seen yet; samples `sample_s` apart.
+    pub fn new(sample_s: f64) -> Self {
+        Self {
+            sample_s,
+            samples: 0,
+            sum_abs_deg: 0.0,
+            sum_sq_deg2: 0.0,
+            max_abs_deg: 0.0,
+        }
+    }
+
+    /// Adds one sample.
+    pub fn push(&mut self, reference_deg: f64, angle_deg: f64) {
+        let e = reference_deg - angle_deg;
+        self.samples += 1;
+        self.sum_abs_deg += e.abs();
+        self.sum_sq_deg2 += e * e;
+        self.max_abs_deg = self.max_abs_deg.max(e.abs());
+    }
+
+    /// The figures of the samples seen.
+    pub fn finish(&self) -> TrackingMetrics {
+        TrackingMetrics {
+            iae_deg_s: self.sum_abs_deg * self.sample_s,
+            rmse_deg: (self.sum_sq_deg2 / self.samples.max(1) as f64).sqrt(),
+            max_abs_error_deg: self.max_abs_deg,
+        }
+    }
+}
+
 /// Tracking metrics of `reference` vs `angle` sampled every `sample_s`.
 pub fn tracking_metrics(
     reference_deg: &[f64],
     angle_deg: &[f64],
     sample_s: f64,
 ) -> TrackingMetrics {
-    let e: Vec<f64> = reference_deg
-        .iter()
-        .zip(angle_deg)
-        .map(|(r, y)| r - y)
-        .collect();
-    let n = e.len().max(1) as f64;
-    TrackingMetrics {
-        iae_deg_s: e.iter().map(|v| v.abs()).sum::<f64>() * sample_s,
-        rmse_deg: (e.iter().map(|v| v * v).sum::<f64>() / n).sqrt(),
-        max_abs_error_deg: e.iter().fold(0.0, |m, v| m.max(v.abs())),
+    let mut acc = TrackingAccumulator::new(sample_s);
+    for (r, y) in reference_deg.iter().zip(angle_deg) {
+        acc.push(*r, *y);
+    }
+    acc.finish()
+}
+
+/// [`StepMetrics`] gathered one sample at a time, for a run of a known number of
+/// samples (the steady-state error averages its last tenth); the step is at the first
+/// sample's time.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepAccumulator {
+    initial_deg: f64,
+    target_deg: f64,
+    /// Index of the first sample of the steady-state tail.
+    tail_start: usize,
+    tail_len: usize,
+    seen: usize,
+    first_time_s: f64,
+    /// The previous sample: time and progress along the step.
+    previous: Option<(f64, f64)>,
+    cross_10: Option<f64>,
+    cross_90: Option<f64>,
+    peak_progress: f64,
+    /// The last sample was outside the settling band.
+    outside: bool,
+    /// Time of the first sample after the latest one outside the band.
+    settled_from_s: Option<f64>,
+    tail_sum_deg: f64,
+}
+
+impl StepAccumulator {
+    /// A step from `initial_deg` to `target_deg` seen over `samples` samples.
+    pub fn new(initial_deg: f64, target_deg: f64, samples: usize) -> Self {
+        let tail_len = ((samples as f64 * STEADY_STATE_SHARE).ceil() as usize).max(1);
+        Self {
+            initial_deg,
+            target_deg,
+            tail_start: samples.saturating_sub(tail_len),
+            tail_len: tail_len.min(samples).max(1),
+            seen: 0,
+            first_time_s: 0.0,
+            previous: None,
+            cross_10: None,
+            cross_90: None,
+            peak_progress: f64::NEG_INFINITY,
+            outside: false,
+            settled_from_s: None,
+            tail_sum_deg: 0.0,
+        }
+    }
+
+    /// Progress along the step: 0 at rest, 1 at the target.
+    fn progress(&self, angle_deg: f64) -> f64 {
+        let span = self.target_deg - self.initial_deg;
+        let sign = if span >= 0.0 { 1.0 } else { -1.0 };
+        sign * (angle_deg - self.initial_deg) / span.abs().max(1e-12)
+    }
+
+    /// Adds the sample at `time_s`.
+    pub fn push(&mut self, time_s: f64, angle_deg: f64) {
+        let prog = self.progress(angle_deg);
+        if self.seen == 0 {
+            self.first_time_s = time_s;
+        }
+        let previous = self.previous;
+        let cross = |level: f64| match previous {
+            _ if prog < level => None,
+            None => Some(time_s),
+            Some((t0, a)) => Some(t0 + (level - a) / (prog - a) * (time_s - t0)),
+        };
+        if self.cross_10.is_none() {
+            self.cross_10 = cross(0.1);
+        }
+        if self.cross_90.is_none() {
+            self.cross_90 = cross(0.9);
+        }
+        self.peak_progress = self.peak_progress.max(prog);
+        if self.outside {
+            self.settled_from_s = Some(time_s);
+        }
+        let band = SETTLING_BAND * (self.target_deg - self.initial_deg).abs().max(1e-12);
+        self.outside = (angle_deg - self.target_deg).abs() > band;
+        if self.seen >= self.tail_start {
+            self.tail_sum_deg += self.target_deg - angle_deg;
+        }
+        self.previous = Some((time_s, prog));
+        self.seen += 1;
+    }
+
+    /// The figures of the samples seen.
+    pub fn finish(&self) -> StepMetrics {
+        let rise_time_s = match (self.cross_10, self.cross_90) {
+            (Some(a), Some(b)) => Some(b - a),
+            _ => None,
+        };
+        let settling_time_s = if self.outside {
+            None
+        } else {
+            Some(self.settled_from_s.unwrap_or(self.first_time_s))
+        };
+        StepMetrics {
+            initial_deg: self.initial_deg,
+            target_deg: self.target_deg,
+            rise_time_s,
+            overshoot_pct: (100.0 * (self.peak_progress - 1.0)).max(0.0),
+            settling_time_s,
+            steady_state_error_deg: self.tail_sum_deg / self.tail_len as f64,
+        }
     }
 }
 
@@ -64,52 +204,11 @@ pub fn step_metrics(
     initial_deg: f64,
     target_deg: f64,
 ) -> StepMetrics {
-    let span = target_deg - initial_deg;
-    let sign = if span >= 0.0 { 1.0 } else { -1.0 };
-    let mag = span.abs().max(1e-12);
-    // Progress along the step, 0 at rest, 1 at the target.
-    let prog = |y: f64| sign * (y - initial_deg) / mag;
-    let cross = |level: f64| -> Option<f64> {
-        (0..angle_deg.len())
-            .find(|k| prog(angle_deg[*k]) >= level)
-            .map(|k| {
-                if k == 0 {
-                    return time_s[0];
-                }
-                let (a, b) = (prog(angle_deg[k - 1]), prog(angle_deg[k]));
-                time_s[k - 1] + (level - a) / (b - a) * (time_s[k] - time_s[k - 1])
-            })
-    };
-    let rise_time_s = match (cross(0.1), cross(0.9)) {
-        (Some(a), Some(b)) => Some(b - a),
-        _ => None,
-    };
-    let peak = angle_deg
-        .iter()
-        .map(|y| prog(*y))
-        .fold(f64::NEG_INFINITY, f64::max);
-    let overshoot_pct = (100.0 * (peak - 1.0)).max(0.0);
-    let band = SETTLING_BAND * mag;
-    let last_out = angle_deg
-        .iter()
-        .rposition(|y| (y - target_deg).abs() > band);
-    let settling_time_s = match last_out {
-        None => Some(time_s.first().copied().unwrap_or(0.0)),
-        Some(k) if k + 1 < angle_deg.len() => Some(time_s[k + 1]),
-        Some(_) => None,
-    };
-    let tail = ((angle_deg.len() as f64 * STEADY_STATE_SHARE).ceil() as usize).max(1);
-    let tail = &angle_deg[angle_deg.len().saturating_sub(tail)..];
-    let steady_state_error_deg =
-        tail.iter().map(|y| target_deg - y).sum::<f64>() / tail.len().max(1) as f64;
-    StepMetrics {
-        initial_deg,
-        target_deg,
-        rise_time_s,
-        overshoot_pct,
-        settling_time_s,
-        steady_state_error_deg,
+    let mut acc = StepAccumulator::new(initial_deg, target_deg, angle_deg.len());
+    for (t, y) in time_s.iter().zip(angle_deg) {
+        acc.push(*t, *y);
     }
+    acc.finish()
 }
 
 #[cfg(test)]

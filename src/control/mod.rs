@@ -7,7 +7,9 @@
 //! angle-pressure map of a `simulate` output, or the FEM solved at every sample through
 //! [`crate::fem::stepper`]) -> [`metrics`]. [`tune`] identifies a first-order-plus-dead-
 //! time model from a simulated open-loop step and sets PI gains by Skogestad's SIMC rules.
-//! [`control_to`] runs it all and writes `control.csv`, `metrics.json` and `plots/`.
+//! [`control_to`] runs it all and writes `control.csv`, `metrics.json` and `plots/`;
+//! [`trace`] runs the loop sample by sample, streaming `control.csv` to disk, so memory
+//! does not grow with the run (which is limited to [`trace::MAX_SAMPLES`] samples).
 //!
 //! Conventions: angles in degrees, pressures in kPa (gauge), times in seconds; the
 //! controller's output is the regulator's pressure command; the sensor reads the bending
@@ -17,8 +19,10 @@ pub mod metrics;
 pub mod pid;
 pub mod plant;
 pub mod reference;
+pub mod trace;
 pub mod tune;
 
+use std::io::{BufWriter, Write as _};
 use std::path::Path;
 use std::time::Instant;
 
@@ -27,12 +31,17 @@ use serde::Serialize;
 use crate::fem::actuator::{build_mesh, ActuatorConfig};
 use crate::fem::stepper::QuasiStaticStepper;
 use crate::fem::FemError;
+use crate::io::write_atomic_with;
 use crate::report::{plot_xy, write_json, Series};
-use crate::table::{write_csv, Column, TableError};
-use metrics::{step_metrics, tracking_metrics, StepMetrics, TrackingMetrics};
-use pid::{Pid, PidGains, PidSettings, DEFAULT_DERIVATIVE_FILTER_N};
+use crate::table::TableError;
+use metrics::{StepMetrics, TrackingMetrics};
+use pid::{PidGains, PidSettings, DEFAULT_DERIVATIVE_FILTER_N};
 use plant::{AngleModel, PneumaticLine, PneumaticSettings, QuasiStaticMap};
 use reference::Reference;
+use trace::{
+    sample_count, write_row, ClosedLoop, Recorded, Recorder, Trace, CSV_HEADER, CSV_ROW_BYTES,
+    MAX_SAMPLES,
+};
 use tune::{effective_dead_time_s, identify_fopdt, simc_gains, Fopdt, DEFAULT_TAU_C_PER_DEAD_TIME};
 
 /// Default sample time of the controller, s (100 Hz, a typical embedded loop).
@@ -137,61 +146,6 @@ impl Default for ControlSettings {
             fem_in_loop_mesh_mm: None,
         }
     }
-}
-
-/// One closed-loop run, sample by sample.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct Trace {
-    /// Sample times, s.
-    pub time_s: Vec<f64>,
-    /// Reference, degrees.
-    pub reference_deg: Vec<f64>,
-    /// True bending angle, degrees.
-    pub angle_deg: Vec<f64>,
-    /// The sensor's reading (with noise), degrees.
-    pub measured_deg: Vec<f64>,
-    /// Controller output (regulator command), kPa.
-    pub pressure_cmd_kpa: Vec<f64>,
-    /// Pressure in the actuator, kPa.
-    pub pressure_kpa: Vec<f64>,
-    /// Whether the controller output was at a limit.
-    pub saturated: Vec<bool>,
-}
-
-/// Runs the loop: `plant` turns the line's pressure into the true angle; the line
-/// starts at rest at its lowest pressure. `on_sample(k, n)` sees each sample.
-pub fn run_loop(
-    plant: &mut dyn AngleModel,
-    map: Option<&QuasiStaticMap>,
-    pid: &PidSettings,
-    line: &PneumaticSettings,
-    reference: &Reference,
-    duration_s: f64,
-    on_sample: &mut dyn FnMut(usize, usize),
-) -> Result<Trace, ControlError> {
-    let h = pid.sample_s;
-    let n = (duration_s / h).round() as usize;
-    let mut line_state = PneumaticLine::new(*line, h, line.min_kpa);
-    let mut controller = Pid::new(*pid, line.min_kpa);
-    let mut trace = Trace::default();
-    for k in 0..=n {
-        let t = k as f64 * h;
-        let p = line_state.pressure_kpa();
-        let angle = plant.angle_deg(p)?;
-        let measured = line_state.measure(angle);
-        let r = reference.at_deg(t);
-        let (u, saturated) = controller.update(r, measured);
-        trace.time_s.push(t);
-        trace.reference_deg.push(r);
-        trace.angle_deg.push(angle);
-        trace.measured_deg.push(measured);
-        trace.pressure_cmd_kpa.push(u);
-        trace.pressure_kpa.push(p);
-        trace.saturated.push(saturated);
-        line_state.step(u, map);
-        on_sample(k, n);
-    }
-    Ok(trace)
 }
 
 /// The open-loop step used for tuning and the model identified from it.
@@ -337,9 +291,11 @@ pub struct ControlReport {
 /// A finished run: the trace(s) and the report.
 #[derive(Debug, Clone)]
 pub struct ControlRun {
-    /// The trace of control.csv (the FEM's with --fem-in-loop).
+    /// The plotted samples of control.csv (the FEM's with --fem-in-loop): all of them
+    /// up to [`trace::MAX_PLOT_POINTS`], else every k-th.
     pub trace: Trace,
-    /// The map-in-the-loop trace when the FEM was in the loop (control_map.csv).
+    /// The plotted samples of the map-in-the-loop run when the FEM was in the loop
+    /// (control_map.csv).
     pub map_trace: Option<Trace>,
     /// metrics.json.
     pub report: ControlReport,
@@ -349,8 +305,9 @@ pub struct ControlRun {
 const SATURATION_WARNING_SHARE: f64 = 0.05;
 
 /// Runs the closed loop on the plant of the `simulate` output `fem_dir` and writes
-/// `control.csv`, `metrics.json` and `plots/` (and `control_map.csv` with the FEM in
-/// the loop) into `out`. `on_sample(k, n)` sees every sample of the FEM loop.
+/// `control.csv` (streamed as the loop runs), `metrics.json` and `plots/` (and
+/// `control_map.csv` with the FEM in the loop) into `out`. `on_sample(k, n)` sees every
+/// sample. A run longer than [`trace::MAX_SAMPLES`] samples is refused at once.
 pub fn control_to(
     out: &Path,
     fem_dir: &Path,
@@ -378,6 +335,19 @@ pub fn control_to(
         return Err(ControlError::Setting {
             name: "duration-s".into(),
             why: format!("{duration_s} s: give a run at least one sample long"),
+        });
+    }
+    let samples = sample_count(duration_s, settings.sample_s);
+    if samples > MAX_SAMPLES {
+        return Err(ControlError::Setting {
+            name: "duration-s".into(),
+            why: format!(
+                "{duration_s} s at {} s per sample is {samples} samples: control.csv would be about {}; at most {MAX_SAMPLES} samples ({} s at this sample time, control.csv about {}): shorten the run or lengthen --sample-time-s",
+                settings.sample_s,
+                size_text(samples as f64 * CSV_ROW_BYTES),
+                (MAX_SAMPLES - 1) as f64 * settings.sample_s,
+                size_text(MAX_SAMPLES as f64 * CSV_ROW_BYTES),
+            ),
         });
     }
     let mut warnings = Vec::new();
@@ -429,32 +399,34 @@ pub fn control_to(
         tracking_s: None,
     };
     pid.validate()?;
-    let mut map_plant = map.clone();
-    let map_trace = run_loop(
-        &mut map_plant,
-        Some(&map),
-        &pid,
-        &line,
-        &settings.reference,
-        duration_s,
-        &mut |_, _| {},
-    )?;
-    let (trace, map_trace, fem_report) = match settings.fem_in_loop_mesh_mm {
-        None => (map_trace, None, None),
+    std::fs::create_dir_all(out).map_err(output)?;
+    let (run, map_run, fem_report) = match settings.fem_in_loop_mesh_mm {
+        None => {
+            let mut plant = map.clone();
+            let mut lp = ClosedLoop::new(
+                &mut plant,
+                Some(&map),
+                &pid,
+                &line,
+                &settings.reference,
+                duration_s,
+            );
+            let streamed = stream_loops(out, &map, &mut lp, None, &settings.reference, on_sample)?;
+            (streamed.main, None, None)
+        }
         Some(mesh_mm) => {
-            let (trace, report) = fem_loop(
-                fem_dir, mesh_mm, &map, &pid, &line, settings, duration_s, &map_trace, on_sample,
+            let (run, map_run, report) = fem_loop(
+                out, fem_dir, mesh_mm, &map, &pid, &line, settings, duration_s, on_sample,
             )?;
-            (trace, Some(map_trace), Some(report))
+            (run, Some(map_run), Some(report))
         }
     };
-    let n = trace.time_s.len().max(1) as f64;
-    let saturated_share = trace.saturated.iter().filter(|s| **s).count() as f64 / n;
+    let saturated_share = run.saturated as f64 / run.samples.max(1) as f64;
     if saturated_share > SATURATION_WARNING_SHARE {
         warnings.push(format!(
             "the pressure command was at the regulator's limit for {:.0}% of the run (highest command {:.1} kPa, bounded by {:.1} kPa)",
             100.0 * saturated_share,
-            trace.pressure_cmd_kpa.iter().fold(f64::NEG_INFINITY, |a, b| a.max(*b)),
+            run.max_pressure_cmd_kpa,
             line.max_kpa
         ));
     }
@@ -482,45 +454,139 @@ pub fn control_to(
             taus.iter().copied().fold(f64::NEG_INFINITY, f64::max),
         ),
         reachable_deg,
-        tracking: tracking_metrics(&trace.reference_deg, &trace.angle_deg, settings.sample_s),
-        step: step_of(&settings.reference, &trace),
+        tracking: run.tracking,
+        step: run.step,
         saturated_share,
-        max_pressure_cmd_kpa: trace
-            .pressure_cmd_kpa
-            .iter()
-            .fold(f64::NEG_INFINITY, |a, b| a.max(*b)),
-        max_pressure_kpa: trace
-            .pressure_kpa
-            .iter()
-            .fold(f64::NEG_INFINITY, |a, b| a.max(*b)),
+        max_pressure_cmd_kpa: run.max_pressure_cmd_kpa,
+        max_pressure_kpa: run.max_pressure_kpa,
         fem_in_loop: fem_report,
         warnings,
     };
     let run = ControlRun {
-        trace,
-        map_trace,
+        trace: run.trace,
+        map_trace: map_run.map(|m| m.trace),
         report,
     };
-    write_outputs(out, &run, &map)?;
+    write_outputs(out, &run)?;
     Ok(run)
 }
 
-/// Step figures when the reference is a step.
-fn step_of(reference: &Reference, trace: &Trace) -> Option<StepMetrics> {
-    match reference {
-        Reference::Step { angle_deg } => Some(step_metrics(
-            &trace.time_s,
-            &trace.angle_deg,
-            trace.angle_deg.first().copied().unwrap_or(0.0),
-            *angle_deg,
-        )),
-        _ => None,
+/// `bytes` for a message: `700 MB`, `7.0 GB`.
+fn size_text(bytes: f64) -> String {
+    if bytes >= 1e9 {
+        format!("{:.1} GB", bytes / 1e9)
+    } else {
+        format!("{:.0} MB", bytes / 1e6)
     }
 }
 
-/// The loop with the FEM solved at every sample, compared with the map's run.
+/// Runs `main` (and `beside`, the map-in-the-loop run compared with it, in step) to
+/// their end, streaming every sample to `out/control.csv` (and `out/control_map.csv`),
+/// atomically: nothing is written when the loop fails. `on_sample(k, n)` sees each
+/// sample. Returns the figures of `main` (and `beside`) and, with `beside`, the largest
+/// difference of their angles.
+fn stream_loops(
+    out: &Path,
+    map: &QuasiStaticMap,
+    main: &mut ClosedLoop,
+    beside: Option<&mut ClosedLoop>,
+    reference: &Reference,
+    on_sample: &mut dyn FnMut(usize, usize),
+) -> Result<Streamed, ControlError> {
+    let (n, sample_s) = (main.samples(), main.sample_s());
+    let mut state = StreamState {
+        main: Recorder::new(n, sample_s, reference),
+        beside: Recorder::new(n, sample_s, reference),
+        max_difference_deg: 0.0,
+        failure: None,
+    };
+    let written = write_atomic_with(&out.join("control.csv"), |f| {
+        let mut main_w = BufWriter::new(f);
+        match beside {
+            None => state.rows(map, main, &mut main_w, None, on_sample)?,
+            Some(lp) => write_atomic_with(&out.join("control_map.csv"), |g| {
+                let mut beside_w = BufWriter::new(g);
+                state.rows(map, main, &mut main_w, Some((lp, &mut beside_w)), on_sample)?;
+                beside_w.flush()
+            })?,
+        }
+        main_w.flush()
+    });
+    if let Some(e) = state.failure {
+        return Err(e);
+    }
+    written.map_err(output)?;
+    Ok(Streamed {
+        main: state.main.finish(),
+        beside: state.beside.finish(),
+        max_difference_deg: state.max_difference_deg,
+    })
+}
+
+/// The figures [`stream_loops`] gathers while it writes.
+struct StreamState {
+    main: Recorder,
+    beside: Recorder,
+    max_difference_deg: f64,
+    /// Why the loop stopped (the writes then fail, removing their temporary files).
+    failure: Option<ControlError>,
+}
+
+impl StreamState {
+    fn stop(&mut self, e: ControlError) -> std::io::Error {
+        self.failure = Some(e);
+        std::io::Error::other("the closed loop failed")
+    }
+
+    /// Writes the header and every sample of `main` into `main_w` (and of the loop
+    /// beside it into its writer).
+    fn rows(
+        &mut self,
+        map: &QuasiStaticMap,
+        main: &mut ClosedLoop,
+        main_w: &mut dyn std::io::Write,
+        mut beside: Option<(&mut ClosedLoop, &mut dyn std::io::Write)>,
+        on_sample: &mut dyn FnMut(usize, usize),
+    ) -> std::io::Result<()> {
+        let last = main.samples().saturating_sub(1);
+        main_w.write_all(CSV_HEADER.as_bytes())?;
+        if let Some((_, w)) = &mut beside {
+            w.write_all(CSV_HEADER.as_bytes())?;
+        }
+        let mut k = 0;
+        while let Some(sample) = main.next_sample() {
+            let s = sample.map_err(|e| self.stop(e))?;
+            write_row(main_w, &s, map.radius_mm(s.pressure_kpa))?;
+            self.main.push(&s);
+            if let Some((lp, w)) = &mut beside {
+                if let Some(other) = lp.next_sample() {
+                    let o = other.map_err(|e| self.stop(e))?;
+                    write_row(*w, &o, map.radius_mm(o.pressure_kpa))?;
+                    self.beside.push(&o);
+                    self.max_difference_deg = self
+                        .max_difference_deg
+                        .max((s.angle_deg - o.angle_deg).abs());
+                }
+            }
+            on_sample(k, last);
+            k += 1;
+        }
+        Ok(())
+    }
+}
+
+/// What [`stream_loops`] kept of its runs.
+struct Streamed {
+    main: Recorded,
+    beside: Recorded,
+    max_difference_deg: f64,
+}
+
+/// The loop with the FEM solved at every sample, run in step with the map's loop
+/// (`control.csv` and `control_map.csv`); the figures of both and the comparison.
 #[allow(clippy::too_many_arguments)]
 fn fem_loop(
+    out: &Path,
     fem_dir: &Path,
     mesh_mm: f64,
     map: &QuasiStaticMap,
@@ -528,9 +594,8 @@ fn fem_loop(
     line: &PneumaticSettings,
     settings: &ControlSettings,
     duration_s: f64,
-    map_trace: &Trace,
     on_sample: &mut dyn FnMut(usize, usize),
-) -> Result<(Trace, FemLoopReport), ControlError> {
+) -> Result<(Recorded, Recorded, FemLoopReport), ControlError> {
     let path = fem_dir.join("config.toml");
     let text = std::fs::read_to_string(&path).map_err(|e| ControlError::Map {
         why: format!(
@@ -560,70 +625,30 @@ fn fem_loop(
         newton_iterations: 0,
         seconds: 0.0,
     };
-    let trace = run_loop(
-        &mut plant,
-        Some(map),
-        pid,
-        line,
-        &settings.reference,
-        duration_s,
-        on_sample,
-    )?;
-    let max_abs_difference_deg = trace
-        .angle_deg
-        .iter()
-        .zip(&map_trace.angle_deg)
-        .fold(0.0, |m, (a, b)| f64::max(m, (a - b).abs()));
+    let mut map_plant = map.clone();
+    let reference = &settings.reference;
+    let streamed = {
+        let mut fem = ClosedLoop::new(&mut plant, Some(map), pid, line, reference, duration_s);
+        let mut beside =
+            ClosedLoop::new(&mut map_plant, Some(map), pid, line, reference, duration_s);
+        stream_loops(out, map, &mut fem, Some(&mut beside), reference, on_sample)?
+    };
     let report = FemLoopReport {
         mesh_size_mm: mesh_mm,
         map_mesh_size_mm,
         solves: plant.solves,
         newton_iterations: plant.newton_iterations,
         fem_seconds: plant.seconds,
-        seconds_per_sample: plant.seconds / trace.time_s.len().max(1) as f64,
-        max_abs_difference_deg,
-        map_tracking: tracking_metrics(
-            &map_trace.reference_deg,
-            &map_trace.angle_deg,
-            pid.sample_s,
-        ),
-        map_step: step_of(&settings.reference, map_trace),
+        seconds_per_sample: plant.seconds / streamed.main.samples.max(1) as f64,
+        max_abs_difference_deg: streamed.max_difference_deg,
+        map_tracking: streamed.beside.tracking,
+        map_step: streamed.beside.step,
     };
-    Ok((trace, report))
+    Ok((streamed.main, streamed.beside, report))
 }
 
-/// Writes a trace as CSV.
-fn write_trace(path: &Path, trace: &Trace, map: &QuasiStaticMap) -> Result<(), ControlError> {
-    write_csv(
-        path,
-        &[
-            Column::num("time_s", 4, trace.time_s.iter().copied()),
-            Column::num("reference_deg", 4, trace.reference_deg.iter().copied()),
-            Column::num("angle_deg", 4, trace.angle_deg.iter().copied()),
-            Column::num("measured_angle_deg", 4, trace.measured_deg.iter().copied()),
-            Column::num(
-                "pressure_cmd_kpa",
-                4,
-                trace.pressure_cmd_kpa.iter().copied(),
-            ),
-            Column::num("pressure_kpa", 4, trace.pressure_kpa.iter().copied()),
-            Column::num(
-                "radius_mm",
-                3,
-                trace.pressure_kpa.iter().map(|p| map.radius_mm(*p)),
-            ),
-            Column::int("saturated", trace.saturated.iter().map(|s| u64::from(*s))),
-        ],
-    )
-    .map_err(output)
-}
-
-fn write_outputs(out: &Path, run: &ControlRun, map: &QuasiStaticMap) -> Result<(), ControlError> {
-    std::fs::create_dir_all(out).map_err(output)?;
-    write_trace(&out.join("control.csv"), &run.trace, map)?;
-    if let Some(m) = &run.map_trace {
-        write_trace(&out.join("control_map.csv"), m, map)?;
-    }
+/// Writes `metrics.json` and the plots (the CSV files are streamed by the loop).
+fn write_outputs(out: &Path, run: &ControlRun) -> Result<(), ControlError> {
     write_json(&out.join("metrics.json"), &run.report).map_err(output)?;
     let xy = |t: &Trace, v: &[f64]| -> Vec<(f64, f64)> {
         t.time_s.iter().copied().zip(v.iter().copied()).collect()

@@ -2,6 +2,13 @@
 //! `steps.csv`, `markers.csv`, `side_face.json`, `vtu/` + `actuator.pvd`, `force.csv`,
 //! `plots/`, `config.toml`, `summary.json` and `sweep.csv`. The `simulate` command only
 //! parses flags and prints what [`simulate_to`] and [`sweep_to`] return.
+//!
+//! A run into a folder that holds an earlier run's results first removes them
+//! ([`remove_earlier_outputs`]), then writes its `config.toml`, and writes
+//! `summary.json` last: whenever it stops (Ctrl-C, a kill, a step that does not
+//! converge), the folder holds one run only, its config beside its own (partial)
+//! results, never another actuator's. A folder with a `config.toml` and no
+//! `summary.json` is a run that was stopped before its end.
 
 use std::path::Path;
 use std::time::Instant;
@@ -25,6 +32,59 @@ pub const BOTTOM_ELONGATION_LIMIT_PCT: f64 = 10.0;
 
 fn output(e: impl std::fmt::Display) -> FemError {
     FemError::Output { why: e.to_string() }
+}
+
+/// Files of a run's results in its folder (beside its `config.toml`, which the next run
+/// replaces): what [`simulate_to`], [`sweep_to`] and the analytic model write.
+pub const RUN_OUTPUT_FILES: [&str; 7] = [
+    "summary.json",
+    "steps.csv",
+    "markers.csv",
+    "side_face.json",
+    "force.csv",
+    "actuator.pvd",
+    "sweep.csv",
+];
+
+/// Plots of a run's results in its `plots/` (PNG and SVG each).
+pub const RUN_PLOTS: [&str; 8] = [
+    "radius",
+    "curvature",
+    "bending_angle",
+    "safety_factor",
+    "force",
+    "sweep_radius",
+    "sweep_bottom_elongation",
+    "sweep_bending_angle",
+];
+
+/// Removes the results of an earlier run from `out` ([`RUN_OUTPUT_FILES`], `vtu/`, the
+/// plots of [`RUN_PLOTS`]; `summary.json` first, so that a folder without it is never
+/// taken for a finished run), leaving other files alone. Call it before writing a new
+/// run's `config.toml`.
+pub fn remove_earlier_outputs(out: &Path) -> Result<(), FemError> {
+    let gone = |r: std::io::Result<()>, what: &Path| match r {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(output(format!(
+            "cannot remove the earlier run's {}: {e}",
+            what.display()
+        ))),
+        _ => Ok(()),
+    };
+    for f in RUN_OUTPUT_FILES {
+        let p = out.join(f);
+        gone(std::fs::remove_file(&p), &p)?;
+    }
+    let vtu = out.join("vtu");
+    gone(std::fs::remove_dir_all(&vtu), &vtu)?;
+    for stem in RUN_PLOTS {
+        for ext in ["png", "svg"] {
+            let p = out.join("plots").join(format!("{stem}.{ext}"));
+            gone(std::fs::remove_file(&p), &p)?;
+        }
+    }
+    // An empty plots/ left behind is no result.
+    let _ = std::fs::remove_dir(out.join("plots"));
+    Ok(())
 }
 
 /// Runs a ramp, writing a VTU per step into `vtu_dir/vtu/`; `progress` sees each step.
@@ -247,9 +307,10 @@ pub struct Simulation {
     pub force_steps: Vec<StepResult>,
 }
 
-/// Simulates `cfg` into `out` (every output file); `progress(stage, step)` sees each
-/// converged step. A ramp that stops early is not an error: its converged steps are
-/// written and `summary.failure` says why.
+/// Simulates `cfg` into `out` (every output file, after removing an earlier run's:
+/// [`remove_earlier_outputs`]); `progress(stage, step)` sees each converged step. A ramp
+/// that stops early is not an error: its converged steps are written and
+/// `summary.failure` says why. `summary.json` is written last.
 pub fn simulate_to(
     out: &Path,
     cfg: &ActuatorConfig,
@@ -258,6 +319,7 @@ pub fn simulate_to(
 ) -> Result<Simulation, FemError> {
     std::fs::create_dir_all(out).map_err(output)?;
     let text = toml::to_string_pretty(cfg).map_err(output)?;
+    remove_earlier_outputs(out)?;
     write_atomic(&out.join("config.toml"), text.as_bytes()).map_err(output)?;
     let pressures = cfg.pressures_kpa()?;
     let notes = mesh_notes(cfg);
@@ -343,7 +405,8 @@ pub struct Sweep {
 }
 
 /// Runs one design per value of parameter `name` (each checked first) and writes
-/// `sweep.csv` and its plots into `out`; `progress(value)` sees each design as it starts.
+/// `sweep.csv` and its plots into `out` (after removing an earlier run's results:
+/// [`remove_earlier_outputs`]); `progress(value)` sees each design as it starts.
 pub fn sweep_to(
     out: &Path,
     base: &ActuatorConfig,
@@ -358,6 +421,12 @@ pub fn sweep_to(
         designs.push(c);
     }
     std::fs::create_dir_all(out).map_err(output)?;
+    remove_earlier_outputs(out)?;
+    // A sweep writes no config of its own: an earlier run's is not its.
+    match std::fs::remove_file(out.join("config.toml")) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(output(e)),
+        _ => {}
+    }
     let pressures = base.pressures_kpa()?;
     let mut rows = Vec::new();
     for (v, cfg) in values.iter().zip(&designs) {

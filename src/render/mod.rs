@@ -37,6 +37,14 @@ pub enum RenderError {
     /// The FEM output cannot be rendered.
     #[error("{0}")]
     Fem(String),
+    /// The output folder already holds a session that rendering would replace.
+    #[error("{dir} already holds a session ({files}): render into a new folder, or give --force to replace its videos, scale photo, pressures.csv and calib/")]
+    SessionExists {
+        /// The output folder.
+        dir: std::path::PathBuf,
+        /// The session files found there, listed for the message.
+        files: String,
+    },
     /// No pose put the board fully inside the frame.
     #[error("could not place the board inside the {width}x{height} frame after {tries} tries: use a smaller board or a wider lens")]
     NoPose {

@@ -530,6 +530,76 @@ pub fn write_fem_rgbd(
     Ok(truths)
 }
 
+/// Names of what makes a folder a session (`process` reads them): the manifest, a ramp's
+/// pressure log, the acquisition log, `scale.*`, `calib/`, `truth.json` and videos.
+/// Sorted; empty when `dir` holds none (or does not exist).
+pub fn session_files_in(dir: &Path) -> Vec<String> {
+    const TABLES: [&str; 4] = [
+        crate::session::MANIFEST,
+        crate::session::PRESSURE_LOG,
+        crate::acquire::ACQUISITION_LOG,
+        "truth.json",
+    ];
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Vec::new();
+    };
+    let mut found: Vec<String> = entries
+        .flatten()
+        .filter_map(|e| {
+            let name = e.file_name().to_string_lossy().into_owned();
+            let path = e.path();
+            let ext = path
+                .extension()
+                .map(|x| x.to_string_lossy().to_ascii_lowercase())
+                .unwrap_or_default();
+            let stem = path
+                .file_stem()
+                .map(|x| x.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            let is_session_file = if path.is_dir() {
+                name == "calib"
+            } else {
+                TABLES.contains(&name.as_str())
+                    || crate::session::VIDEO_EXTENSIONS.contains(&ext.as_str())
+                    || (stem == "scale" && crate::session::IMAGE_EXTENSIONS.contains(&ext.as_str()))
+            };
+            is_session_file.then(|| {
+                if path.is_dir() {
+                    format!("{name}/")
+                } else {
+                    name
+                }
+            })
+        })
+        .collect();
+    found.sort();
+    found
+}
+
+/// Refuses to render into `dir` when it already holds a session ([`session_files_in`]):
+/// the rendered videos, `scale.jpg`, `pressures.csv` and `calib/` would replace or mix
+/// with a recorded session's. `force` renders over it anyway.
+pub fn check_render_target(dir: &Path, force: bool) -> Result<(), RenderError> {
+    let files = session_files_in(dir);
+    if force || files.is_empty() {
+        return Ok(());
+    }
+    const SHOWN: usize = 6;
+    let mut list = files
+        .iter()
+        .take(SHOWN)
+        .cloned()
+        .collect::<Vec<_>>()
+        .join(", ");
+    if files.len() > SHOWN {
+        list.push_str(&format!(" and {} more", files.len() - SHOWN));
+    }
+    Err(RenderError::SessionExists {
+        dir: dir.to_path_buf(),
+        files: list,
+    })
+}
+
 /// How [`render_fem_session`] films a simulation.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FemRenderSettings {

@@ -1,7 +1,8 @@
 //! Merges the points of a sweep folder into `designs.csv` (one row per point) and
 //! `failures.csv` (the points without a complete result, with the reason).
 //!
-//! Columns of designs.csv: `id`, `status` (ok, stopped, failed, running, pending),
+//! Columns of designs.csv: `id`, `status` (ok, stopped, failed, running, interrupted,
+//! pending),
 //! `seconds`, one column per factor named as in the plan, then for each kept pressure P
 //! (as written in the plan) `radius_mm@P`, `curvature_per_m@P`, `bending_angle_deg@P`,
 //! `max_principal_stress_mpa@P`, `safety_factor@P`, `bottom_elongation_pct@P`,
@@ -88,7 +89,9 @@ pub fn collect(dir: &Path) -> Result<Collected, SweepError> {
             PointState::Ok => counts.ok += 1,
             PointState::Stopped => counts.stopped += 1,
             PointState::Failed => counts.failed += 1,
-            PointState::Running | PointState::Pending => counts.unfinished += 1,
+            PointState::Running | PointState::Interrupted | PointState::Pending => {
+                counts.unfinished += 1
+            }
         }
         if state != PointState::Ok {
             let reason = st

@@ -10,8 +10,9 @@ use std::collections::VecDeque;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{mpsc, Mutex};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use serde::{Deserialize, Serialize};
 
@@ -39,6 +40,10 @@ pub const POINT_BASE_MB: f64 = 70.0;
 pub const POINT_MB_PER_NODE: f64 = 0.05;
 /// Share of the available memory the local pool may plan for.
 const MEMORY_SHARE: f64 = 0.8;
+/// How often the pool looks at its children and the stop flag.
+const POLL: Duration = Duration::from_millis(50);
+/// Wait for a point's process to end after the forwarded signal, before SIGKILL.
+const INTERRUPT_WAIT: Duration = Duration::from_secs(5);
 
 /// One point of the manifest.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -80,6 +85,9 @@ pub enum PointState {
     Failed,
     /// Started and not finished (running, or killed without a word).
     Running,
+    /// Stopped by a signal to the sweep (SIGINT, SIGTERM) or to the point: run again on
+    /// resume.
+    Interrupted,
     /// Not started.
     Pending,
 }
@@ -92,6 +100,7 @@ impl PointState {
             PointState::Stopped => "stopped",
             PointState::Failed => "failed",
             PointState::Running => "running",
+            PointState::Interrupted => "interrupted",
             PointState::Pending => "pending",
         }
     }
@@ -352,13 +361,18 @@ pub fn pool_size(asked: Option<usize>, points: usize, point_mb: f64) -> usize {
 
 /// Runs `ids` of the prepared sweep `dir`, `jobs` at a time, each as
 /// `exe sweep run-point DIR ID` (its stdout and stderr appended to its log, its solver
-/// threads the cores shared out); `on_done` sees each point as it ends. A process that
-/// ends without writing its result (killed, crashed) is recorded as failed.
+/// threads the cores shared out; killed if this process dies: [`crate::child`]);
+/// `on_done` sees each point as it ends. A process that ends without writing its
+/// result is recorded as failed (crashed, out of memory), or interrupted when a signal
+/// (SIGINT, SIGTERM, SIGHUP) ended it. Once `stop` is set (a signal to the sweep), no
+/// point starts, SIGTERM is forwarded to the running ones, which are waited for and
+/// recorded as interrupted.
 pub fn run_pool(
     dir: &Path,
     ids: &[String],
     jobs: usize,
     exe: &Path,
+    stop: &AtomicBool,
     on_done: &mut dyn FnMut(&str, &PointStatus),
 ) -> Result<(), SweepError> {
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
@@ -370,10 +384,13 @@ pub fn run_pool(
             let tx = tx.clone();
             let queue = &queue;
             scope.spawn(move || loop {
+                if stop.load(Ordering::SeqCst) {
+                    break;
+                }
                 let Some(id) = queue.lock().ok().and_then(|mut q| q.pop_front()) else {
                     break;
                 };
-                let r = run_child(dir, &id, exe, threads).map(|s| (id, s));
+                let r = run_child(dir, &id, exe, threads, stop).map(|s| (id, s));
                 if tx.send(r).is_err() {
                     break;
                 }
@@ -393,7 +410,13 @@ pub fn run_pool(
     })
 }
 
-fn run_child(dir: &Path, id: &str, exe: &Path, threads: usize) -> Result<PointStatus, SweepError> {
+fn run_child(
+    dir: &Path,
+    id: &str,
+    exe: &Path,
+    threads: usize,
+    stop: &AtomicBool,
+) -> Result<PointStatus, SweepError> {
     let point = point_dir(dir, id);
     let log_path = point.join(LOG);
     let log = std::fs::OpenOptions::new()
@@ -402,7 +425,9 @@ fn run_child(dir: &Path, id: &str, exe: &Path, threads: usize) -> Result<PointSt
         .open(&log_path)
         .map_err(io_err(&log_path))?;
     let log2 = log.try_clone().map_err(io_err(&log_path))?;
-    let exit = Command::new(exe)
+    let started = Instant::now();
+    let mut command = Command::new(exe);
+    command
         .arg("sweep")
         .arg("run-point")
         .arg(dir)
@@ -410,11 +435,51 @@ fn run_child(dir: &Path, id: &str, exe: &Path, threads: usize) -> Result<PointSt
         .env("RAYON_NUM_THREADS", threads.to_string())
         .stdin(Stdio::null())
         .stdout(log)
-        .stderr(log2)
-        .status()
+        .stderr(log2);
+    // This thread waits for the child, so the child dies with the sweep.
+    let mut child = crate::child::die_with_parent(&mut command, libc::SIGKILL)
+        .spawn()
         .map_err(|e| SweepError::io(exe, format!("cannot start a point's process: {e}")))?;
+    let mut forwarded: Option<Instant> = None;
+    let exit = loop {
+        match child.try_wait() {
+            Ok(Some(exit)) => break exit,
+            Ok(None) => {}
+            Err(e) => return Err(SweepError::io(exe, format!("cannot wait for a point: {e}"))),
+        }
+        if stop.load(Ordering::SeqCst) {
+            match forwarded {
+                None => {
+                    let _ = crate::child::send_signal(child.id(), libc::SIGTERM);
+                    forwarded = Some(Instant::now());
+                }
+                Some(t) if t.elapsed() > INTERRUPT_WAIT => {
+                    let _ = child.kill();
+                }
+                Some(_) => {}
+            }
+        }
+        std::thread::sleep(POLL);
+    };
+    let by_signal = {
+        use std::os::unix::process::ExitStatusExt;
+        exit.signal()
+            .filter(|s| [libc::SIGINT, libc::SIGTERM, libc::SIGHUP].contains(s))
+    };
     match read_status(&point) {
         Some(s) if s.status != PointState::Running => Ok(s),
+        _ if forwarded.is_some() || by_signal.is_some() => {
+            let s = PointStatus {
+                status: PointState::Interrupted,
+                seconds: started.elapsed().as_secs_f64(),
+                reason: Some(format!(
+                    "interrupted ({exit}) after {:.1} s: run the sweep again to run it",
+                    started.elapsed().as_secs_f64()
+                )),
+            };
+            write_status(&point, &s)?;
+            Ok(s)
+        }
         other => {
             let s = PointStatus {
                 status: PointState::Failed,

@@ -121,3 +121,53 @@ pub fn copy_dir(from: &Path, to: &Path) {
         }
     }
 }
+
+/// The fields of `/proc/PID/stat` after the command name (state first), or `None`
+/// when there is no such process.
+fn proc_stat(pid: u32) -> Option<(String, Vec<String>)> {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
+    let (open, close) = (stat.find('(')?, stat.rfind(')')?);
+    let comm = stat[open + 1..close].to_string();
+    let fields = stat[close + 1..]
+        .split_whitespace()
+        .map(String::from)
+        .collect();
+    Some((comm, fields))
+}
+
+/// The processes whose parent is `parent`, with their command names (from /proc).
+pub fn children_of(parent: u32) -> Vec<(u32, String)> {
+    let mut out = Vec::new();
+    let Ok(entries) = std::fs::read_dir("/proc") else {
+        return out;
+    };
+    for e in entries.flatten() {
+        let Ok(pid) = e.file_name().to_string_lossy().parse::<u32>() else {
+            continue;
+        };
+        if let Some((comm, fields)) = proc_stat(pid) {
+            if fields.get(1).is_some_and(|p| *p == parent.to_string()) {
+                out.push((pid, comm));
+            }
+        }
+    }
+    out
+}
+
+/// True while process `pid` runs (a zombie, exited but not reaped, does not).
+pub fn running(pid: u32) -> bool {
+    proc_stat(pid).is_some_and(|(_, f)| f.first().is_some_and(|s| s != "Z" && s != "X"))
+}
+
+/// Kills process `pid` when dropped (a test's stray child must not outlive it).
+pub struct KillOnDrop(pub u32);
+
+impl Drop for KillOnDrop {
+    fn drop(&mut self) {
+        if running(self.0) {
+            let _ = Command::new("kill")
+                .args(["-KILL", &self.0.to_string()])
+                .status();
+        }
+    }
+}
