@@ -8,8 +8,8 @@
 //! (circle, plane, bending angle, power law) -> [`pipeline`] (a session measured:
 //! sources, `measure_frame`, statistics, records, cache, outputs) -> [`report`] (plots,
 //! overlays, the HTML page). [`session`] (manifest, pressure log, settings), [`table`]
-//! (the one CSV layer), [`rgbd`] (colour + depth), [`io`] (atomic writes, content
-//! keys) and [`child`] (child processes that die with bendscope) serve them. Beside them: [`fem`] (the actuator model and its solver),
+//! (the one CSV layer), [`rgbd`] (colour + depth) and [`io`] (atomic writes, content
+//! keys) serve them. Beside them: [`fem`] (the actuator model and its solver),
 //! [`render`] (synthetic camera images with known ground truth), [`compare`],
 //! [`material_fit`] (hyperelastic models from tensile tests), [`fit_model`] (model
 //! parameters fitted to a measurement) and [`control`] (a PID closing the loop on the
@@ -18,6 +18,8 @@
 //! [`optimize`] (Bayesian optimization or a Pareto front on them, checked with the FEM).
 //! Before them all, [`acquire`] records a session on the bench (pressure regulator on a
 //! serial line, GoPro or webcam) into the folder layout [`session`] reads.
+//! [`child`] keeps their child processes (a webcam's ffmpeg, a sweep's points) from
+//! outliving bendscope.
 //!
 //! Measuring a session is one call, [`pipeline::measure_session`]; the `bendscope`
 //! binary only parses flags, calls it and prints.

@@ -114,14 +114,13 @@ pub fn stop_earlier_recorder(session: &Path) -> Result<Option<u32>, AcquireError
     let record = RecorderRecord::parse(&text);
     let mut stopped = None;
     if let Some(r) = record.as_ref().filter(|r| r.is_running()) {
-        let refuse = |why: String| {
-            AcquireError::Session {
+        let who = format!(
+            "an earlier run's recorder (pid {}) still writes {}",
+            r.pid, r.file
+        );
+        let refuse = |why: String| AcquireError::Session {
             path: session.to_path_buf(),
-            why: format!(
-                "an earlier run's recorder (pid {}) still writes {} and {why}: stop it (kill {}) and run again",
-                r.pid, r.file, r.pid
-            ),
-        }
+            why: format!("{who} and {why}: stop it (kill {}) and run again", r.pid),
         };
         crate::child::send_signal(r.pid, libc::SIGKILL)
             .map_err(|e| refuse(format!("cannot be stopped ({e})")))?;

@@ -9,7 +9,10 @@
 //! Anything that stops a run early (Ctrl-C through the caller's stop flag, a lost camera,
 //! a regulator error) vents the regulator to 0 kPa first, stops the camera, keeps every
 //! recording fetched so far, and leaves the acquisition log from which a rerun resumes
-//! at the next set point (fetching first a recording whose download failed).
+//! at the next set point (fetching first a recording whose download failed). A rerun
+//! also records again every set point whose recording the log calls done but that is
+//! missing or not a playable video (a recorder left running by a killed run wrote over
+//! it), and stops such a recorder first ([`camera::stop_earlier_recorder`]).
 //!
 //! Modules: [`protocol`] (the TOML), [`regulator`] (the serial line protocol), [`camera`]
 //! (GoPro over HTTP, webcam through ffmpeg), [`session`] (the files written).
@@ -435,14 +438,18 @@ impl Run<'_> {
                 continue;
             };
             let step = row.step;
-            if path.exists() {
-                let _ = std::fs::rename(&path, self.session.join(session::unplayable_name(&file)));
-            }
+            let aside = session::unplayable_name(&file);
+            let kept = if !path.exists() {
+                "missing".to_string()
+            } else if std::fs::rename(&path, self.session.join(&aside)).is_ok() {
+                format!("moved aside as {aside}")
+            } else {
+                "left in place".to_string()
+            };
             (self.note)(
                 NoteKind::Warning,
                 &format!(
-                    "step {step}: {file} is not a playable recording ({why}): moved aside as {}; the set point is recorded again",
-                    session::unplayable_name(&file)
+                    "step {step}: {file} is not a playable recording ({why}): {kept}; the set point is recorded again"
                 ),
             );
             self.rows.remove(i);

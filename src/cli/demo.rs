@@ -1,6 +1,6 @@
-//! `bendscope demo`: the whole tool on a simulated actuator, offline, in a few minutes:
-//! simulate -> render through a GoPro-like fisheye -> calibrate from the rendered board
-//! photos and measure (process) -> compare with the simulation.
+//! `bendscope demo`: the whole tool on a simulated actuator, offline, in about ten
+//! seconds (release build): simulate -> render through a GoPro-like fisheye -> calibrate
+//! from the rendered board photos and measure (process) -> compare with the simulation.
 
 use std::path::PathBuf;
 use std::time::Instant;
