@@ -1944,3 +1944,27 @@ fn a_video_damaged_in_its_middle_then_restored_with_the_same_size_and_time_is_me
     assert_radius(&t, "GX010101.MP4", truth().videos[0].radius_mm);
     assert_others_kept(&t, &[]);
 }
+
+#[test]
+fn an_absurd_manifest_pressure_is_warned_with_its_value_and_row() {
+    let c = Case::example();
+    c.manifest(&ROWS.replace("GX010102.MP4,35", "GX010102.MP4,1e12"));
+    let run = c.run();
+    assert_eq!(run.code, 0, "a warning, not a refusal: {run}");
+    assert_reported_once(
+        &run,
+        "1e12",
+        &[
+            "warning",
+            "pressures.csv",
+            "line 3",
+            "GX010102.MP4",
+            "10000 kPa",
+        ],
+    );
+    assert_eq!(run.stderr.lines().count(), 1, "{run}");
+    let t = c.per_video();
+    assert_eq!(t.status("GX010102.MP4"), "ok");
+    let row = t.rows_of("GX010102.MP4").next().unwrap();
+    assert_eq!(t.num(row, "pressure_kpa"), 1e12);
+}
