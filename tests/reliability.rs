@@ -2213,4 +2213,120 @@ fn a_material_a_thousand_times_stiffer_than_any_preset_is_warned_with_its_value(
         &["simulate", "--material", "dragonskin10", "--print-config"],
     );
     assert!(run.stderr.is_empty(), "{run}");
+
+// Issue 19: process under faults found by the fault campaign (stale cache, scale
+// provenance, scale files, disk full, concurrent runs, absurd pressures).
+
+/// Bytes at each end of a file the cache key once sampled (the rest was not hashed).
+const MIB: usize = 1 << 20;
+
+/// Box `kind`'s byte range in an MP4 file (top level).
+fn mp4_box(bytes: &[u8], kind: &str) -> std::ops::Range<usize> {
+    let mut i = 0usize;
+    while i + 8 <= bytes.len() {
+        let size = u32::from_be_bytes(bytes[i..i + 4].try_into().unwrap()) as usize;
+        if &bytes[i + 4..i + 8] == kind.as_bytes() {
+            return i..i + size;
+        }
+        assert!(size >= 8, "malformed box at {i}");
+        i += size;
+    }
+    panic!("no {kind} box");
+}
+
+/// GX010101.MP4 re-encoded losslessly (its media data then spans more than a MiB) and
+/// followed by a 1.2 MB `free` box: a video of more than 2 MiB whose frames lie beyond
+/// its first MiB and before its last. Made once.
+fn big_video() -> &'static Path {
+    static V: OnceLock<PathBuf> = OnceLock::new();
+    V.get_or_init(|| {
+        let p = shared().join("GX010101-lossless.MP4");
+        let mut r = bendscope::video::VideoReader::open(&example().join("GX010101.MP4")).unwrap();
+        let mut w = None;
+        while let Some(f) = r.next_frame(1).unwrap() {
+            let (fw, fh) = f.image.dimensions();
+            let settings = EncodeSettings {
+                crf: 0,
+                ..EncodeSettings::default()
+            };
+            w.get_or_insert_with(|| VideoWriter::create(&p, fw, fh, &settings).unwrap())
+                .write(&f.image)
+                .unwrap();
+        }
+        w.unwrap().finish().unwrap();
+        let mut bytes = fs::read(&p).unwrap();
+        let pad = 1_200_000usize;
+        bytes.extend_from_slice(&(pad as u32).to_be_bytes());
+        bytes.extend_from_slice(b"free");
+        bytes.resize(bytes.len() + pad - 8, 0);
+        fs::write(&p, &bytes).unwrap();
+        p
+    })
+}
+
+/// Sets `p`'s modification time to `t` (as `cp -p` keeps it).
+fn set_mtime(p: &Path, t: SystemTime) {
+    fs::File::options()
+        .write(true)
+        .open(p)
+        .unwrap()
+        .set_modified(t)
+        .unwrap();
+}
+
+#[test]
+fn a_video_damaged_in_its_middle_then_restored_with_the_same_size_and_time_is_measured_again() {
+    let c = Case::example();
+    let target = c.path("GX010101.MP4");
+    let good = fs::read(big_video()).unwrap();
+    let mdat = mp4_box(&good, "mdat");
+    // 32 KiB of the frames, beyond the first MiB and before the last one.
+    let damage = MIB + 32 * 1024..MIB + 64 * 1024;
+    assert!(
+        mdat.start < damage.start && damage.end < mdat.end,
+        "{mdat:?}"
+    );
+    assert!(damage.end < good.len() - MIB);
+    let mut bad = good.clone();
+    bad[damage.clone()].copy_from_slice(&noise(damage.len(), 19));
+    let stamp = SystemTime::UNIX_EPOCH + Duration::from_secs(1_700_000_000);
+    fs::write(&target, &bad).unwrap();
+    set_mtime(&target, stamp);
+    let run = c.run();
+    assert_eq!(run.code, 0, "measured with a warning: {run}");
+    let status = c.per_video().status("GX010101.MP4");
+    assert!(status.starts_with("partial"), "damaged: {status}");
+    // Restored from the camera's copy: same size, same time.
+    fs::write(&target, &good).unwrap();
+    set_mtime(&target, stamp);
+    let run = c.run();
+    assert_eq!(run.code, 0, "{run}");
+    let t = c.per_video();
+    assert_eq!(t.status("GX010101.MP4"), "ok", "restored: {run}");
+    assert_radius(&t, "GX010101.MP4", truth().videos[0].radius_mm);
+    assert_others_kept(&t, &[]);
+}
+
+#[test]
+fn an_absurd_manifest_pressure_is_warned_with_its_value_and_row() {
+    let c = Case::example();
+    c.manifest(&ROWS.replace("GX010102.MP4,35", "GX010102.MP4,1e12"));
+    let run = c.run();
+    assert_eq!(run.code, 0, "a warning, not a refusal: {run}");
+    assert_reported_once(
+        &run,
+        "1e12",
+        &[
+            "warning",
+            "pressures.csv",
+            "line 3",
+            "GX010102.MP4",
+            "10000 kPa",
+        ],
+    );
+    assert_eq!(run.stderr.lines().count(), 1, "{run}");
+    let t = c.per_video();
+    assert_eq!(t.status("GX010102.MP4"), "ok");
+    let row = t.rows_of("GX010102.MP4").next().unwrap();
+    assert_eq!(t.num(row, "pressure_kpa"), 1e12);
 }

@@ -37,8 +37,9 @@ use crate::io::{content_key, hash_parts, write_atomic};
 use crate::rgbd::{is_rgbd_session, list_frames, RgbdError};
 use crate::scale::{scale_from_board_photo, ScaleError};
 use crate::session::{
-    find_scale_image, read_manifest, read_pressure_log, session_videos, Manifest, ManifestEntry,
-    PressureLog, SessionConfig, SessionError, CONFIG, IMAGE_EXTENSIONS, MANIFEST, PRESSURE_LOG,
+    find_scale_image, implausible_pressures, read_manifest, read_pressure_log, session_videos,
+    Manifest, ManifestEntry, PressureLog, SessionConfig, SessionError, CONFIG, IMAGE_EXTENSIONS,
+    MANIFEST, PRESSURE_LOG,
 };
 
 use cache::{Cache, CacheEntry, ItemKey};
@@ -261,6 +262,15 @@ impl Notes<'_> {
     }
 }
 
+/// A session issue as a stderr line: `warning: FILE (line N): message`.
+fn issue_line(issue: &crate::session::SessionIssue) -> String {
+    let line = issue
+        .line
+        .map(|l| format!(" (line {l})"))
+        .unwrap_or_default();
+    format!("warning: {}{line}: {}", issue.file, issue.message)
+}
+
 /// Measures the session folder `session` into `out`.
 pub fn measure_session(
     session: &Path,
@@ -295,6 +305,9 @@ pub fn measure_session(
         }
         Layout::Step(m) => {
             let run = VideoRun::prepare(session, out, &config, settings, None, &mut notes)?;
+            for w in implausible_pressures(m) {
+                notes.push(issue_line(&w));
+            }
             items.extend(run.measure(&m.entries, &cache, settings.force, &mut notes)?);
             (m.unit, m.issues.clone(), None)
         }
@@ -345,11 +358,7 @@ pub fn measure_session(
         frames.extend(item.frames);
     }
     for issue in &skipped {
-        let line = issue
-            .line
-            .map(|l| format!(" (line {l})"))
-            .unwrap_or_default();
-        notes.push(format!("warning: {}{line}: {}", issue.file, issue.message));
+        notes.push(issue_line(issue));
         videos.push(VideoRecord::skipped(&issue.file, issue.message.clone()));
         failed += 1;
     }

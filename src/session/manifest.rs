@@ -47,6 +47,41 @@ pub struct Manifest {
     pub issues: Vec<SessionIssue>,
 }
 
+/// Highest pressure a manifest row may give without a warning, kPa (10 MPa: soft
+/// pneumatic actuators work below a few hundred kPa; more is a typo or a wrong unit).
+pub const MAX_PLAUSIBLE_PRESSURE_KPA: f64 = 10_000.0;
+
+/// The usable rows of `m` whose pressure is above [`MAX_PLAUSIBLE_PRESSURE_KPA`]: a
+/// warning each (the row is measured as given), naming the value and its unit.
+pub fn implausible_pressures(m: &Manifest) -> Vec<SessionIssue> {
+    let show = |v: f64| {
+        if v.abs() >= 1e6 {
+            format!("{v:e}")
+        } else {
+            format!("{v}")
+        }
+    };
+    m.entries
+        .iter()
+        .filter(|e| e.pressure_kpa > MAX_PLAUSIBLE_PRESSURE_KPA)
+        .map(|e| {
+            let (unit, kpa) = match m.unit {
+                PressureUnit::Kpa => ("kPa", String::new()),
+                u => (u.name(), format!(" ({} kPa)", show(e.pressure_kpa))),
+            };
+            SessionIssue {
+                file: e.file.clone(),
+                line: Some(e.line),
+                message: format!(
+                    "pressure {} {}{kpa} is above {MAX_PLAUSIBLE_PRESSURE_KPA} kPa (10 MPa), not plausible for a soft actuator: check the value and the unit in the header of {MANIFEST} (measured as given)",
+                    show(e.pressure),
+                    unit
+                ),
+            }
+        })
+        .collect()
+}
+
 /// GoPro naming: `GX` or `GH` (or `GL`), two chapter digits, four recording digits.
 /// Returns (prefix letters, chapter, recording).
 pub fn gopro_parts(name: &str) -> Option<(String, u32, String)> {
@@ -293,6 +328,29 @@ mod tests {
             std::fs::write(d.path().join(f), b"x").unwrap();
         }
         d
+    }
+
+    #[test]
+    fn pressures_above_10_mpa_are_warned_with_value_unit_and_line() {
+        let d = session(
+            "file,pressure_bar\nA.MP4,0.8\nB.MP4,100\nC.MP4,100.5\n",
+            &["A.MP4", "B.MP4", "C.MP4"],
+        );
+        let w = implausible_pressures(&read_manifest(d.path()).unwrap());
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert_eq!((w[0].file.as_str(), w[0].line), ("C.MP4", Some(4)));
+        assert!(
+            w[0].message
+                .starts_with("pressure 100.5 bar (10050 kPa) is above 10000 kPa"),
+            "{}",
+            w[0].message
+        );
+        let d = session("file,pressure_kpa\nA.MP4,1e12\n", &["A.MP4"]);
+        let w = implausible_pressures(&read_manifest(d.path()).unwrap());
+        assert!(
+            w[0].message.starts_with("pressure 1e12 kPa is above"),
+            "{w:?}"
+        );
     }
 
     #[test]

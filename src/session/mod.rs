@@ -22,7 +22,10 @@ mod manifest;
 mod pressure_log;
 
 pub use config::{BoardConfig, SessionConfig};
-pub use manifest::{gopro_parts, read_manifest, Manifest, ManifestEntry, SessionIssue};
+pub use manifest::{
+    gopro_parts, implausible_pressures, read_manifest, Manifest, ManifestEntry, SessionIssue,
+    MAX_PLAUSIBLE_PRESSURE_KPA,
+};
 pub use pressure_log::{read_pressure_log, PressureLog};
 
 use std::path::{Path, PathBuf};
