@@ -2213,6 +2213,7 @@ fn a_material_a_thousand_times_stiffer_than_any_preset_is_warned_with_its_value(
         &["simulate", "--material", "dragonskin10", "--print-config"],
     );
     assert!(run.stderr.is_empty(), "{run}");
+}
 
 // Issue 19: process under faults found by the fault campaign (stale cache, scale
 // provenance, scale files, disk full, concurrent runs, absurd pressures).
@@ -2324,7 +2325,14 @@ fn an_absurd_manifest_pressure_is_warned_with_its_value_and_row() {
             "10000 kPa",
         ],
     );
-    assert_eq!(run.stderr.lines().count(), 1, "{run}");
+    // Besides it only the fits' note: against 1e12 kPa the other pressures are one
+    // value, so the power law has too few distinct pressures and says so.
+    for line in run.stderr.lines().filter(|l| !l.contains("1e12 kPa")) {
+        assert!(
+            line.contains("fit.json: no fit") && line.contains("distinct x values"),
+            "{run}"
+        );
+    }
     let t = c.per_video();
     assert_eq!(t.status("GX010102.MP4"), "ok");
     let row = t.rows_of("GX010102.MP4").next().unwrap();
