@@ -36,13 +36,15 @@ pub const EXIT_PARTIAL: u8 = 1;
 pub const EXIT_BAD_INPUT: u8 = 2;
 /// Exit code: nothing could be measured.
 pub const EXIT_NOTHING: u8 = 3;
+/// Exit code: the output folder's disk is full (free space and rerun).
+pub const EXIT_NO_SPACE: u8 = 4;
 
 /// Measure soft pneumatic bending actuators from video and compare them with a
 /// finite-element model.
 #[derive(Debug, Parser)]
 #[command(name = "bendscope", version, about, long_about = None)]
 #[command(
-    after_help = "Exit codes: 0 all done, 1 some items failed (others kept), 2 bad input or usage, 3 nothing could be measured."
+    after_help = "Exit codes: 0 all done, 1 some items failed (others kept), 2 bad input or usage, 3 nothing could be measured, 4 no space left on the output folder's disk (process)."
 )]
 pub struct Cli {
     /// What to do.
