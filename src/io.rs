@@ -10,7 +10,8 @@
 //! machine are readable by colleagues and a web server.
 //!
 //! [`bounded_file_name`] keeps file names derived from user data (video names) within
-//! what file systems accept; [`content_key`] is the stable fingerprint the caches use.
+//! what file systems accept; [`content_key`] is the stable fingerprint the caches use;
+//! [`is_storage_full`] tells a full disk from other write errors.
 
 use std::fs;
 use std::io::{Read, Write};
@@ -25,8 +26,8 @@ pub const TEMP_SUFFIX: &str = ".tmp";
 
 /// Removes the temporary files [`write_atomic`] leaves in `dirs` (not their subfolders)
 /// when a run is killed between writing and renaming; returns how many. Call it before
-/// writing into an output folder; two runs writing into the same folder at once are not
-/// supported (one would remove the other's temporaries).
+/// writing into an output folder, holding its lock ([`crate::pipeline::lock`]): it would
+/// remove the temporaries of another run writing there at the same time.
 pub fn remove_stale_temporaries(dirs: &[PathBuf]) -> usize {
     let mut removed = 0;
     for dir in dirs {
@@ -143,6 +144,28 @@ pub fn content_key(path: &Path) -> std::io::Result<u128> {
         }
     }
     Ok(h.digest128())
+}
+
+/// The OS error number of "no space left on device" (ENOSPC on Linux and macOS).
+const ENOSPC: i32 = 28;
+
+/// True when `e`, or an error it was caused by, says the device is full (an
+/// [`std::io::Error`] of kind `StorageFull` or OS error 28). Errors that kept only their
+/// cause's text (a table's write error) are recognized by it: `(os error 28)`.
+pub fn is_storage_full(e: &(dyn std::error::Error + 'static)) -> bool {
+    let mut next = Some(e);
+    while let Some(err) = next {
+        if let Some(io) = err.downcast_ref::<std::io::Error>() {
+            if io.kind() == std::io::ErrorKind::StorageFull || io.raw_os_error() == Some(ENOSPC) {
+                return true;
+            }
+        }
+        if err.to_string().contains(&format!("(os error {ENOSPC})")) {
+            return true;
+        }
+        next = err.source();
+    }
+    false
 }
 
 /// A stable hash of several parts (xxh3-128), each length-prefixed so that ("ab", "c")
@@ -282,6 +305,23 @@ mod tests {
             .set_modified(t)
             .unwrap();
         assert_eq!(content_key(&p).unwrap(), k1, "restored: the old key again");
+    }
+
+    #[test]
+    fn storage_full_is_seen_through_causes_and_text() {
+        let full = std::io::Error::from_raw_os_error(ENOSPC);
+        assert!(is_storage_full(&full));
+        assert!(is_storage_full(&std::io::Error::from(
+            std::io::ErrorKind::StorageFull
+        )));
+        assert!(!is_storage_full(&std::io::Error::from(
+            std::io::ErrorKind::PermissionDenied
+        )));
+        #[derive(Debug, thiserror::Error)]
+        #[error("writing x: {0}")]
+        struct Wrapped(String);
+        assert!(is_storage_full(&Wrapped(full.to_string())));
+        assert!(!is_storage_full(&Wrapped("denied".into())));
     }
 
     #[test]

@@ -2308,6 +2308,125 @@ fn a_video_damaged_in_its_middle_then_restored_with_the_same_size_and_time_is_me
     assert_others_kept(&t, &[]);
 }
 
+/// A tmpfs of `bytes` mounted on `dir` (created), unmounted when dropped; `None` (with a
+/// note) when this process may not mount (not root, or no permission in a container).
+struct Tmpfs(PathBuf);
+
+impl Tmpfs {
+    fn mount(dir: &Path, bytes: u64) -> Option<Tmpfs> {
+        let uid = Command::new("id").arg("-u").output().ok()?;
+        if String::from_utf8_lossy(&uid.stdout).trim() != "0" {
+            eprintln!("note: not root: the disk-full test is skipped");
+            return None;
+        }
+        fs::create_dir_all(dir).unwrap();
+        let ok = Command::new("mount")
+            .args(["-t", "tmpfs", "-o", &format!("size={bytes}"), "tmpfs"])
+            .arg(dir)
+            .status()
+            .is_ok_and(|s| s.success());
+        if !ok {
+            eprintln!("note: mount -t tmpfs failed: the disk-full test is skipped");
+            return None;
+        }
+        Some(Tmpfs(dir.to_path_buf()))
+    }
+}
+
+impl Drop for Tmpfs {
+    fn drop(&mut self) {
+        let _ = Command::new("umount").arg("-l").arg(&self.0).status();
+    }
+}
+
+/// Bytes `dir`'s files take on a tmpfs (whole 4 KiB pages).
+fn pages_under(dir: &Path) -> u64 {
+    files_under(dir)
+        .iter()
+        .map(|p| fs::metadata(dir.join(p)).unwrap().len().div_ceil(4096) * 4096)
+        .sum()
+}
+
+#[test]
+fn a_full_disk_exits_4_naming_the_folder_and_a_forced_rerun_leaves_no_stale_report() {
+    let c = Case::example();
+    // The outputs' size, from a run elsewhere.
+    let cal = calibration().to_str().unwrap();
+    let probe = Run::new(
+        &c.root,
+        &["process", "s", "-o", "probe", "--calibration", cal],
+    );
+    assert_eq!(probe.code, 0, "{probe}");
+    let probe_dir = c.root.join("probe");
+    let report = fs::metadata(probe_dir.join("report.html")).unwrap().len();
+    for p in files_under(&probe_dir) {
+        let n = fs::metadata(probe_dir.join(&p)).unwrap().len();
+        assert!(
+            p == Path::new("report.html") || n < report / 3,
+            "{}: {n} bytes",
+            p.display()
+        );
+    }
+    // Room for every output once, and for a second copy of any of them but report.html.
+    let Some(_mount) = Tmpfs::mount(&c.out, pages_under(&probe_dir) + report / 2) else {
+        return;
+    };
+    let run = c.run();
+    assert_eq!(run.code, 0, "fits once: {run}");
+    assert!(c.out.join("report.html").is_file());
+    // A forced rerun: the new report.html does not fit beside the old one.
+    let run = c.process(&["--calibration", cal, "--force"]);
+    assert_eq!(run.code, 4, "disk full: {run}");
+    assert!(!run.stderr.contains("panicked"), "{run}");
+    let lines: Vec<&str> = run.stderr.lines().collect();
+    assert_eq!(lines.len(), 1, "one line: {run}");
+    assert!(
+        lines[0].contains(&format!("no space left on {}", c.out.display()))
+            || lines[0].contains("no space left on out"),
+        "{run}"
+    );
+    assert!(lines[0].contains("free space and rerun"), "{run}");
+    assert!(
+        c.out.join("per_video.csv").is_file(),
+        "the new table is kept"
+    );
+    assert!(
+        !c.out.join("report.html").exists(),
+        "the old report.html stays beside the new table"
+    );
+}
+
+#[test]
+fn a_second_run_into_an_output_folder_in_use_is_refused_naming_the_first() {
+    let c = Case::example();
+    fs::create_dir_all(&c.out).unwrap();
+    let lock_path = c.out.join(".bendscope.lock");
+    let pid = std::process::id().to_string();
+    {
+        use std::io::Write as _;
+        let mut lock = fs::File::create(&lock_path).unwrap();
+        lock.try_lock().unwrap();
+        writeln!(lock, "{pid}").unwrap();
+        let cal = calibration().to_str().unwrap();
+        let run = Run::new(
+            &c.root,
+            &["process", "s", "-o", "out", "--calibration", cal],
+        );
+        run.assert_bad_input(&["out", "another bendscope run", &pid, "wait"]);
+        assert_eq!(
+            files_under(&c.out),
+            [PathBuf::from(".bendscope.lock")],
+            "nothing written"
+        );
+    }
+    // The holder gone (its lock released, its file left as by a killed run): the next
+    // run proceeds and removes the file when done.
+    let run = c.run();
+    assert_eq!(run.code, 0, "{run}");
+    assert!(!lock_path.exists());
+    assert_others_kept(&c.per_video(), &[]);
+}
+
 #[test]
 fn an_absurd_manifest_pressure_is_warned_with_its_value_and_row() {
     let c = Case::example();

@@ -40,13 +40,15 @@ pub const EXIT_NOTHING: u8 = 3;
 /// Exit code of a run stopped by SIGINT (Ctrl-C) or SIGTERM that kept what it had
 /// done (`sweep`): 128 + SIGINT, what a shell reports for a command Ctrl-C stopped.
 pub const EXIT_INTERRUPTED: u8 = 130;
+/// Exit code: the output folder's disk is full (free space and rerun).
+pub const EXIT_NO_SPACE: u8 = 4;
 
 /// Measure soft pneumatic bending actuators from video and compare them with a
 /// finite-element model.
 #[derive(Debug, Parser)]
 #[command(name = "bendscope", version, about, long_about = None)]
 #[command(
-    after_help = "Exit codes: 0 all done, 1 some items failed (others kept), 2 bad input or usage, 3 nothing could be measured."
+    after_help = "Exit codes: 0 all done, 1 some items failed (others kept), 2 bad input or usage, 3 nothing could be measured, 4 no space left on the output folder's disk (process)."
 )]
 pub struct Cli {
     /// What to do.

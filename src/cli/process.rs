@@ -7,7 +7,7 @@ use anyhow::Result;
 use bendscope::pipeline::{measure_session, output_dirs, ProcessSettings, Progress};
 use clap::Args;
 
-use super::{EXIT_BAD_INPUT, EXIT_NOTHING, EXIT_OK, EXIT_PARTIAL};
+use super::{EXIT_BAD_INPUT, EXIT_NOTHING, EXIT_NO_SPACE, EXIT_OK, EXIT_PARTIAL};
 
 /// Measure bending vs pressure from session folders.
 #[derive(Debug, Args)]
@@ -18,7 +18,8 @@ calib/ (checkerboard photos) and an optional bendscope.toml.
 Ramp protocol: pressure_log.csv (time_s,pressure_<unit>) and one video instead of pressures.csv.
 RGB-D: color/, depth/ (16-bit PNG aligned to colour), intrinsics.json, pressure_log.csv and optionally frames.csv (frame,time_s).
 Outputs in OUT: per_frame.csv, per_video.csv, fit.json, plots/, overlays/, report.html, cache/.
-Exit codes: 0 all measured, 1 some videos or sessions failed (the others' results are written), 2 bad input, 3 nothing measured."
+One run at a time per OUT (OUT/.bendscope.lock); a killed run (Ctrl-C, kill) is simply run again.
+Exit codes: 0 all measured, 1 some videos or sessions failed (the others' results are written), 2 bad input (or OUT in use), 3 nothing measured, 4 no space left on OUT's disk (free space and rerun)."
 )]
 pub struct ProcessArgs {
     /// Session folders (pressures.csv, videos, scale photo, calib/).
@@ -78,7 +79,7 @@ pub fn run(args: &ProcessArgs) -> Result<u8> {
         config: args.config.clone(),
         force: args.force,
     };
-    let (mut measured, mut failed, mut bad_input) = (0usize, 0usize, 0usize);
+    let (mut measured, mut failed, mut bad_input, mut no_space) = (0usize, 0usize, 0usize, 0usize);
     let dirs = output_dirs(&args.sessions, args.output.as_deref());
     for (session, (out, note)) in args.sessions.iter().zip(dirs) {
         if let Some(n) = note {
@@ -98,11 +99,17 @@ pub fn run(args: &ProcessArgs) -> Result<u8> {
             }
             Err(e) => {
                 eprintln!("error: {}: {e}", session.display());
-                bad_input += 1;
+                if e.is_no_space() {
+                    no_space += 1;
+                } else {
+                    bad_input += 1;
+                }
             }
         }
     }
-    Ok(if measured == 0 {
+    Ok(if no_space > 0 {
+        EXIT_NO_SPACE
+    } else if measured == 0 {
         if bad_input > 0 && failed == 0 {
             EXIT_BAD_INPUT
         } else {

@@ -13,12 +13,17 @@
 //!   output     per_frame.csv, per_video.csv, fit.json, plots/, report.html
 //! ```
 //!
+//! A run holds OUT's lock ([`lock`]) from its first write to its last, so two runs never
+//! write one OUT at once; a full disk is [`PipelineError::NoSpace`], whatever was being
+//! written.
+//!
 //! The binary only parses flags, calls [`measure_session`] once per session with the
 //! output folders [`output_dirs`] chose, prints and turns [`SessionOutcome`]s into an
 //! exit code. Progress and warnings reach the caller through [`Progress`].
 
 pub mod cache;
 pub mod frame;
+pub mod lock;
 pub mod output;
 pub mod overlay;
 pub mod records;
@@ -44,6 +49,7 @@ use crate::session::{
 
 use cache::{Cache, CacheEntry, ItemKey};
 use frame::{measure_frame, Geometry, Tracker};
+use lock::{LockError, OutputLock};
 use records::{FrameRecord, FrameStatus, VideoRecord, VideoStatus};
 use source::{FrameSource, Next, RgbdSource};
 
@@ -75,6 +81,15 @@ pub enum PipelineError {
         /// What is wrong and what to do.
         why: String,
     },
+    /// The output folder is in use by another run, or cannot be locked.
+    #[error(transparent)]
+    Lock(#[from] LockError),
+    /// The output folder's file system is full.
+    #[error("no space left on {}: free space and rerun", dir.display())]
+    NoSpace {
+        /// The output folder.
+        dir: PathBuf,
+    },
     /// An output could not be written.
     #[error("{path}: cannot write ({source}): check the output folder's space and permissions")]
     Write {
@@ -89,6 +104,14 @@ pub enum PipelineError {
     /// A table.
     #[error(transparent)]
     Table(#[from] crate::table::TableError),
+}
+
+impl PipelineError {
+    /// True for [`PipelineError::NoSpace`]: the run stopped because the disk is full (the
+    /// binary gives it its own exit code).
+    pub fn is_no_space(&self) -> bool {
+        matches!(self, PipelineError::NoSpace { .. })
+    }
 }
 
 fn write_err(path: &Path) -> impl Fn(std::io::Error) -> PipelineError + '_ {
@@ -262,6 +285,26 @@ impl Notes<'_> {
     }
 }
 
+/// Measures the session folder `session` into `out`, holding `out`'s lock
+/// ([`lock::OutputLock`]) while it writes. A full disk anywhere on the way is
+/// [`PipelineError::NoSpace`].
+pub fn measure_session(
+    session: &Path,
+    out: &Path,
+    settings: &ProcessSettings,
+    progress: &mut dyn Progress,
+) -> Result<SessionOutcome, PipelineError> {
+    measure_session_into(session, out, settings, progress).map_err(|e| {
+        if !e.is_no_space() && crate::io::is_storage_full(&e) {
+            PipelineError::NoSpace {
+                dir: out.to_path_buf(),
+            }
+        } else {
+            e
+        }
+    })
+}
+
 /// A session issue as a stderr line: `warning: FILE (line N): message`.
 fn issue_line(issue: &crate::session::SessionIssue) -> String {
     let line = issue
@@ -271,8 +314,7 @@ fn issue_line(issue: &crate::session::SessionIssue) -> String {
     format!("warning: {}{line}: {}", issue.file, issue.message)
 }
 
-/// Measures the session folder `session` into `out`.
-pub fn measure_session(
+fn measure_session_into(
     session: &Path,
     out: &Path,
     settings: &ProcessSettings,
@@ -290,12 +332,20 @@ pub fn measure_session(
         });
     }
     std::fs::create_dir_all(out).map_err(write_err(out))?;
-    // Temporaries of a run killed while writing.
+    // Held until the session's outputs are written; then its file is removed.
+    let lock = OutputLock::acquire(out)?;
+    // Temporaries of a run killed while writing (no other run is writing here: the lock).
     crate::io::remove_stale_temporaries(&["", "cache", "overlays", "plots"].map(|d| out.join(d)));
     let mut notes = Notes {
         lines: vec![],
         progress,
     };
+    if !lock.locked {
+        notes.push(format!(
+            "warning: {}: this file system cannot lock files: do not run two bendscope process into this folder at once",
+            out.display()
+        ));
+    }
     let cache = Cache::new(out);
     let mut items: Vec<ItemResult> = Vec::new();
     let (unit, skipped, binned) = match &layout {
@@ -371,10 +421,20 @@ pub fn measure_session(
         Layout::Rgbd(_) => output::RmsUnit::Mm,
         _ => output::RmsUnit::Px,
     };
-    let fits = output::write_session(out, &name, &frames, &videos, unit, rms)?;
+    let fits = output::write_session(
+        out,
+        &output::SessionOutputs {
+            name: &name,
+            frames: &frames,
+            videos: &videos,
+            unit,
+            rms,
+        },
+    )?;
     for n in &fits.notes {
         notes.push(format!("warning: {name}: fit.json: {n}"));
     }
+    drop(lock);
     Ok(SessionOutcome {
         out: out.to_path_buf(),
         videos,
@@ -470,6 +530,12 @@ impl<'a> VideoRun<'a> {
                 Some(c) => ItemResult::from_cache(entry, c),
                 None => {
                     let r = self.measure_video(entry, start);
+                    if r.storage_full {
+                        notes.progress.finish();
+                        return Err(PipelineError::NoSpace {
+                            dir: self.out.to_path_buf(),
+                        });
+                    }
                     cache
                         .put(&entry.file, &r.to_cache(key))
                         .map_err(write_err(&self.out.join("cache")))?;
@@ -662,6 +728,8 @@ struct ItemResult {
     problems: Vec<String>,
     clamp_marker_px: Option<(f64, f64)>,
     outputs: Vec<String>,
+    /// An output could not be written for lack of space: the run stops.
+    storage_full: bool,
 }
 
 impl ItemResult {
@@ -674,6 +742,7 @@ impl ItemResult {
             problems: c.problems,
             clamp_marker_px: c.clamp_marker_px,
             outputs: c.outputs,
+            storage_full: false,
         }
     }
 
@@ -785,6 +854,7 @@ impl VideoRun<'_> {
             problems: vec![],
             clamp_marker_px: None,
             outputs: vec![],
+            storage_full: false,
         };
         let mut overlay_pending = true;
         let (mut time_offset, mut index_offset) = (0.0, 0u64);
@@ -906,6 +976,7 @@ impl VideoRun<'_> {
                     ) {
                         Ok(rel) => result.outputs.push(rel),
                         Err(e) => {
+                            result.storage_full |= crate::io::is_storage_full(&e);
                             result.problems.push(format!(
                                 "overlay not written: {e}: check that overlays/ in the output folder is a writable folder (a rerun makes it)"
                             ));
@@ -972,6 +1043,7 @@ fn measure_rgbd(
         problems: vec![],
         clamp_marker_px: None,
         outputs: vec![],
+        storage_full: false,
     };
     let (mut bad, mut outside_log) = (Vec::new(), 0usize);
     notes.progress.start("RGB-D frames", total as u64);

@@ -1,6 +1,8 @@
 //! A session's outputs from its records: `per_frame.csv`, `per_video.csv`, `fit.json`
 //! (power laws), `plots/` and `report.html`. Every file is written atomically; the
-//! outputs depend only on the records, so a rerun writes identical files.
+//! outputs depend only on the records, so a rerun writes identical files. When one
+//! cannot be written (a full disk), it and the ones after it are removed, so no output
+//! of an earlier run stays beside this run's as if it were current.
 
 use std::path::Path;
 
@@ -13,6 +15,30 @@ use crate::table::{write_csv, Column};
 
 use super::records::{FrameRecord, VideoRecord};
 use super::PipelineError;
+
+/// Stems (in plots/) of the session's plots; each has a .png and an .svg.
+pub const PLOT_STEMS: [&str; 4] = [
+    "radius_vs_pressure",
+    "curvature_vs_pressure",
+    "angle_vs_pressure",
+    "radius_per_frame",
+];
+
+/// The session's outputs in the order they are written (relative to OUT; the plots
+/// stage holds every plot file).
+fn output_stages() -> Vec<Vec<String>> {
+    let plots = PLOT_STEMS
+        .iter()
+        .flat_map(|s| [format!("plots/{s}.png"), format!("plots/{s}.svg")])
+        .collect();
+    vec![
+        vec!["per_frame.csv".into()],
+        vec!["per_video.csv".into()],
+        vec!["fit.json".into()],
+        plots,
+        vec!["report.html".into()],
+    ]
+}
 
 /// Power-law fits y = a x^b + c of a session.
 #[derive(Debug, Clone, Serialize)]
@@ -190,31 +216,60 @@ pub fn write_per_video_csv(
     Ok(())
 }
 
-/// Writes every output of a session named `name` into `out`; returns its fits (their
-/// notes are for the user).
-pub fn write_session(
+/// What [`write_session`] writes from.
+pub struct SessionOutputs<'a> {
+    /// Session name (the report's title).
+    pub name: &'a str,
+    /// Rows of per_frame.csv.
+    pub frames: &'a [FrameRecord],
+    /// Rows of per_video.csv.
+    pub videos: &'a [VideoRecord],
+    /// The manifest's pressure unit.
+    pub unit: PressureUnit,
+    /// Unit of the fit RMS column.
+    pub rms: RmsUnit,
+}
+
+/// Writes every output of a session into `out`; returns its fits (their notes are for
+/// the user). When one output fails, it and every output after it are removed (an
+/// earlier run's file must not stay beside this run's tables) and the error is returned.
+pub fn write_session(out: &Path, s: &SessionOutputs) -> Result<SessionFits, PipelineError> {
+    let mut done = 0usize;
+    let result = write_stages(out, s, &mut done);
+    if result.is_err() {
+        for rel in output_stages().iter().skip(done).flatten() {
+            let _ = std::fs::remove_file(out.join(rel));
+        }
+    }
+    result
+}
+
+/// Writes the outputs in [`output_stages`] order, counting the stages done.
+fn write_stages(
     out: &Path,
-    name: &str,
-    frames: &[FrameRecord],
-    videos: &[VideoRecord],
-    unit: PressureUnit,
-    rms: RmsUnit,
+    s: &SessionOutputs,
+    done: &mut usize,
 ) -> Result<SessionFits, PipelineError> {
-    write_per_frame_csv(&out.join("per_frame.csv"), frames, rms)?;
-    write_per_video_csv(&out.join("per_video.csv"), videos, unit, rms)?;
-    let fits = fit_records(videos, unit);
+    write_per_frame_csv(&out.join("per_frame.csv"), s.frames, s.rms)?;
+    *done += 1;
+    write_per_video_csv(&out.join("per_video.csv"), s.videos, s.unit, s.rms)?;
+    *done += 1;
+    let fits = fit_records(s.videos, s.unit);
     write_json(&out.join("fit.json"), &fits)?;
-    let plots = write_plots(out, videos, &fits, frames)?;
+    *done += 1;
+    let plots = write_plots(out, s.videos, &fits, s.frames)?;
+    *done += 1;
     html::write_session_report(
         &out.join("report.html"),
         &html::SessionReport {
-            name,
+            name: s.name,
             out,
-            videos,
+            videos: s.videos,
             fits: &fits,
             plots: &plots,
         },
     )?;
+    *done += 1;
     Ok(fits)
 }
 
@@ -256,7 +311,7 @@ fn write_plots(
     }
     let plots = [
         (
-            "radius_vs_pressure",
+            PLOT_STEMS[0],
             "Radius of curvature vs pressure",
             "radius (mm)",
             vec![
@@ -273,7 +328,7 @@ fn write_plots(
             ],
         ),
         (
-            "curvature_vs_pressure",
+            PLOT_STEMS[1],
             "Curvature vs pressure",
             "curvature (1/m)",
             vec![
@@ -290,7 +345,7 @@ fn write_plots(
             ],
         ),
         (
-            "angle_vs_pressure",
+            PLOT_STEMS[2],
             "Bending angle vs pressure",
             "bending angle (deg)",
             vec![Series {
@@ -321,13 +376,13 @@ fn write_plots(
         })
         .collect();
     if plot_xy(
-        &out.join("plots").join("radius_per_frame"),
+        &out.join("plots").join(PLOT_STEMS[3]),
         "Radius per frame (stability)",
         "time (s)",
         "radius (mm)",
         &series,
     )? {
-        written.push("plots/radius_per_frame".to_string());
+        written.push(format!("plots/{}", PLOT_STEMS[3]));
     }
     Ok(written)
 }

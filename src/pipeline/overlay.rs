@@ -9,7 +9,7 @@ use opencv::prelude::*;
 use crate::calib::{CalibError, Calibration, UndistortSettings, Undistorter};
 use crate::detect::{exposure_adjusted, mask_from_rgb};
 use crate::io::bounded_file_name;
-use crate::report::write_overlay;
+use crate::report::{write_overlay, ReportError};
 use crate::session::SessionConfig;
 use crate::video::Pixels;
 
@@ -18,6 +18,17 @@ use super::frame::FrameMeasurement;
 /// Width above which the overlay is drawn at a reduced size (a QA picture needs no
 /// more, and full-frame maps of a 4K frame would dominate the memory of a run).
 pub const OVERLAY_MAX_WIDTH: u32 = 1920;
+
+/// Why an overlay was not written.
+#[derive(Debug, thiserror::Error)]
+pub enum OverlayError {
+    /// Undistorting the frame.
+    #[error(transparent)]
+    Calib(#[from] CalibError),
+    /// Drawing or writing the picture (a full disk among others).
+    #[error(transparent)]
+    Report(#[from] ReportError),
+}
 
 /// Where the overlay of video `file` goes, relative to OUT (name bounded).
 pub fn overlay_rel_path(file: &str) -> String {
@@ -66,7 +77,7 @@ pub fn write_video_overlay(
     calib: &Calibration,
     config: &SessionConfig,
     m: &FrameMeasurement,
-) -> Result<String, String> {
+) -> Result<String, OverlayError> {
     let raw = pixels.to_rgb();
     let (w, h) = raw.dimensions();
     let k = w.div_ceil(OVERLAY_MAX_WIDTH).max(1);
@@ -81,10 +92,9 @@ pub fn write_video_overlay(
     let f = |v: f64| (v + 0.5) / k as f64 - 0.5;
     let und = calib
         .for_resolution(sw, sh)
-        .and_then(|c| Undistorter::new(&c, UndistortSettings::default()))
-        .map_err(|e| e.to_string())?;
-    let maps = und.maps().map_err(|e| e.to_string())?;
-    let img = undistort_rgb(&und, &maps, frame).map_err(|e| e.to_string())?;
+        .and_then(|c| Undistorter::new(&c, UndistortSettings::default()))?;
+    let maps = und.maps()?;
+    let img = undistort_rgb(&und, &maps, frame)?;
     let hsv = if config.detect.auto_exposure {
         exposure_adjusted(&img, &config.detect.hsv)
     } else {
@@ -111,7 +121,6 @@ pub fn write_video_overlay(
         &ignored,
         center,
         m.radius_px / k as f64,
-    )
-    .map_err(|e| e.to_string())?;
+    )?;
     Ok(rel)
 }
