@@ -21,6 +21,10 @@
 //! homography the tilted and the perpendicular plane agree (see the README's robustness
 //! table).
 //!
+//! A scale saved with `bendscope scale --save` ([`read_scale_file`]) can be given to
+//! `process` (`scale = "FILE"` in bendscope.toml): its mm/px and homography are used as
+//! they are, so it must have been measured with the calibration `process` uses.
+//!
 //! Or, the published manual method: a field of view of `fov_mm` across the frame width,
 //! radius_mm = radius_px x fov_mm / frame_width_px.
 
@@ -61,6 +65,14 @@ pub enum ScaleError {
         total: usize,
         /// The valid field angle, degrees.
         field_deg: f64,
+    },
+    /// A saved scale file that cannot be used.
+    #[error("{path}: {why}: make it with `bendscope scale IMAGE --calibration FILE --board COLSxROWS --square-mm MM --save FILE`")]
+    File {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        why: String,
     },
     /// A nonsense number.
     #[error("{what} must be a positive finite number, got {value}")]
@@ -103,6 +115,24 @@ pub struct Scale {
     /// row-major (board method); `None` for a field of view.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub plane_from_px: Option<[f64; 9]>,
+    /// The board it was measured from (board method); `None` for a field of view and in
+    /// files saved before the board was recorded.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub board: Option<ScaleBoard>,
+}
+
+/// The board a scale was measured from. mm/px is proportional to `square_mm`, so whether
+/// it was given or defaulted is kept: a defaulted square size is a likely error.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ScaleBoard {
+    /// Inner corners along a row.
+    pub cols: u32,
+    /// Inner corners along a column.
+    pub rows: u32,
+    /// Side of one square, mm.
+    pub square_mm: f64,
+    /// False when `square_mm` is a default nobody gave.
+    pub square_mm_given: bool,
 }
 
 impl Scale {
@@ -134,7 +164,40 @@ pub fn scale_from_fov(fov_mm: f64, width_px: u32, height_px: u32) -> Result<Scal
         image_height: height_px,
         calibration_rescaled_from: None,
         plane_from_px: None,
+        board: None,
     })
+}
+
+/// Reads a scale saved by `bendscope scale --save` (JSON of [`Scale`]); the error says
+/// what is wrong and how to make one.
+pub fn read_scale_file(path: &Path) -> Result<Scale, ScaleError> {
+    let bad = |why: String| ScaleError::File {
+        path: path.to_path_buf(),
+        why,
+    };
+    let text = std::fs::read_to_string(path).map_err(|e| {
+        bad(match e.kind() {
+            std::io::ErrorKind::NotFound => "no such file".into(),
+            _ => e.to_string(),
+        })
+    })?;
+    let s: Scale =
+        serde_json::from_str(&text).map_err(|e| bad(format!("not a scale file: {e}")))?;
+    if !(s.mm_per_px.is_finite() && s.mm_per_px > 0.0) {
+        return Err(bad(format!(
+            "mm_per_px = {}: not a positive number",
+            s.mm_per_px
+        )));
+    }
+    if s.image_width == 0 {
+        return Err(bad("image_width = 0: not a frame width".into()));
+    }
+    if let Some(h) = &s.plane_from_px {
+        if !h.iter().all(|v| v.is_finite()) {
+            return Err(bad("plane_from_px holds a value that is not finite".into()));
+        }
+    }
+    Ok(s)
 }
 
 /// mm per undistorted px from corners of `board` already undistorted (row-major).
@@ -214,6 +277,12 @@ pub fn scale_from_board_photo(
         image_height: h,
         calibration_rescaled_from: rescaled,
         plane_from_px,
+        board: Some(ScaleBoard {
+            cols: board.cols,
+            rows: board.rows,
+            square_mm: board.square_mm,
+            square_mm_given: true,
+        }),
     })
 }
 

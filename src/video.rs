@@ -296,8 +296,8 @@ impl<T: Sample> YuvFrame<T> {
         for (i, (row, rows)) in [(w, h), (cw, ch), (cw, ch)].into_iter().enumerate() {
             let data = frame.data(i);
             let stride = frame.stride(i);
-            let aligned = (data.as_ptr() as usize) % std::mem::align_of::<T>() == 0;
-            if !aligned || stride % bytes != 0 || stride < row * bytes {
+            let aligned = (data.as_ptr() as usize).is_multiple_of(std::mem::align_of::<T>());
+            if !aligned || !stride.is_multiple_of(bytes) || stride < row * bytes {
                 return None;
             }
             if data.len() < (rows.max(1) - 1) * stride + row * bytes {
@@ -973,7 +973,7 @@ impl VideoWriter {
             path: path.to_path_buf(),
             reason,
         };
-        if width % 2 != 0 || height % 2 != 0 || width == 0 || height == 0 {
+        if !width.is_multiple_of(2) || !height.is_multiple_of(2) || width == 0 || height == 0 {
             return Err(fail(format!(
                 "{width}x{height}: H.264 yuv420p needs even, non-zero sizes"
             )));

@@ -131,7 +131,7 @@ fn draw_clutter(canvas: &mut Canvas, cam: &CvCamera, plane: &Pose, a: &Actuator,
     canvas.polygon(&cam.project(plane, &beside), red);
     let led = Actuator::disc([95.0, -70.0], 2.0);
     canvas.polygon(&cam.project(plane, &led), [60.0, 60.0, 255.0]);
-    let spacings = if k % 2 == 0 { 1.0 } else { 2.0 };
+    let spacings = if k.is_multiple_of(2) { 1.0 } else { 2.0 };
     let dot = Actuator::disc(a.at(tip_s + spacings * a.spacing_mm, 0.0), a.marker_mm);
     canvas.polygon(&cam.project(plane, &dot), MARKER_BGR);
 }

@@ -1271,6 +1271,19 @@ fn snapshot(dir: &Path, skip: &[&str]) -> Vec<(PathBuf, Vec<u8>)> {
         .collect()
 }
 
+/// session.json of `a` and `b` agree but for which videos came from the cache.
+fn assert_same_provenance(a: &Path, b: &Path) {
+    let read = |d: &Path| {
+        let mut v: serde_json::Value =
+            serde_json::from_str(&fs::read_to_string(d.join("session.json")).unwrap()).unwrap();
+        for item in v["videos"].as_array_mut().unwrap() {
+            item.as_object_mut().unwrap().remove("from_cache");
+        }
+        v
+    };
+    assert_eq!(read(a), read(b));
+}
+
 fn assert_same_files(a: &[(PathBuf, Vec<u8>)], b: &[(PathBuf, Vec<u8>)]) {
     let names = |s: &[(PathBuf, Vec<u8>)]| s.iter().map(|(p, _)| p.clone()).collect::<Vec<_>>();
     assert_eq!(names(a), names(b), "the same files");
@@ -1285,7 +1298,13 @@ fn a_rerun_with_nothing_changed_is_identical_and_measures_nothing() {
     // A video without markers too: its rejected frames (NaN radii) must be cached.
     blank_video(&c.path("GX010104.MP4"), 800, 600, 4);
     assert_eq!(c.run().code, 1);
-    let first = snapshot(&c.out, &[]);
+    let first = snapshot(&c.out, &["session.json"]);
+    let first_dir = tempfile::tempdir().unwrap();
+    fs::copy(
+        c.out.join("session.json"),
+        first_dir.path().join("session.json"),
+    )
+    .unwrap();
     let stamps: Vec<SystemTime> = files_under(&c.out.join("cache"))
         .iter()
         .map(|p| mtime(&c.out.join("cache").join(p)))
@@ -1293,7 +1312,8 @@ fn a_rerun_with_nothing_changed_is_identical_and_measures_nothing() {
     std::thread::sleep(Duration::from_millis(20));
     let run = c.run();
     assert_eq!(run.code, 1, "{run}");
-    assert_same_files(&first, &snapshot(&c.out, &[]));
+    assert_same_files(&first, &snapshot(&c.out, &["session.json"]));
+    assert_same_provenance(first_dir.path(), &c.out);
     let again: Vec<SystemTime> = files_under(&c.out.join("cache"))
         .iter()
         .map(|p| mtime(&c.out.join("cache").join(p)))
@@ -1477,7 +1497,12 @@ fn a_run_killed_with_sigkill_then_rerun_gives_the_outputs_of_an_uninterrupted_ru
     );
     assert_sane(&whole, &c.root.join("whole"));
     assert_eq!(whole.code, 0, "{whole}");
-    let (a, b) = (snapshot(&killed, &[]), snapshot(&c.root.join("whole"), &[]));
+    // session.json differs in which videos came from the cache, and only there.
+    let (a, b) = (
+        snapshot(&killed, &["session.json"]),
+        snapshot(&c.root.join("whole"), &["session.json"]),
+    );
+    assert_same_provenance(&killed, &c.root.join("whole"));
     for kind in ["per_frame.csv", "per_video.csv", "fit.json", "report.html"] {
         assert!(
             a.iter().any(|(p, _)| p == Path::new(kind)),
@@ -2306,6 +2331,203 @@ fn a_video_damaged_in_its_middle_then_restored_with_the_same_size_and_time_is_me
     assert_eq!(t.status("GX010101.MP4"), "ok", "restored: {run}");
     assert_radius(&t, "GX010101.MP4", truth().videos[0].radius_mm);
     assert_others_kept(&t, &[]);
+}
+
+/// OUT/session.json.
+fn session_json(out: &Path) -> serde_json::Value {
+    let p = out.join("session.json");
+    let text = fs::read_to_string(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+    serde_json::from_str(&text).unwrap()
+}
+
+/// `bendscope scale s/scale.jpg` with the example camera and its 9x6 board of 10 mm
+/// squares, saved to `save` (relative to the case's root); the saved JSON.
+fn saved_scale(c: &Case, save: &str) -> serde_json::Value {
+    let cal = calibration().to_str().unwrap();
+    let run = Run::new(
+        &c.root,
+        &[
+            "scale",
+            "s/scale.jpg",
+            "--calibration",
+            cal,
+            "--board",
+            "9x6",
+            "--square-mm",
+            "10",
+            "--save",
+            save,
+        ],
+    );
+    assert_eq!(run.code, 0, "{run}");
+    serde_json::from_str(&fs::read_to_string(c.root.join(save)).unwrap()).unwrap()
+}
+
+#[test]
+fn session_json_records_the_version_settings_calibration_scale_and_cache_use() {
+    let c = Case::example();
+    let run = c.run();
+    assert_eq!(run.code, 0, "{run}");
+    let want = saved_scale(&c, "scale.json");
+    let s = session_json(&c.out);
+    assert_eq!(s["bendscope_version"], env!("CARGO_PKG_VERSION"));
+    assert_eq!(s["settings"]["scale_board"]["square_mm"], 10.0);
+    assert_eq!(s["settings"]["expected_markers"], 8);
+    let cal = calibration();
+    assert_eq!(s["calibration"]["path"], cal.to_str().unwrap());
+    assert_eq!(s["calibration"]["source"], "given");
+    let hash = format!(
+        "{:032x}",
+        xxhash_rust::xxh3::xxh3_128(&fs::read(cal).unwrap())
+    );
+    assert_eq!(s["calibration"]["content_hash"], hash.as_str());
+    let scale = &s["scale"];
+    assert_eq!(scale["source"], "scale_photo");
+    assert_eq!(scale["file"], "s/scale.jpg");
+    let mm_per_px = scale["mm_per_px"].as_f64().unwrap();
+    assert_eq!(mm_per_px, want["mm_per_px"].as_f64().unwrap());
+    assert!(
+        (mm_per_px / truth().mm_per_px - 1.0).abs() < 0.01,
+        "{mm_per_px}"
+    );
+    assert_eq!(scale["plane_from_px"], want["plane_from_px"]);
+    assert_eq!(
+        scale["board"],
+        serde_json::json!({"cols": 9, "rows": 6, "square_mm": 10.0, "square_mm_given": true})
+    );
+    let from_cache = |s: &serde_json::Value| -> Vec<(String, bool)> {
+        s["videos"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| {
+                (
+                    v["file"].as_str().unwrap().to_string(),
+                    v["from_cache"].as_bool().unwrap(),
+                )
+            })
+            .collect()
+    };
+    let names: Vec<String> = truth().videos.iter().map(|v| v.file.clone()).collect();
+    let first = from_cache(&s);
+    assert_eq!(
+        first,
+        names.iter().map(|n| (n.clone(), false)).collect::<Vec<_>>()
+    );
+    // The scale is shown on stdout and in the report.
+    let shown = format!("{mm_per_px:.6} mm/px");
+    assert!(run.stdout.contains(&shown), "{shown} on stdout: {run}");
+    assert!(
+        run.stdout.contains("9x6") && run.stdout.contains("10 mm"),
+        "{run}"
+    );
+    let html = fs::read_to_string(c.out.join("report.html")).unwrap();
+    assert!(html.contains(&shown), "{shown} in report.html");
+    // A rerun takes every video from the cache and says so.
+    let run = c.run();
+    assert_eq!(run.code, 0, "{run}");
+    let again = from_cache(&session_json(&c.out));
+    assert_eq!(
+        again,
+        names.iter().map(|n| (n.clone(), true)).collect::<Vec<_>>()
+    );
+}
+
+#[test]
+fn a_scale_board_square_size_given_nowhere_is_warned_once() {
+    let c = Case::example();
+    // The example's bendscope.toml gives square_mm = 10: no warning.
+    let run = c.run();
+    assert_eq!(run.code, 0, "{run}");
+    assert!(!run.stderr.contains("square"), "{run}");
+    // Without it, 25 mm is assumed: every radius 2.5 times too large, and said so.
+    c.remove("bendscope.toml");
+    let run = c.run();
+    assert_eq!(run.code, 0, "{run}");
+    assert_reported_once(
+        &run,
+        "square",
+        &["warning", "scale.jpg", "25 mm", "[scale_board] square_mm"],
+    );
+    let s = session_json(&c.out);
+    assert_eq!(s["scale"]["board"]["square_mm"], 25.0);
+    assert_eq!(s["scale"]["board"]["square_mm_given"], false);
+    // A known mm/px needs no board.
+    c.write("bendscope.toml", "mm_per_px = 0.5282\n");
+    let run = c.run();
+    assert_eq!(run.code, 0, "{run}");
+    assert!(!run.stderr.contains("square"), "{run}");
+    assert_eq!(session_json(&c.out)["scale"]["source"], "mm_per_px");
+}
+
+#[test]
+fn a_calibration_yaml_of_an_earlier_run_does_not_stay_when_another_calibration_is_used() {
+    let c = Case::example();
+    let run = c.process(&[]);
+    assert_eq!(run.code, 0, "{run}");
+    let cached = c.out.join("calibration.yaml");
+    assert!(cached.is_file(), "calib/ calibrated");
+    assert_eq!(session_json(&c.out)["calibration"]["source"], "calibrated");
+    let run = c.run();
+    assert_eq!(run.code, 0, "{run}");
+    assert!(
+        !cached.exists(),
+        "calibration.yaml of the earlier run left in OUT"
+    );
+    let s = session_json(&c.out);
+    assert_eq!(s["calibration"]["path"], calibration().to_str().unwrap());
+}
+
+#[test]
+fn a_scale_file_saved_by_the_scale_command_is_used_by_process() {
+    let c = Case::example();
+    let want = saved_scale(&c, "s/board-scale.json");
+    fs::rename(c.path("scale.jpg"), c.root.join("scale-photo.jpg")).unwrap();
+    c.write("bendscope.toml", "scale = \"board-scale.json\"\n");
+    let run = c.run();
+    assert_eq!(run.code, 0, "{run}");
+    assert!(run.stderr.trim().is_empty(), "no warning: {run}");
+    assert_others_kept(&c.per_video(), &[]);
+    let scale = &session_json(&c.out)["scale"];
+    assert_eq!(scale["source"], "scale_file");
+    assert_eq!(scale["file"], "s/board-scale.json");
+    assert_eq!(scale["mm_per_px"], want["mm_per_px"]);
+    assert_eq!(scale["plane_from_px"], want["plane_from_px"]);
+    assert_eq!(scale["board"]["square_mm"], 10.0);
+    // A scale file that is not there is refused, naming it.
+    c.write("bendscope.toml", "scale = \"nowhere.json\"\n");
+    let run = c.run();
+    run.assert_bad_input(&["nowhere.json", "bendscope scale", "--save"]);
+    // Not both ways of giving the scale.
+    c.write(
+        "bendscope.toml",
+        "scale = \"board-scale.json\"\nmm_per_px = 0.5\n",
+    );
+    let run = c.run();
+    run.assert_bad_input(&["bendscope.toml", "scale", "mm_per_px", "one"]);
+    // Saved without --square-mm (25 mm assumed): the scale command and process say so.
+    let cal = calibration().to_str().unwrap();
+    let run = Run::new(
+        &c.root,
+        &[
+            "scale",
+            "scale-photo.jpg",
+            "--calibration",
+            cal,
+            "--save",
+            "s/default-square.json",
+        ],
+    );
+    assert_eq!(run.code, 0, "{run}");
+    assert_reported_once(&run, "--square-mm", &["warning", "25 mm"]);
+    c.write("bendscope.toml", "scale = \"default-square.json\"\n");
+    let run = c.run();
+    assert_eq!(run.code, 0, "{run}");
+    assert_reported_once(
+        &run,
+        "square",
+        &["warning", "default-square.json", "25 mm", "--square-mm"],
+    );
 }
 
 /// A tmpfs of `bytes` mounted on `dir` (created), unmounted when dropped; `None` (with a

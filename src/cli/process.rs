@@ -17,7 +17,8 @@ one video per pressure (GoPro chapters GX02.. continue GX01..), scale.jpg (a boa
 calib/ (checkerboard photos) and an optional bendscope.toml.
 Ramp protocol: pressure_log.csv (time_s,pressure_<unit>) and one video instead of pressures.csv.
 RGB-D: color/, depth/ (16-bit PNG aligned to colour), intrinsics.json, pressure_log.csv and optionally frames.csv (frame,time_s).
-Outputs in OUT: per_frame.csv, per_video.csv, fit.json, plots/, overlays/, report.html, cache/.
+Outputs in OUT: per_frame.csv, per_video.csv, fit.json, session.json (version, settings, calibration, scale, cache use), plots/, overlays/, report.html, cache/.
+Settings: scale = \"FILE\" in bendscope.toml takes a scale saved by `bendscope scale --save` instead of the scale photo.
 One run at a time per OUT (OUT/.bendscope.lock); a killed run (Ctrl-C, kill) is simply run again.
 Exit codes: 0 all measured, 1 some videos or sessions failed (the others' results are written), 2 bad input (or OUT in use), 3 nothing measured, 4 no space left on OUT's disk (free space and rerun)."
 )]
@@ -89,6 +90,9 @@ pub fn run(args: &ProcessArgs) -> Result<u8> {
             Ok(s) => {
                 measured += s.measured;
                 failed += s.failed;
+                if let Some(scale) = &s.provenance.scale {
+                    super::out!("{}: scale {}", session.display(), scale.describe());
+                }
                 super::out!(
                     "{}: {} measured, {} failed -> {}",
                     session.display(),

@@ -12,6 +12,9 @@ use clap::Args;
 use super::calibrate::parse_positive;
 use super::EXIT_OK;
 
+/// Square side assumed when --square-mm is not given, mm.
+const DEFAULT_SQUARE_MM: f64 = 25.0;
+
 /// Measure mm per undistorted pixel from a board lying in the actuator plane, or from a
 /// known field of view.
 #[derive(Debug, Args)]
@@ -25,9 +28,9 @@ pub struct ScaleArgs {
     /// Inner corners of the board, columns x rows.
     #[arg(long, default_value = "9x6", value_parser = |s: &str| s.parse::<BoardSize>().map_err(|e| e.to_string()))]
     pub board: BoardSize,
-    /// Side of one square, mm.
-    #[arg(long, default_value_t = 25.0, value_parser = parse_positive)]
-    pub square_mm: f64,
+    /// Side of one square, mm [default: 25]; mm/px is proportional to it, so give it.
+    #[arg(long, value_parser = parse_positive)]
+    pub square_mm: Option<f64>,
     /// Manual method: field of view across the frame width, mm (radius_mm = radius_px x FOV_mm / width_px).
     #[arg(long, value_parser = parse_positive, conflicts_with_all = ["image", "calibration"], requires = "width_px")]
     pub fov_mm: Option<f64>,
@@ -37,7 +40,8 @@ pub struct ScaleArgs {
     /// Manual method: frame height, px.
     #[arg(long, requires = "fov_mm", default_value_t = 0)]
     pub height_px: u32,
-    /// Save the result as JSON.
+    /// Save the result as JSON (with the board); `process` takes it as `scale = "FILE"`
+    /// in bendscope.toml.
     #[arg(long, value_name = "FILE")]
     pub save: Option<PathBuf>,
 }
@@ -48,8 +52,14 @@ pub fn run(args: &ScaleArgs) -> Result<u8> {
         (Some(fov), _, _) => scale_from_fov(fov, args.width_px.unwrap_or(0), args.height_px)?,
         (None, Some(image), Some(cal)) => {
             let calib = read_calibration(cal)?;
-            let board = Board::new(args.board.cols, args.board.rows, args.square_mm)?;
-            scale_from_board_photo(image, &calib, &board, UndistortSettings::default())?
+            let square_mm = args.square_mm.unwrap_or(DEFAULT_SQUARE_MM);
+            let board = Board::new(args.board.cols, args.board.rows, square_mm)?;
+            let mut s =
+                scale_from_board_photo(image, &calib, &board, UndistortSettings::default())?;
+            if let Some(b) = &mut s.board {
+                b.square_mm_given = args.square_mm.is_some();
+            }
+            s
         }
         _ => bail!("give IMAGE and --calibration, or --fov-mm and --width-px"),
     };
@@ -60,6 +70,9 @@ pub fn run(args: &ScaleArgs) -> Result<u8> {
         );
     }
     super::out!("{:.6} mm/px", scale.mm_per_px);
+    if scale.board.is_some_and(|b| !b.square_mm_given) {
+        eprintln!("warning: --square-mm not given: {DEFAULT_SQUARE_MM} mm squares assumed (mm/px is proportional to it)");
+    }
     if scale.looks_tilted() {
         eprintln!(
             "warning: corner spacing varies by {:.1}% across the board: it is probably not parallel to the image plane",

@@ -10,7 +10,8 @@
 //!   per item   cache hit (same content key, outputs present) or
 //!              source (video chapters / RGB-D frames) -> frame::measure_frame ->
 //!              FrameRecord; stats::summarize -> VideoRecord; the overlay
-//!   output     per_frame.csv, per_video.csv, fit.json, plots/, report.html
+//!   output     per_frame.csv, per_video.csv, fit.json, session.json, plots/,
+//!              report.html
 //! ```
 //!
 //! A run holds OUT's lock ([`lock`]) from its first write to its last, so two runs never
@@ -26,6 +27,7 @@ pub mod frame;
 pub mod lock;
 pub mod output;
 pub mod overlay;
+pub mod provenance;
 pub mod records;
 pub mod source;
 pub mod stats;
@@ -40,7 +42,7 @@ use crate::calib::{
 use crate::detect::ChainStart;
 use crate::io::{content_key, hash_parts, write_atomic};
 use crate::rgbd::{is_rgbd_session, list_frames, RgbdError};
-use crate::scale::{scale_from_board_photo, ScaleError};
+use crate::scale::{read_scale_file, scale_from_board_photo, ScaleBoard, ScaleError};
 use crate::session::{
     find_scale_image, implausible_pressures, read_manifest, read_pressure_log, session_videos,
     Manifest, ManifestEntry, PressureLog, SessionConfig, SessionError, CONFIG, IMAGE_EXTENSIONS,
@@ -50,6 +52,9 @@ use crate::session::{
 use cache::{Cache, CacheEntry, ItemKey};
 use frame::{measure_frame, Geometry, Tracker};
 use lock::{LockError, OutputLock};
+use provenance::{
+    CalibrationSource, CalibrationUsed, Provenance, ScaleSource, ScaleUsed, VideoUsed,
+};
 use records::{FrameRecord, FrameStatus, VideoRecord, VideoStatus};
 use source::{FrameSource, Next, RgbdSource};
 
@@ -165,6 +170,8 @@ pub struct SessionOutcome {
     pub failed: usize,
     /// Warnings and notes, as given to [`Progress::note`].
     pub notes: Vec<String>,
+    /// How the results were made (what `session.json` holds).
+    pub provenance: Provenance,
 }
 
 /// Output folders for `sessions`: `SESSION/bendscope-out` without `output`; `output`
@@ -320,9 +327,13 @@ fn measure_session_into(
     settings: &ProcessSettings,
     progress: &mut dyn Progress,
 ) -> Result<SessionOutcome, PipelineError> {
-    let config = match &settings.config {
+    let config_file = match &settings.config {
+        Some(p) => Some(p.clone()),
+        None => Some(session.join(CONFIG)).filter(|p| p.is_file()),
+    };
+    let config = match &config_file {
         Some(p) => SessionConfig::read(p)?,
-        None => SessionConfig::for_session(session)?,
+        None => SessionConfig::default(),
     };
     let layout = read_layout(session)?;
     if out.exists() && !out.is_dir() {
@@ -346,10 +357,22 @@ fn measure_session_into(
             out.display()
         ));
     }
+    let mut provenance = Provenance {
+        bendscope_version: env!("CARGO_PKG_VERSION").to_string(),
+        session: session.to_path_buf(),
+        config_file,
+        settings: config.clone(),
+        force: settings.force,
+        calibration: None,
+        scale: None,
+        rgbd_intrinsics: None,
+        videos: vec![],
+    };
     let cache = Cache::new(out);
     let mut items: Vec<ItemResult> = Vec::new();
     let (unit, skipped, binned) = match &layout {
         Layout::Rgbd(log) => {
+            provenance.rgbd_intrinsics = Some(session.join(crate::rgbd::INTRINSICS));
             items.push(measure_rgbd(session, &config, log, &mut notes)?);
             (log.unit, vec![], Some(config.ramp_bin_kpa))
         }
@@ -358,11 +381,15 @@ fn measure_session_into(
             for w in implausible_pressures(m) {
                 notes.push(issue_line(&w));
             }
+            provenance.calibration = Some(run.calibration_used.clone());
+            provenance.scale = Some(run.scale_used.clone());
             items.extend(run.measure(&m.entries, &cache, settings.force, &mut notes)?);
             (m.unit, m.issues.clone(), None)
         }
         Layout::Ramp(log, video) => {
             let run = VideoRun::prepare(session, out, &config, settings, Some(log), &mut notes)?;
+            provenance.calibration = Some(run.calibration_used.clone());
+            provenance.scale = Some(run.scale_used.clone());
             let entry = ManifestEntry {
                 line: 0,
                 file: video.clone(),
@@ -374,6 +401,13 @@ fn measure_session_into(
             (log.unit, vec![], Some(config.ramp_bin_kpa))
         }
     };
+    provenance.videos = items
+        .iter()
+        .map(|i| VideoUsed {
+            file: i.file.clone(),
+            from_cache: i.from_cache,
+        })
+        .collect();
     let mut videos: Vec<VideoRecord> = Vec::new();
     let mut frames: Vec<FrameRecord> = Vec::new();
     let (mut measured, mut failed) = (0, 0);
@@ -429,6 +463,7 @@ fn measure_session_into(
             videos: &videos,
             unit,
             rms,
+            provenance: &provenance,
         },
     )?;
     for n in &fits.notes {
@@ -441,6 +476,7 @@ fn measure_session_into(
         measured,
         failed,
         notes: notes.lines,
+        provenance,
     })
 }
 
@@ -451,6 +487,10 @@ struct VideoRun<'a> {
     config: &'a SessionConfig,
     calib: Calibration,
     scale: SessionScale,
+    /// Where the calibration came from (for session.json).
+    calibration_used: CalibrationUsed,
+    /// Where the scale came from (for session.json).
+    scale_used: ScaleUsed,
     log: Option<&'a PressureLog>,
     /// Hash of everything session-wide a video's result depends on.
     fingerprint: u128,
@@ -466,8 +506,8 @@ impl<'a> VideoRun<'a> {
         log: Option<&'a PressureLog>,
         notes: &mut Notes,
     ) -> Result<Self, PipelineError> {
-        let calib = session_calibration(session, out, config, settings, notes)?;
-        let scale = session_scale(session, config, &calib, notes)?;
+        let (calib, calibration_used) = session_calibration(session, out, config, settings, notes)?;
+        let (scale, scale_used) = session_scale(session, config, &calib, notes)?;
         let log_bytes = match log {
             Some(_) => std::fs::read(session.join(PRESSURE_LOG)).unwrap_or_default(),
             None => vec![],
@@ -491,6 +531,8 @@ impl<'a> VideoRun<'a> {
             config,
             calib,
             scale,
+            calibration_used,
+            scale_used,
             log,
             fingerprint,
         })
@@ -551,21 +593,56 @@ impl<'a> VideoRun<'a> {
     }
 }
 
-/// The session's calibration: `--calibration`, else the config's `calibration`, else
-/// calib/ calibrated and cached in OUT under a key of its photos' content, board and
-/// model (replacing a photo redoes it).
+/// Removes `path` when it exists.
+fn remove_if_present(path: &Path) -> Result<(), PipelineError> {
+    match std::fs::remove_file(path) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(write_err(path)(e)),
+        _ => Ok(()),
+    }
+}
+
+/// [`CalibrationUsed::of_file`], its read error naming the file.
+fn calibration_used(
+    source: CalibrationSource,
+    path: &Path,
+) -> Result<CalibrationUsed, PipelineError> {
+    CalibrationUsed::of_file(source, path).map_err(|e| PipelineError::Layout {
+        path: path.to_path_buf(),
+        why: format!("cannot read it again ({e}): check the file"),
+    })
+}
+
+/// The session's calibration and where it came from: `--calibration`, else the config's
+/// `calibration`, else calib/ calibrated and cached in OUT under a key of its photos'
+/// content, board and model (replacing a photo redoes it). OUT's calibration.yaml is the
+/// calibration of calib/ only while it is used: with a calibration from elsewhere, one
+/// left by an earlier run is removed.
 fn session_calibration(
     session: &Path,
     out: &Path,
     config: &SessionConfig,
     settings: &ProcessSettings,
     notes: &mut Notes,
-) -> Result<Calibration, PipelineError> {
-    if let Some(c) = &settings.calibration {
-        return Ok(read_calibration(c)?);
-    }
-    if let Some(c) = &config.calibration {
-        return Ok(read_calibration(&session.join(c))?);
+) -> Result<(Calibration, CalibrationUsed), PipelineError> {
+    let cached = out.join("calibration.yaml");
+    let key_path = out.join("cache").join("calibration.key");
+    let elsewhere = match (&settings.calibration, &config.calibration) {
+        (Some(c), _) => Some((CalibrationSource::Given, c.clone())),
+        (None, Some(c)) => Some((CalibrationSource::Config, session.join(c))),
+        (None, None) => None,
+    };
+    if let Some((source, path)) = elsewhere {
+        let calib = read_calibration(&path)?;
+        let used = calibration_used(source, &path)?;
+        let is_cached = match (path.canonicalize(), cached.canonicalize()) {
+            (Ok(a), Ok(b)) => a == b,
+            _ => false,
+        };
+        if !is_cached {
+            remove_if_present(&cached)?;
+            remove_if_present(&key_path)?;
+        }
+        return Ok((calib, used));
     }
     let dir = session.join("calib");
     if !dir.is_dir() {
@@ -612,14 +689,12 @@ fn session_calibration(
         parts.push(content_key(p).unwrap_or(0).to_le_bytes().to_vec());
     }
     let key = format!("{:032x}", hash_parts(parts.iter().map(|p| p.as_slice())));
-    let cached = out.join("calibration.yaml");
-    let key_path = out.join("cache").join("calibration.key");
     let current = std::fs::read_to_string(&key_path)
         .map(|k| k.trim() == key)
         .unwrap_or(false);
     if current && !settings.force {
         if let Ok(c) = read_calibration(&cached) {
-            return Ok(c);
+            return Ok((c, calibration_used(CalibrationSource::Calibrated, &cached)?));
         }
     }
     let sources: Vec<ViewSource> = photos.into_iter().map(ViewSource::Image).collect();
@@ -658,7 +733,8 @@ fn session_calibration(
         calib.avg_reprojection_error,
         cached.display()
     ));
-    Ok(calib)
+    let used = calibration_used(CalibrationSource::Calibrated, &cached)?;
+    Ok((calib, used))
 }
 
 /// mm per undistorted px and the frame width it applies to.
@@ -669,22 +745,65 @@ struct SessionScale {
     plane_from_px: Option<[f64; 9]>,
 }
 
+/// The session's scale and where it came from: `mm_per_px` in the settings, else a
+/// scale file (`scale`), else the scale photo measured with `[scale_board]`. Warns when
+/// the board's square size was never given (mm/px is proportional to it).
 fn session_scale(
     session: &Path,
     config: &SessionConfig,
     calib: &Calibration,
     notes: &mut Notes,
-) -> Result<SessionScale, PipelineError> {
+) -> Result<(SessionScale, ScaleUsed), PipelineError> {
     if let Some(m) = config.mm_per_px {
-        return Ok(SessionScale {
+        let used = ScaleUsed {
+            source: ScaleSource::MmPerPx,
+            file: None,
+            mm_per_px: m,
+            image_width: calib.image_width,
+            board: None,
+            plane_from_px: None,
+        };
+        let scale = SessionScale {
             mm_per_px: m,
             width: calib.image_width,
             plane_from_px: None,
-        });
+        };
+        return Ok((scale, used));
+    }
+    if let Some(f) = &config.scale {
+        let path = session.join(f);
+        let s = read_scale_file(&path).map_err(|e| PipelineError::Layout {
+            path: path.clone(),
+            why: e
+                .to_string()
+                .replace(&format!("{}: ", path.display()), "")
+                .replace(": make it", &format!(" (`scale` in {CONFIG}): make it")),
+        })?;
+        if let Some(b) = s.board.filter(|b| !b.square_mm_given) {
+            notes.push(format!(
+                "warning: {}: measured with `bendscope scale`'s default square size ({} mm, --square-mm not given), and every radius scales with it: measure it again with --square-mm",
+                path.display(),
+                b.square_mm
+            ));
+        }
+        let scale = SessionScale {
+            mm_per_px: s.mm_per_px,
+            width: s.image_width,
+            plane_from_px: s.plane_from_px,
+        };
+        let used = ScaleUsed {
+            source: ScaleSource::ScaleFile,
+            file: Some(path),
+            mm_per_px: s.mm_per_px,
+            image_width: s.image_width,
+            board: s.board,
+            plane_from_px: s.plane_from_px,
+        };
+        return Ok((scale, used));
     }
     let img = find_scale_image(session, config).ok_or_else(|| PipelineError::Layout {
         path: session.to_path_buf(),
-        why: "no scale photo: put scale.jpg (a board lying in the actuator plane) in the session, or set mm_per_px in bendscope.toml".into(),
+        why: "no scale photo: put scale.jpg (a board lying in the actuator plane) in the session, or set mm_per_px (or scale, a file saved by `bendscope scale --save`) in bendscope.toml".into(),
     })?;
     let b = config.scale_board;
     let board = Board::new(b.cols, b.rows, b.square_mm)?;
@@ -705,6 +824,13 @@ fn session_scale(
             },
         },
     )?;
+    if !config.scale_square_mm_given {
+        notes.push(format!(
+            "warning: {}: the scale board's square size is given nowhere: {} mm assumed, and every radius scales with it: set [scale_board] square_mm in {CONFIG}",
+            img.display(),
+            b.square_mm
+        ));
+    }
     if s.looks_tilted() {
         notes.push(format!(
             "warning: {}: board spacing varies by {:.1}%: not parallel to the image plane?",
@@ -712,11 +838,25 @@ fn session_scale(
             100.0 * s.spread
         ));
     }
-    Ok(SessionScale {
+    let scale = SessionScale {
         mm_per_px: s.mm_per_px,
         width: s.image_width,
         plane_from_px: s.plane_from_px,
-    })
+    };
+    let used = ScaleUsed {
+        source: ScaleSource::ScalePhoto,
+        file: Some(img),
+        mm_per_px: s.mm_per_px,
+        image_width: s.image_width,
+        board: Some(ScaleBoard {
+            cols: b.cols,
+            rows: b.rows,
+            square_mm: b.square_mm,
+            square_mm_given: config.scale_square_mm_given,
+        }),
+        plane_from_px: s.plane_from_px,
+    };
+    Ok((scale, used))
 }
 
 /// A measured item (a video with its chapters, or an RGB-D recording).
@@ -728,6 +868,8 @@ struct ItemResult {
     problems: Vec<String>,
     clamp_marker_px: Option<(f64, f64)>,
     outputs: Vec<String>,
+    /// Its result came from the cache.
+    from_cache: bool,
     /// An output could not be written for lack of space: the run stops.
     storage_full: bool,
 }
@@ -742,6 +884,7 @@ impl ItemResult {
             problems: c.problems,
             clamp_marker_px: c.clamp_marker_px,
             outputs: c.outputs,
+            from_cache: true,
             storage_full: false,
         }
     }
@@ -854,6 +997,7 @@ impl VideoRun<'_> {
             problems: vec![],
             clamp_marker_px: None,
             outputs: vec![],
+            from_cache: false,
             storage_full: false,
         };
         let mut overlay_pending = true;
@@ -1043,6 +1187,7 @@ fn measure_rgbd(
         problems: vec![],
         clamp_marker_px: None,
         outputs: vec![],
+        from_cache: false,
         storage_full: false,
     };
     let (mut bad, mut outside_log) = (Vec::new(), 0usize);

@@ -1,6 +1,7 @@
 //! A session's outputs from its records: `per_frame.csv`, `per_video.csv`, `fit.json`
-//! (power laws), `plots/` and `report.html`. Every file is written atomically; the
-//! outputs depend only on the records, so a rerun writes identical files. When one
+//! (power laws), `session.json` (how they were made), `plots/` and `report.html`. Every
+//! file is written atomically; the outputs depend only on the records (session.json
+//! also on which came from the cache), so a rerun writes identical files. When one
 //! cannot be written (a full disk), it and the ones after it are removed, so no output
 //! of an earlier run stays beside this run's as if it were current.
 
@@ -13,6 +14,7 @@ use crate::report::{html, plot_xy, write_json, Series};
 use crate::session::PressureUnit;
 use crate::table::{write_csv, Column};
 
+use super::provenance::{Provenance, SESSION_JSON};
 use super::records::{FrameRecord, VideoRecord};
 use super::PipelineError;
 
@@ -35,6 +37,7 @@ fn output_stages() -> Vec<Vec<String>> {
         vec!["per_frame.csv".into()],
         vec!["per_video.csv".into()],
         vec!["fit.json".into()],
+        vec![SESSION_JSON.into()],
         plots,
         vec!["report.html".into()],
     ]
@@ -228,6 +231,8 @@ pub struct SessionOutputs<'a> {
     pub unit: PressureUnit,
     /// Unit of the fit RMS column.
     pub rms: RmsUnit,
+    /// How the results were made (session.json, and the report's setup lines).
+    pub provenance: &'a Provenance,
 }
 
 /// Writes every output of a session into `out`; returns its fits (their notes are for
@@ -257,6 +262,8 @@ fn write_stages(
     let fits = fit_records(s.videos, s.unit);
     write_json(&out.join("fit.json"), &fits)?;
     *done += 1;
+    write_json(&out.join(SESSION_JSON), s.provenance)?;
+    *done += 1;
     let plots = write_plots(out, s.videos, &fits, s.frames)?;
     *done += 1;
     html::write_session_report(
@@ -267,6 +274,7 @@ fn write_stages(
             videos: s.videos,
             fits: &fits,
             plots: &plots,
+            provenance: Some(s.provenance),
         },
     )?;
     *done += 1;

@@ -10,6 +10,7 @@ use base64::Engine as _;
 
 use crate::io::write_atomic;
 use crate::pipeline::output::SessionFits;
+use crate::pipeline::provenance::Provenance;
 use crate::pipeline::records::VideoRecord;
 
 use super::ReportError;
@@ -26,6 +27,8 @@ pub struct SessionReport<'a> {
     pub fits: &'a SessionFits,
     /// Plot stems relative to `out` (`plots/radius_vs_pressure`), each with an .svg.
     pub plots: &'a [String],
+    /// How the results were made: the scale and calibration are shown.
+    pub provenance: Option<&'a Provenance>,
 }
 
 /// Escapes text for HTML.
@@ -82,9 +85,35 @@ figure img,figure svg{{max-width:900px;height:auto}}</style></head><body>\n<h1>{
     let measured = r.videos.iter().filter(|v| v.status.is_measured()).count();
     let _ = writeln!(
         h,
-        "<p>{measured} of {} rows measured. Files: per_video.csv, per_frame.csv, fit.json, plots/, overlays/.</p>",
+        "<p>{measured} of {} rows measured. Files: per_video.csv, per_frame.csv, fit.json, session.json, plots/, overlays/.</p>",
         r.videos.len()
     );
+    if let Some(p) = r.provenance {
+        h.push_str("<h2>Setup</h2>\n<ul>\n");
+        if let Some(s) = &p.scale {
+            let _ = writeln!(h, "<li>scale: {}</li>", escape(&s.describe()));
+        }
+        if let Some(c) = &p.calibration {
+            let _ = writeln!(
+                h,
+                "<li>calibration: {} (xxh3 {})</li>",
+                escape(&c.path.display().to_string()),
+                escape(&c.content_hash)
+            );
+        }
+        if let Some(i) = &p.rgbd_intrinsics {
+            let _ = writeln!(
+                h,
+                "<li>RGB-D intrinsics: {} (millimetres from the depth)</li>",
+                escape(&i.display().to_string())
+            );
+        }
+        let _ = writeln!(
+            h,
+            "<li>bendscope {}; settings and cache use in session.json</li>\n</ul>",
+            escape(&p.bendscope_version)
+        );
+    }
     h.push_str("<h2>Per video</h2>\n<table><tr><th class=\"l\">file</th><th>pressure (kPa)</th><th>radius (mm)</th><th>median (mm)</th><th>std (mm)</th><th>curvature (1/m)</th><th>angle (deg)</th><th>frames used</th><th>rejected</th><th class=\"l\">status</th></tr>\n");
     for v in r.videos {
         let class = match &v.status {

@@ -45,6 +45,13 @@ pub struct SessionConfig {
     pub scale_image: Option<PathBuf>,
     /// Known mm per undistorted px (skips the scale photo).
     pub mm_per_px: Option<f64>,
+    /// A scale saved by `bendscope scale --save` (relative to the session): its mm/px and
+    /// homography are used instead of measuring the scale photo.
+    pub scale: Option<PathBuf>,
+    /// Whether the file sets `[scale_board] square_mm` (not a setting: read from the
+    /// file, so that a scale from a defaulted square size can be warned about).
+    #[serde(skip)]
+    pub scale_square_mm_given: bool,
     /// Expected number of markers per frame.
     pub expected_markers: usize,
     /// Process every n-th frame.
@@ -73,6 +80,8 @@ impl Default for SessionConfig {
             scale_board: BoardConfig::default(),
             scale_image: None,
             mm_per_px: None,
+            scale: None,
+            scale_square_mm_given: false,
             expected_markers: 8,
             frame_stride: 1,
             ramp_bin_kpa: 1.0,
@@ -251,8 +260,13 @@ impl SessionConfig {
             ))
         })?;
         let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
-        let c: SessionConfig =
+        let mut c: SessionConfig =
             toml::from_str(text).map_err(|e| bad(describe_toml_error(text, &e)))?;
+        c.scale_square_mm_given = toml::from_str::<toml::Table>(text).is_ok_and(|t| {
+            t.get("scale_board")
+                .and_then(|b| b.as_table())
+                .is_some_and(|b| b.contains_key("square_mm"))
+        });
         c.check().map_err(|b| {
             let key = match b.table {
                 Some(t) => format!("{t}.{}", b.key),
@@ -319,6 +333,14 @@ impl SessionConfig {
             if !(m.is_finite() && m > 0.0) {
                 return top("mm_per_px", format!("{m}: must be a positive number"));
             }
+            if self.scale.is_some() {
+                return top(
+                    "mm_per_px",
+                    format!(
+                        "{m} and scale are both set: give the scale one way (keep one of them)"
+                    ),
+                );
+            }
         }
         for (name, b) in [
             ("calib_board", &self.calib_board),
@@ -369,6 +391,11 @@ mod tests {
         assert_eq!(c.expected_markers, 6);
         assert_eq!(c.scale_board.square_mm, 10.0);
         assert_eq!(c.scale_board.cols, 9);
+        assert!(c.scale_square_mm_given);
+        std::fs::write(&p, "scale_board.square_mm = 12\n").unwrap();
+        assert!(SessionConfig::read(&p).unwrap().scale_square_mm_given);
+        std::fs::write(&p, "[scale_board]\ncols = 7\n").unwrap();
+        assert!(!SessionConfig::read(&p).unwrap().scale_square_mm_given);
         assert_eq!(c.detect.hsv.s_min, 90);
         std::fs::write(&p, "frame_stride = 0\n").unwrap();
         assert!(SessionConfig::read(&p)
