@@ -54,9 +54,9 @@ pub enum MarkerColour {
     /// Hue 170..10 (wrapping at 0/180), S >= 100, V >= 60.
     #[default]
     Red,
-    /// Hue 35..85, S >= 80, V >= 40.
+    /// Hue 35..85, S >= 100, V >= 60.
     Green,
-    /// Hue 95..130, S >= 80, V >= 40.
+    /// Hue 95..130, S >= 100, V >= 60.
     Blue,
     /// Hue 20..34, S >= 100, V >= 80.
     Yellow,
@@ -76,8 +76,8 @@ impl MarkerColour {
         };
         match self {
             MarkerColour::Red => band(170, 10, DEFAULT_S_MIN, DEFAULT_V_MIN),
-            MarkerColour::Green => band(35, 85, 80, 40),
-            MarkerColour::Blue => band(95, 130, 80, 40),
+            MarkerColour::Green => band(35, 85, DEFAULT_S_MIN, DEFAULT_V_MIN),
+            MarkerColour::Blue => band(95, 130, DEFAULT_S_MIN, DEFAULT_V_MIN),
             MarkerColour::Yellow => band(20, 34, 100, 80),
             MarkerColour::Dark => HsvThresholds {
                 hue_min: 0,

@@ -338,13 +338,22 @@ impl<T: Sample> YuvFrame<T> {
     /// arithmetic at the samples' depth, rounded once to 8 bits.
     #[inline]
     pub fn rgb_at(&self, x: u32, y: u32) -> [u8; 3] {
-        let k = T::EXTRA_BITS;
-        let yy = self.plane(0)[y as usize * self.strides[0] + x as usize].value();
         let (cy, cx) = (y as usize / 2, x as usize / 2);
-        let (d, e) = (
-            self.plane(1)[cy * self.strides[1] + cx].value() - (128 << k),
-            self.plane(2)[cy * self.strides[2] + cx].value() - (128 << k),
-        );
+        self.rgb_of(
+            self.plane(0)[y as usize * self.strides[0] + x as usize],
+            self.plane(1)[cy * self.strides[1] + cx],
+            self.plane(2)[cy * self.strides[2] + cx],
+        )
+    }
+
+    /// RGB of one luma and its chroma samples (the conversion of [`Self::rgb_at`], for
+    /// callers that hold the planes' rows: a plane lookup asks FFmpeg for the pixel
+    /// format's descriptor).
+    #[inline]
+    fn rgb_of(&self, luma: T, cb: T, cr: T) -> [u8; 3] {
+        let k = T::EXTRA_BITS;
+        let yy = luma.value();
+        let (d, e) = (cb.value() - (128 << k), cr.value() - (128 << k));
         let (r, g, b) = if self.full_range {
             let c = yy << 8;
             (c + 359 * e, c - 88 * d - 183 * e, c + 454 * d)
@@ -376,33 +385,25 @@ impl<T: Sample> crate::detect::PixelSource for YuvFrame<T> {
     fn is_marker_at(&self, x: u32, y: u32, t: &crate::detect::MarkerTest) -> bool {
         use crate::detect::Pretest;
         let k = T::EXTRA_BITS;
-        let ci = (y as usize / 2) * self.strides[1] + x as usize / 2;
-        let cj = (y as usize / 2) * self.strides[2] + x as usize / 2;
+        let (cy, cx) = (y as usize / 2, x as usize / 2);
+        let cb = self.plane(1)[cy * self.strides[1] + cx];
+        let cr = self.plane(2)[cy * self.strides[2] + cx];
+        let luma = || self.plane(0)[y as usize * self.strides[0] + x as usize];
         let pass = match t.pretest {
             Pretest::None => true,
             Pretest::Chroma { a, b, k: bound } => {
-                let d = if a == 0 {
-                    0
-                } else {
-                    self.plane(1)[ci].value() - (128 << k)
-                };
-                let e = if b == 0 {
-                    0
-                } else {
-                    self.plane(2)[cj].value() - (128 << k)
-                };
-                a * d + b * e >= bound << k
+                a * (cb.value() - (128 << k)) + b * (cr.value() - (128 << k)) >= bound << k
             }
             Pretest::Luma { limited, full } => {
                 let bound = if self.full_range { full } else { limited };
-                self.plane(0)[y as usize * self.strides[0] + x as usize].value() <= bound << k
+                luma().value() <= bound << k
             }
         };
         if !pass {
             return false;
         }
-        let p = self.rgb_at(x, y);
-        t.matches(p[0], p[1], p[2])
+        let [r, g, b] = self.rgb_of(luma(), cb, cr);
+        t.matches(r, g, b)
     }
     /// The coarse pass on the chroma row under row `y` (or the luma row for dark
     /// markers): the coarse grid (every second pixel of every second row) is the chroma
@@ -418,21 +419,34 @@ impl<T: Sample> crate::detect::PixelSource for YuvFrame<T> {
             let start = cy * self.strides[i];
             self.plane(i).get(start..start + cw)
         };
+        if t.pretest == Pretest::None {
+            crate::detect::coarse_row_hits_exact(self, y, t, out);
+            return;
+        }
+        let (Some(cb), Some(cr)) = (chroma_row(1), chroma_row(2)) else {
+            return;
+        };
+        let luma_start = y as usize * self.strides[0];
+        let Some(luma) = self
+            .plane(0)
+            .get(luma_start..luma_start + self.width as usize)
+        else {
+            return;
+        };
+        // A sample that passed the pre-test gets the band's exact test, converted from
+        // the rows held here.
         let mut hit = |i: usize| {
-            let x = (2 * i) as u32;
-            if x < self.width && self.is_marker_at(x, y, t) {
-                out.push(x);
+            let x = 2 * i;
+            if x < luma.len() {
+                let [r, g, b] = self.rgb_of(luma[x], cb[i], cr[i]);
+                if t.matches(r, g, b) {
+                    out.push(x as u32);
+                }
             }
         };
         match t.pretest {
-            Pretest::None => {
-                drop(hit);
-                crate::detect::coarse_row_hits_exact(self, y, t, out);
-            }
+            Pretest::None => {}
             Pretest::Chroma { a, b, k: bound } => {
-                let (Some(cb), Some(cr)) = (chroma_row(1), chroma_row(2)) else {
-                    return;
-                };
                 let (mid, bound) = (128 << k, bound << k);
                 match (a, b) {
                     // One plane: the bound as a sample value, chunks by their max or min.
@@ -463,9 +477,23 @@ impl<T: Sample> crate::detect::PixelSource for YuvFrame<T> {
                     (a, b) => {
                         let score =
                             |i: usize| a * (cb[i].value() - mid) + b * (cr[i].value() - mid);
+                        // A chunk's best score is at most the sum of each plane's best
+                        // term, met at the plane's extreme sample in its weight's
+                        // direction: two min/max folds over the samples (which the
+                        // compiler vectorizes, unlike the weighted sum) skip a chunk.
+                        let top = T::saturated(i32::MAX);
+                        let best = |plane: &[T], w: i32, r: std::ops::Range<usize>| {
+                            let s = &plane[r];
+                            let v = if w > 0 {
+                                s.iter().fold(T::default(), |m, &x| m.max(x))
+                            } else {
+                                s.iter().fold(top, |m, &x| m.min(x))
+                            };
+                            w * (v.value() - mid)
+                        };
                         scan_chunks(
                             cw,
-                            |r| r.map(score).max().is_none_or(|m| m < bound),
+                            |r| best(cb, a, r.clone()) + best(cr, b, r) < bound,
                             |i| score(i) >= bound,
                             &mut hit,
                         );
@@ -474,10 +502,7 @@ impl<T: Sample> crate::detect::PixelSource for YuvFrame<T> {
             }
             Pretest::Luma { limited, full } => {
                 let bound = T::saturated((if self.full_range { full } else { limited }) << k);
-                let start = y as usize * self.strides[0];
-                let Some(row) = self.plane(0).get(start..start + self.width as usize) else {
-                    return;
-                };
+                let row = luma;
                 scan_chunks(
                     cw,
                     |r| {
