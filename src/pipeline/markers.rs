@@ -154,7 +154,7 @@ fn plane_normal(points: impl Iterator<Item = Vector3<f64>>) -> Vector3<f64> {
     let mut order = [0usize, 1, 2];
     order.sort_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]));
     let (middle, largest) = (eig.eigenvalues[order[1]], eig.eigenvalues[order[2]]);
-    if !(middle > LINE_VARIANCE_SHARE * largest) {
+    if middle.is_nan() || largest.is_nan() || middle <= LINE_VARIANCE_SHARE * largest {
         return toward_camera;
     }
     let n: Vector3<f64> = eig.eigenvectors.column(order[0]).into_owned();
