@@ -52,6 +52,7 @@ pub mod render;
 pub mod report;
 pub mod rgbd;
 pub mod scale;
+pub mod segments;
 pub mod select;
 pub mod session;
 pub mod surrogate;

@@ -14,6 +14,7 @@
 use nalgebra::Point2;
 
 use crate::detect::{ChainStart, ClampSide};
+use crate::segments::Segment;
 
 /// A red blob that may be a marker.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -166,6 +167,168 @@ pub fn select_markers(
     start: ChainStart,
     previous: Option<&[Point2<f64>]>,
 ) -> Result<Vec<usize>, SelectError> {
+    beam_select(candidates, n, start, previous, &|chain| {
+        shape_cost(candidates, chain)
+    })
+}
+
+/// [`select_markers`] for a segmented actuator: the chain follows `segments` (which
+/// cover markers 0..n in order, [`Segment`]): even spacing and a constant turn within
+/// each segment, tangent continuity across each joint ([`segmented_shape_cost`]).
+pub fn select_markers_in_segments(
+    candidates: &[Candidate],
+    n: usize,
+    segments: &[Segment],
+    start: ChainStart,
+    previous: Option<&[Point2<f64>]>,
+) -> Result<Vec<usize>, SelectError> {
+    beam_select(candidates, n, start, previous, &|chain| {
+        segmented_shape_cost(candidates, chain, segments)
+    })
+}
+
+/// Gates and cost of one segment's (partial) sub-chain: spacing and turn variation.
+fn segment_part_cost(d: &[f64], t: &[f64]) -> Option<f64> {
+    let md = mean(d);
+    if d.iter()
+        .any(|x| *x < SPACING_RANGE.0 * md || *x > SPACING_RANGE.1 * md)
+    {
+        return None;
+    }
+    let mt = mean(t);
+    if t.iter().any(|x| {
+        x.abs() > MAX_TURN_DEG.to_radians() || (x - mt).abs() > MAX_TURN_CHANGE_DEG.to_radians()
+    }) {
+        return None;
+    }
+    Some(3.0 * std_dev(d) / md.max(1e-9) + 3.0 * std_dev(t))
+}
+
+/// Distance of `x` from the interval spanned by `a` and `b`.
+fn outside(x: f64, a: f64, b: f64) -> f64 {
+    (a.min(b) - x).max(x - a.max(b)).max(0.0)
+}
+
+/// Shape cost of a (partial) chain of a segmented actuator; `None` when it breaks a
+/// gate. Within each segment the gates of an evenly spaced arc apply to its own
+/// spacing and turn. At a joint the tangent is continuous: where a marker is shared, the
+/// turn there is half of each segment's turn per chord (tA / 2 + tB / 2, chords of
+/// circles meeting tangentially); where the segments abut, the joint chord (which may
+/// be shorter) turns by its length times a curvature between the two segments', and each
+/// of its two turns is half of that plus half of the neighbouring segment's turn. Areas
+/// alike over the whole chain.
+pub fn segmented_shape_cost(c: &[Candidate], chain: &[usize], segments: &[Segment]) -> Option<f64> {
+    let (d, t) = geometry(c, chain);
+    let len = chain.len();
+    let change = MAX_TURN_CHANGE_DEG.to_radians();
+    let mut cost = 0.0;
+    // Per segment: mean spacing and mean turn per chord (None until known).
+    let mut parts: Vec<(Option<f64>, Option<f64>)> = Vec::with_capacity(segments.len());
+    for s in segments {
+        if s.first + 1 >= len {
+            parts.push((None, None));
+            continue;
+        }
+        let last = s.last.min(len - 1);
+        let ds = &d[s.first..last];
+        let ts = if last >= s.first + 2 {
+            &t[s.first..last - 1]
+        } else {
+            &[][..]
+        };
+        cost += segment_part_cost(ds, ts)?;
+        parts.push((Some(mean(ds)), (!ts.is_empty()).then(|| mean(ts))));
+    }
+    for (k, w) in segments.windows(2).enumerate() {
+        let (a, b) = (w[0], w[1]);
+        let ((da, ta), (db, tb)) = (parts[k], parts[k + 1]);
+        if b.first == a.last {
+            // Shared marker j: the turn between chords j-1 -> j and j -> j+1.
+            let j = a.last;
+            if j + 1 >= len {
+                continue;
+            }
+            let turn = t[j - 1];
+            if turn.abs() > MAX_TURN_DEG.to_radians() {
+                return None;
+            }
+            if let (Some(ta), Some(tb)) = (ta, tb) {
+                let e = (turn - 0.5 * (ta + tb)).abs();
+                if e > change {
+                    return None;
+                }
+                cost += 3.0 * e;
+            }
+        } else {
+            // Joint chord j -> j+1 between the segments.
+            let j = a.last;
+            if j + 1 >= len {
+                continue;
+            }
+            let joint = d[j];
+            let (Some(da), Some(ta)) = (da, ta) else {
+                continue;
+            };
+            let db_or = db.unwrap_or(da);
+            if joint < 0.3 * da.min(db_or) || joint > SPACING_RANGE.1 * da.max(db_or) {
+                return None;
+            }
+            let turn_in = t[j - 1];
+            if turn_in.abs() > MAX_TURN_DEG.to_radians() {
+                return None;
+            }
+            let ka = ta / da.max(1e-9);
+            let kb = match (db, tb) {
+                (Some(db), Some(tb)) => tb / db.max(1e-9),
+                _ => ka,
+            };
+            let e_in = outside(
+                turn_in,
+                0.5 * ta + 0.5 * joint * ka,
+                0.5 * ta + 0.5 * joint * kb,
+            );
+            if e_in > change {
+                return None;
+            }
+            cost += 3.0 * e_in;
+            if let (Some(tb), true) = (tb, j + 2 < len) {
+                let turn_out = t[j];
+                if turn_out.abs() > MAX_TURN_DEG.to_radians() {
+                    return None;
+                }
+                let e_out = outside(
+                    turn_out,
+                    0.5 * tb + 0.5 * joint * ka,
+                    0.5 * tb + 0.5 * joint * kb,
+                );
+                if e_out > change {
+                    return None;
+                }
+                cost += 3.0 * e_out;
+            }
+        }
+    }
+    let mut areas: Vec<f64> = chain.iter().map(|&i| c[i].area_px).collect();
+    areas.sort_by(f64::total_cmp);
+    let med = areas[areas.len() / 2];
+    if areas
+        .iter()
+        .any(|a| *a > AREA_FACTOR * med || *a * AREA_FACTOR < med)
+    {
+        return None;
+    }
+    let log_areas: Vec<f64> = areas.iter().map(|a| a.max(1.0).ln()).collect();
+    Some(cost + std_dev(&log_areas))
+}
+
+/// The beam search of [`select_markers`] with the chain shape cost `cost`.
+fn beam_select(
+    candidates: &[Candidate],
+    n: usize,
+    start: ChainStart,
+    previous: Option<&[Point2<f64>]>,
+    cost: &dyn Fn(&[usize]) -> Option<f64>,
+) -> Result<Vec<usize>, SelectError> {
     let round: Vec<usize> = (0..candidates.len())
         .filter(|&i| candidates[i].elongation <= MAX_ELONGATION)
         .collect();
@@ -202,7 +365,7 @@ pub fn select_markers(
             for j in options {
                 let mut chain = p.chain.clone();
                 chain.push(j);
-                if let Some(cost) = shape_cost(candidates, &chain) {
+                if let Some(cost) = cost(&chain) {
                     next.push(Partial { chain, cost });
                 }
             }
@@ -397,6 +560,78 @@ mod tests {
         let mut plain: Vec<Candidate> = m.iter().copied().map(disc).collect();
         plain[7].area_px = 500.0;
         assert_eq!(chain_continuation(&plain, &[0, 1, 2, 3, 4, 5]), 1);
+    }
+
+    /// Points at arc lengths `s` along arcs of `radii` (each `len` long) meeting
+    /// tangentially, from (100, 300) heading right and turning up the image.
+    fn segmented(radii: &[f64], len: f64, s: &[f64]) -> Vec<Point2<f64>> {
+        s.iter()
+            .map(|&s| {
+                let (mut p, mut heading, mut s0) = (Point2::new(100.0, 300.0), 0.0f64, 0.0);
+                for (k, &r) in radii.iter().enumerate() {
+                    let ds = if k + 1 == radii.len() {
+                        s - s0
+                    } else {
+                        (s - s0).min(len)
+                    };
+                    let h = heading + ds / r;
+                    let q = Point2::new(
+                        p.x + r * (h.sin() - heading.sin()),
+                        p.y + r * (h.cos() - heading.cos()),
+                    );
+                    if k + 1 == radii.len() || s <= s0 + len {
+                        return q;
+                    }
+                    (p, heading, s0) = (q, h, s0 + len);
+                }
+                p
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_segmented_chain_is_picked_by_its_segments() {
+        // Three segments of 200 px, radii 500, 250, 140 px; markers 80 px apart within a
+        // segment, 40 px across a joint; a marker-sized dot off the chain, a tube.
+        let s: Vec<f64> = (0..3)
+            .flat_map(|k| [20.0, 100.0, 180.0].map(|v| 200.0 * k as f64 + v))
+            .collect();
+        let m = segmented(&[500.0, 250.0, 140.0], 200.0, &s);
+        let mut cands: Vec<Candidate> = m.iter().copied().map(disc).collect();
+        cands.push(disc(Point2::new(420.0, 80.0)));
+        cands.push(disc(m[8] + nalgebra::Vector2::new(60.0, 10.0)));
+        cands.push(Candidate {
+            point: Point2::new(60.0, 300.0),
+            area_px: 900.0,
+            elongation: 8.0,
+        });
+        cands.rotate_left(4);
+        let left = ChainStart::Side(ClampSide::Left);
+        // One evenly spaced arc does not describe it (the "no chain of 9").
+        assert!(select_markers(&cands, 9, left, None).is_err());
+        let segs = [
+            Segment { first: 0, last: 2 },
+            Segment { first: 3, last: 5 },
+            Segment { first: 6, last: 8 },
+        ];
+        let pick: Vec<Point2<f64>> = select_markers_in_segments(&cands, 9, &segs, left, None)
+            .unwrap()
+            .into_iter()
+            .map(|i| cands[i].point)
+            .collect();
+        assert_eq!(pick, m);
+        // Shared joint markers: segments [1..4], [4..7], [7..9] of evenly spaced markers.
+        let s: Vec<f64> = (0..9).map(|k| 70.0 * k as f64).collect();
+        let m = segmented(&[600.0, 260.0, 150.0], 210.0, &s);
+        let mut cands: Vec<Candidate> = m.iter().copied().map(disc).collect();
+        cands.push(disc(m[8] + nalgebra::Vector2::new(40.0, 30.0)));
+        let segs = [
+            Segment { first: 0, last: 3 },
+            Segment { first: 3, last: 6 },
+            Segment { first: 6, last: 8 },
+        ];
+        let pick = select_markers_in_segments(&cands, 9, &segs, left, None).unwrap();
+        assert_eq!(pick, (0..9).collect::<Vec<_>>());
     }
 
     #[test]

@@ -329,8 +329,10 @@ fn calibration_of_another_aspect_ratio_is_refused_per_video() {
     }
 }
 
-#[test]
-fn ramp_protocol_interpolates_pressure_per_frame() {
+/// The rendered ramp: 30 frames at 30 fps while the pressure rises 20 -> 50 kPa (radius
+/// `ramp_radius_at(p)`), a pressure log, the camera and mm per px; `extra` is appended
+/// to its bendscope.toml. Returns the folder holding the session `ramp`.
+fn write_ramp_session(extra: &str) -> tempfile::TempDir {
     use bendscope::render::actuator::{ArcScene, FrameLook, PlaneSampler};
     use bendscope::render::board::BoardPose;
     use bendscope::render::fixtures::gopro_like_camera;
@@ -345,7 +347,7 @@ fn ramp_protocol_interpolates_pressure_per_frame() {
         translation_mm: Vector3::new(0.0, 0.0, distance),
     };
     let sampler = PlaneSampler::new(&camera, &plane, 2, 1).unwrap();
-    let radius_at = |p: f64| 3000.0 * p.powf(-0.9) + 5.0;
+    let radius_at = ramp_radius_at;
     // 30 frames at 30 fps while the pressure rises 20 -> 50 kPa; the log runs 0.5 s
     // longer on both sides and the video starts 0.5 s into it.
     let fps = 30.0;
@@ -378,9 +380,23 @@ fn ramp_protocol_interpolates_pressure_per_frame() {
     let mm_per_px = distance / und.new_camera_matrix()[(0, 0)];
     fs::write(
         s.join("bendscope.toml"),
-        format!("calibration = \"cam.yaml\"\nmm_per_px = {mm_per_px}\nramp_time_offset_s = 0.5\nramp_bin_kpa = 5\n"),
+        format!("calibration = \"cam.yaml\"\nmm_per_px = {mm_per_px}\nramp_time_offset_s = 0.5\nramp_bin_kpa = 5\n{extra}"),
     )
     .unwrap();
+    dir
+}
+
+/// Radius drawn at pressure `p` kPa in the rendered ramp, mm.
+fn ramp_radius_at(p: f64) -> f64 {
+    3000.0 * p.powf(-0.9) + 5.0
+}
+
+#[test]
+fn ramp_protocol_interpolates_pressure_per_frame() {
+    let dir = write_ramp_session("");
+    let s = dir.path().join("ramp");
+    let radius_at = ramp_radius_at;
+    let fps = 30.0;
     let run = Run::new(dir.path(), &["process", "ramp"]);
     assert_eq!(run.code, 0, "{run}");
     let (fh, frames) = read_csv(&s.join("bendscope-out/per_frame.csv"));
@@ -407,6 +423,41 @@ fn ramp_protocol_interpolates_pressure_per_frame() {
         .map(|b| b[col(&h, "frames_used")].parse::<usize>().unwrap())
         .sum();
     assert_eq!(used, 30);
+}
+
+/// `smooth_s = 0.3` on the rendered ramp: per_frame.csv gets `radius_mm_smooth`,
+/// `curvature_per_m_smooth` and `bending_angle_deg_smooth` right after their raw columns;
+/// every smoothed radius within 1% of the drawn one (as the raw ones), and the smoothed
+/// radius errors scatter no more than the raw ones.
+#[test]
+fn ramp_with_smooth_s_has_smoothed_columns_beside_the_raw_ones() {
+    let dir = write_ramp_session("smooth_s = 0.3\n");
+    let s = dir.path().join("ramp");
+    let run = Run::new(dir.path(), &["process", "ramp"]);
+    assert_eq!(run.code, 0, "{run}");
+    let (h, frames) = read_csv(&s.join("bendscope-out/per_frame.csv"));
+    for raw in ["radius_mm", "curvature_per_m", "bending_angle_deg"] {
+        assert_eq!(h[col(&h, raw) + 1], format!("{raw}_smooth"), "{h:?}");
+    }
+    assert_eq!(frames.len(), 30);
+    let err = |f: &Vec<String>, c: &str| -> f64 {
+        let p: f64 = f[col(&h, "pressure_kpa")].parse().unwrap();
+        f[col(&h, c)].parse::<f64>().unwrap() / ramp_radius_at(p) - 1.0
+    };
+    let std = |e: &[f64]| {
+        let m = e.iter().sum::<f64>() / e.len() as f64;
+        (e.iter().map(|v| (v - m).powi(2)).sum::<f64>() / e.len() as f64).sqrt()
+    };
+    let raw: Vec<f64> = frames.iter().map(|f| err(f, "radius_mm")).collect();
+    let smooth: Vec<f64> = frames.iter().map(|f| err(f, "radius_mm_smooth")).collect();
+    eprintln!(
+        "ramp: radius error sd raw {:.4}%, smoothed {:.4}%; worst smoothed {:.4}%",
+        100.0 * std(&raw),
+        100.0 * std(&smooth),
+        100.0 * smooth.iter().fold(0.0f64, |a, e| a.max(e.abs()))
+    );
+    assert!(smooth.iter().all(|e| e.abs() < 0.01), "{smooth:?}");
+    assert!(std(&smooth) <= std(&raw), "{smooth:?} vs {raw:?}");
 }
 
 #[test]
@@ -499,6 +550,22 @@ fn rgbd_session_gives_mm_from_depth_without_a_scale_photo() {
             (a - truth_angle).abs() < ANGLE_TOLERANCE_DEG,
             "{p} kPa: angle {a} vs {truth_angle}"
         );
+    }
+    // markers.csv in 3D: a z_mm column, every marker within 0.05 mm of the session's
+    // least-squares plane of the markers (the actuator's side face), and marker 1 of the
+    // first frame at the origin.
+    let (mh, markers) = read_csv(&s.join("bendscope-out/markers.csv"));
+    assert_eq!(mh.last().map(String::as_str), Some("z_mm"), "{mh:?}");
+    assert_eq!(markers.len(), 30 * 8);
+    let z: Vec<f64> = markers
+        .iter()
+        .map(|m| m[col(&mh, "z_mm")].parse::<f64>().unwrap())
+        .collect();
+    let worst_z = z.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    eprintln!("rgbd markers.csv: worst |z_mm| {worst_z:.3}");
+    assert!(worst_z < 0.05, "{worst_z}");
+    for c in ["x_mm", "y_mm", "z_mm"] {
+        assert_eq!(markers[0][col(&mh, c)].parse::<f64>().unwrap(), 0.0);
     }
     // A depth frame missing: that frame is named, with what to do; the others are kept.
     fs::remove_file(s.join("depth/000003.png")).unwrap();

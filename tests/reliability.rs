@@ -594,6 +594,34 @@ fn a_frame_stride_of_zero_is_refused() {
 }
 
 #[test]
+fn bad_segments_are_refused_with_the_key_and_what_is_wrong() {
+    for (toml, needles) in [
+        (
+            "segments = [[1, 2, 3], [4, 5, 9]]\n",
+            &["line 1", "segments = ", "marker 9, which does not exist"][..],
+        ),
+        (
+            "segments = [[1, 2], [3, 4, 5, 6, 7, 8]]\n",
+            &["segments = ", "segment 1 has 2 marker(s)", "at least 3"][..],
+        ),
+        (
+            "segments = [[1, 2, 3, 4, 5], [3, 4, 5, 6, 7, 8]]\n",
+            &["segments = ", "overlapping or out of order"][..],
+        ),
+        (
+            "smooth_s = 0\n",
+            &["smooth_s = 0", "positive number of seconds"][..],
+        ),
+    ] {
+        let c = config_case(toml);
+        let run = c.run();
+        let mut all = vec!["bendscope.toml"];
+        all.extend(needles);
+        c.refused(&run, &all);
+    }
+}
+
+#[test]
 fn a_negative_mm_per_px_is_refused() {
     let c = config_case("mm_per_px = -1\n");
     let run = c.run();

@@ -16,7 +16,7 @@ use crate::io::{bounded_file_name, hash_parts, write_atomic};
 use super::records::FrameRecord;
 
 /// Version of the entry layout; bump when [`CacheEntry`] or what it means changes.
-pub const CACHE_FORMAT: u32 = 3;
+pub const CACHE_FORMAT: u32 = 4;
 
 /// A cache key: 32 hex digits.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]

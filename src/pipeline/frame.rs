@@ -3,7 +3,7 @@
 //! and RGB-D frames; [`Geometry`] says how image points become millimetres.
 
 use image::{GrayImage, ImageBuffer, Luma};
-use nalgebra::Point2;
+use nalgebra::{Point2, Point3};
 
 use crate::calib::Undistorter;
 use crate::detect::{
@@ -12,11 +12,12 @@ use crate::detect::{
 use crate::fit::{bending_angle_along_markers_deg, fit_circle_3d, fit_circle_pratt};
 use crate::rgbd::{markers_on_depth_plane, RgbdIntrinsics};
 use crate::scale::apply_homography;
-use crate::select::{chain_continuation, select_markers, Candidate};
+use crate::segments::{fit_segments, Segment, SegmentFit};
+use crate::select::{chain_continuation, select_markers, select_markers_in_segments, Candidate};
 use crate::session::SessionConfig;
 use crate::video::Pixels;
 
-use super::records::FrameStatus;
+use super::records::{FrameStatus, MarkerPoint};
 
 /// A 16-bit depth frame aligned to the colour frame.
 pub type DepthImage = ImageBuffer<Luma<u16>, Vec<u16>>;
@@ -101,6 +102,14 @@ pub struct FrameMeasurement {
     pub fit_rms: f64,
     /// Outcome.
     pub status: FrameStatus,
+    /// The markers of `markers_px`, in order, with their raw-frame centroid and their
+    /// position in mm ([`MarkerPoint`]); empty when rejected. With frames undistorted
+    /// before detection (`Geometry::Plane` without an undistorter) the "raw" centroid is
+    /// the undistorted frame's: the caller maps it back through the lens model.
+    pub markers: Vec<MarkerPoint>,
+    /// Segmented actuators: one circle per segment (empty without segments or when
+    /// rejected).
+    pub segments: Vec<SegmentFit>,
 }
 
 impl FrameMeasurement {
@@ -118,23 +127,37 @@ impl FrameMeasurement {
             bending_angle_deg: f64::NAN,
             fit_rms: f64::NAN,
             status,
+            markers: vec![],
+            segments: vec![],
         }
     }
 }
 
+/// What a frame's markers are: how many, where they may be, how they are grouped.
+#[derive(Debug, Clone, Copy)]
+pub struct MarkerLayout<'a> {
+    /// Markers per frame (`expected_markers`).
+    pub expected: usize,
+    /// Region of interest (undistorted px), when set.
+    pub roi: Option<&'a [[f64; 2]]>,
+    /// Segments of a segmented actuator (empty: one arc).
+    pub segments: &'a [Segment],
+}
+
 /// Measures one frame. `depth` is required by [`Geometry::Depth`] and ignored otherwise.
 /// With more red blobs than markers, the markers are the chain [`select_markers`] finds
-/// (the others are counted as ignored). On success the tracker's chain start moves to
-/// this frame's clamped-end marker and its markers are remembered for the next frame.
+/// ([`select_markers_in_segments`] with segments; the others are counted as ignored).
+/// On success the tracker's chain start moves to this frame's clamped-end marker and
+/// its markers are remembered for the next frame.
 pub fn measure_frame<S: PixelSource>(
     pixels: &S,
     depth: Option<&DepthImage>,
     geometry: &Geometry,
     detect: &DetectSettings,
-    expected_markers: usize,
-    roi: Option<&[[f64; 2]]>,
+    layout: &MarkerLayout,
     tracker: &mut Tracker,
 ) -> FrameMeasurement {
+    let (expected_markers, roi, segments) = (layout.expected, layout.roi, layout.segments);
     let d = detect_markers_with(pixels, detect, &mut tracker.mask);
     let found = d.blobs.len();
     if found < expected_markers {
@@ -206,12 +229,23 @@ pub fn measure_frame<S: PixelSource>(
                 }
             })
             .collect();
-        match select_markers(
-            &candidates,
-            expected_markers,
-            tracker.start,
-            tracker.previous.as_deref(),
-        ) {
+        let picked = if segments.is_empty() {
+            select_markers(
+                &candidates,
+                expected_markers,
+                tracker.start,
+                tracker.previous.as_deref(),
+            )
+        } else {
+            select_markers_in_segments(
+                &candidates,
+                expected_markers,
+                segments,
+                tracker.start,
+                tracker.previous.as_deref(),
+            )
+        };
+        match picked {
             Ok(order) => {
                 let more = chain_continuation(&candidates, &order);
                 (order.into_iter().map(|k| inside[k]).collect(), more)
@@ -240,16 +274,31 @@ pub fn measure_frame<S: PixelSource>(
         }
     }
     let chosen: Vec<Point2<f64>> = order.iter().map(|&i| working[i]).collect();
-    let m = match geometry {
+    let (m, mm) = match geometry {
         Geometry::Plane {
             mm_per_px,
             plane_from_px,
             ..
-        } => measure_plane(chosen, *mm_per_px, plane_from_px.as_ref()),
+        } => measure_plane(chosen, *mm_per_px, plane_from_px.as_ref(), segments),
         Geometry::Depth {
             undistorter,
             intrinsics,
-        } => measure_depth(chosen, depth, undistorter, intrinsics),
+        } => measure_depth(chosen, depth, undistorter, intrinsics, segments),
+    };
+    let markers = if m.status.is_ok() {
+        order
+            .iter()
+            .zip(&mm)
+            .map(|(&i, p)| MarkerPoint {
+                x_px: raw[i].x,
+                y_px: raw[i].y,
+                x_mm: p.x,
+                y_mm: p.y,
+                z_mm: p.z,
+            })
+            .collect()
+    } else {
+        vec![]
     };
     if m.status.is_ok() {
         if let Some(first) = m.markers_px.first() {
@@ -262,6 +311,7 @@ pub fn measure_frame<S: PixelSource>(
         n_markers: expected_markers.min(found),
         ignored_px,
         n_continuing,
+        markers,
         ..m
     }
 }
@@ -306,14 +356,19 @@ pub fn chain_continues_warning(
     ))
 }
 
+/// The measurement of markers in a plane, and their plane positions (mm, z NaN).
 fn measure_plane(
     ordered: Vec<Point2<f64>>,
     mm_per_px: f64,
     plane_from_px: Option<&[f64; 9]>,
-) -> FrameMeasurement {
+    segments: &[Segment],
+) -> (FrameMeasurement, Vec<Point3<f64>>) {
     let n = ordered.len();
     let fit_failed = |e: crate::fit::FitError| {
-        FrameMeasurement::rejected(n, FrameStatus::FitFailed { why: e.to_string() })
+        (
+            FrameMeasurement::rejected(n, FrameStatus::FitFailed { why: e.to_string() }),
+            vec![],
+        )
     };
     // The px circle (overlay, fit RMS in px); the mm one from the plane's homography.
     let circle = match fit_circle_pratt(&ordered) {
@@ -332,61 +387,86 @@ fn measure_plane(
         Err(e) => return fit_failed(e),
     };
     let angle = bending_angle_along_markers_deg(&mm_points, &circle_mm).unwrap_or(f64::NAN);
-    FrameMeasurement {
-        n_markers: n,
-        ignored_px: vec![],
-        n_continuing: 0,
-        center_px: circle.center,
-        radius_px: circle.radius,
-        radius_mm: circle_mm.radius,
-        curvature_per_m: circle_mm.curvature * 1000.0,
-        bending_angle_deg: angle,
-        fit_rms: circle.rms,
-        markers_px: ordered,
-        status: FrameStatus::Ok,
-    }
+    let segments = fit_segments(Some(&ordered), &mm_points, segments);
+    let in_mm = mm_points
+        .iter()
+        .map(|p| Point3::new(p.x, p.y, f64::NAN))
+        .collect();
+    (
+        FrameMeasurement {
+            n_markers: n,
+            ignored_px: vec![],
+            n_continuing: 0,
+            center_px: circle.center,
+            radius_px: circle.radius,
+            radius_mm: circle_mm.radius,
+            curvature_per_m: circle_mm.curvature * 1000.0,
+            bending_angle_deg: angle,
+            fit_rms: circle.rms,
+            markers_px: ordered,
+            status: FrameStatus::Ok,
+            markers: vec![],
+            segments,
+        },
+        in_mm,
+    )
 }
 
+/// The measurement of markers lifted to 3D with depth, and their camera-frame
+/// positions (mm).
 fn measure_depth(
     ordered: Vec<Point2<f64>>,
     depth: Option<&DepthImage>,
     undistorter: &Undistorter,
     intrinsics: &RgbdIntrinsics,
-) -> FrameMeasurement {
+    segments: &[Segment],
+) -> (FrameMeasurement, Vec<Point3<f64>>) {
     let n = ordered.len();
     let Some(depth) = depth else {
-        return FrameMeasurement::rejected(
-            n,
-            FrameStatus::BadFrame {
-                why: "no depth frame".into(),
-            },
+        return (
+            FrameMeasurement::rejected(
+                n,
+                FrameStatus::BadFrame {
+                    why: "no depth frame".into(),
+                },
+            ),
+            vec![],
         );
     };
     let pts = match markers_on_depth_plane(&ordered, depth, intrinsics, undistorter) {
         Ok(p) => p,
-        Err(e) => return FrameMeasurement::rejected(n, e),
+        Err(e) => return (FrameMeasurement::rejected(n, e), vec![]),
     };
     let c = match fit_circle_3d(&pts) {
         Ok(c) => c,
         Err(e) => {
-            return FrameMeasurement::rejected(n, FrameStatus::FitFailed { why: e.to_string() })
+            return (
+                FrameMeasurement::rejected(n, FrameStatus::FitFailed { why: e.to_string() }),
+                vec![],
+            )
         }
     };
     let in_plane: Vec<Point2<f64>> = pts.iter().map(|p| c.to_plane(p)).collect();
     let angle = bending_angle_along_markers_deg(&in_plane, &c.circle).unwrap_or(f64::NAN);
-    FrameMeasurement {
-        n_markers: n,
-        ignored_px: vec![],
-        n_continuing: 0,
-        center_px: Point2::new(f64::NAN, f64::NAN),
-        radius_px: f64::NAN,
-        radius_mm: c.circle.radius,
-        curvature_per_m: c.circle.curvature * 1000.0,
-        bending_angle_deg: angle,
-        fit_rms: c.circle.rms,
-        markers_px: ordered,
-        status: FrameStatus::Ok,
-    }
+    let segments = fit_segments(None, &in_plane, segments);
+    (
+        FrameMeasurement {
+            n_markers: n,
+            ignored_px: vec![],
+            n_continuing: 0,
+            center_px: Point2::new(f64::NAN, f64::NAN),
+            radius_px: f64::NAN,
+            radius_mm: c.circle.radius,
+            curvature_per_m: c.circle.curvature * 1000.0,
+            bending_angle_deg: angle,
+            fit_rms: c.circle.rms,
+            markers_px: ordered,
+            status: FrameStatus::Ok,
+            markers: vec![],
+            segments,
+        },
+        pts,
+    )
 }
 
 /// Whether `p` lies inside the polygon `poly` (even-odd rule).
@@ -404,42 +484,24 @@ pub fn inside_polygon(p: Point2<f64>, poly: &[[f64; 2]]) -> bool {
 }
 
 /// [`measure_frame`] on decoded [`Pixels`] (YUV planes or RGB) with the session's
-/// detection settings.
+/// detection settings and `segments` (the session's [`SessionConfig::segment_plan`]).
 pub fn measure_pixels(
     pixels: &Pixels,
     depth: Option<&DepthImage>,
     geometry: &Geometry,
     config: &SessionConfig,
+    segments: &[Segment],
     tracker: &mut Tracker,
 ) -> FrameMeasurement {
+    let layout = MarkerLayout {
+        expected: config.expected_markers,
+        roi: config.roi.as_deref(),
+        segments,
+    };
     match pixels {
-        Pixels::Yuv(yuv) => measure_frame(
-            yuv,
-            depth,
-            geometry,
-            &config.detect,
-            config.expected_markers,
-            config.roi.as_deref(),
-            tracker,
-        ),
-        Pixels::Yuv10(yuv) => measure_frame(
-            yuv,
-            depth,
-            geometry,
-            &config.detect,
-            config.expected_markers,
-            config.roi.as_deref(),
-            tracker,
-        ),
-        Pixels::Rgb(rgb) => measure_frame(
-            rgb,
-            depth,
-            geometry,
-            &config.detect,
-            config.expected_markers,
-            config.roi.as_deref(),
-            tracker,
-        ),
+        Pixels::Yuv(yuv) => measure_frame(yuv, depth, geometry, &config.detect, &layout, tracker),
+        Pixels::Yuv10(yuv) => measure_frame(yuv, depth, geometry, &config.detect, &layout, tracker),
+        Pixels::Rgb(rgb) => measure_frame(rgb, depth, geometry, &config.detect, &layout, tracker),
     }
 }
 

@@ -10,8 +10,8 @@
 //!   per item   cache hit (same content key, outputs present) or
 //!              source (video chapters / RGB-D frames) -> frame::measure_frame ->
 //!              FrameRecord; stats::summarize -> VideoRecord; the overlay
-//!   output     per_frame.csv, per_video.csv, fit.json, session.json, plots/,
-//!              report.html
+//!   output     per_frame.csv, markers.csv (in the session's axes, [`markers`]),
+//!              per_video.csv, fit.json, session.json, plots/, report.html
 //! ```
 //!
 //! A run holds OUT's lock ([`lock`]) from its first write to its last, so two runs never
@@ -25,10 +25,13 @@
 pub mod cache;
 pub mod frame;
 pub mod lock;
+pub mod markers;
 pub mod output;
 pub mod overlay;
+pub mod profile;
 pub mod provenance;
 pub mod records;
+pub mod smooth;
 pub mod source;
 pub mod stats;
 
@@ -408,8 +411,24 @@ fn measure_session_into(
             from_cache: i.from_cache,
         })
         .collect();
+    // Ramps (video or RGB-D) filtered as labs do: the marker tracks, then the circle.
+    let smoothed = match (config.smooth_s, &layout) {
+        (Some(s), Layout::Ramp(..) | Layout::Rgbd(_)) => {
+            for item in &mut items {
+                smooth::smooth_recording(&mut item.frames, s);
+            }
+            true
+        }
+        _ => false,
+    };
+    // The axes of markers.csv span the session; every tip pose is taken in them.
+    let axes = markers::SessionAxes::from_frames(items.iter().flat_map(|i| &i.frames));
+    if let Some(axes) = &axes {
+        markers::set_tip_poses(items.iter_mut().flat_map(|i| &mut i.frames), axes);
+    }
     let mut videos: Vec<VideoRecord> = Vec::new();
     let mut frames: Vec<FrameRecord> = Vec::new();
+    let mut report_warnings: Vec<String> = Vec::new();
     let (mut measured, mut failed) = (0, 0);
     for item in items {
         let record = item.record();
@@ -424,6 +443,16 @@ fn measure_session_into(
         }
         if let Some(w) = frame::chain_continues_warning(&item.frames, config.expected_markers) {
             notes.push(format!("warning: {}: {w}", item.file));
+        }
+        // With segments listed, the actuator is known not to be one arc.
+        let one_circle = config.segments.is_none();
+        if let Some(w) = one_circle
+            .then(|| profile::one_circle_warning(&item.frames))
+            .flatten()
+        {
+            let line = format!("{}: {w}", item.file);
+            notes.push(format!("warning: {line}"));
+            report_warnings.push(line);
         }
         match binned {
             Some(bin_kpa) if record.status.is_measured() => {
@@ -460,6 +489,10 @@ fn measure_session_into(
         &output::SessionOutputs {
             name: &name,
             frames: &frames,
+            axes: axes.as_ref(),
+            segments: &config.segment_plan(),
+            warnings: &report_warnings,
+            smoothed,
             videos: &videos,
             unit,
             rms,
@@ -948,6 +981,36 @@ fn frame_record(
         bending_angle_deg: m.bending_angle_deg,
         fit_rms: m.fit_rms,
         status: m.status,
+        markers: m.markers,
+        segments: m.segments,
+        tip_x_mm: f64::NAN,
+        tip_y_mm: f64::NAN,
+        tip_angle_deg: f64::NAN,
+        radius_mm_smooth: f64::NAN,
+        curvature_per_m_smooth: f64::NAN,
+        bending_angle_deg_smooth: f64::NAN,
+    }
+}
+
+/// Maps the marker centroids of a frame undistorted before detection back to the raw
+/// frame (markers.csv's `x_px`, `y_px`) through the lens model.
+fn raw_marker_centroids(undistorter: &Undistorter, m: &mut frame::FrameMeasurement) {
+    let flat: Vec<nalgebra::Point2<f64>> = m
+        .markers
+        .iter()
+        .map(|p| nalgebra::Point2::new(p.x_px, p.y_px))
+        .collect();
+    match undistorter.distort_points(&flat) {
+        Ok(raw) => {
+            for (p, r) in m.markers.iter_mut().zip(raw) {
+                (p.x_px, p.y_px) = (r.x, r.y);
+            }
+        }
+        Err(_) => {
+            for p in &mut m.markers {
+                (p.x_px, p.y_px) = (f64::NAN, f64::NAN);
+            }
+        }
     }
 }
 
@@ -1000,6 +1063,7 @@ impl VideoRun<'_> {
             from_cache: false,
             storage_full: false,
         };
+        let segments = config.segment_plan();
         let mut overlay_pending = true;
         let (mut time_offset, mut index_offset) = (0.0, 0u64);
         let mut outside_log = 0usize;
@@ -1069,7 +1133,7 @@ impl VideoRun<'_> {
                         .unwrap_or(f64::NAN),
                     None => entry.pressure_kpa,
                 };
-                let m = if log.is_some() && pressure_kpa.is_nan() {
+                let mut m = if log.is_some() && pressure_kpa.is_nan() {
                     outside_log += 1;
                     frame::FrameMeasurement::rejected(0, FrameStatus::OutsidePressureLog)
                 } else {
@@ -1085,8 +1149,11 @@ impl VideoRun<'_> {
                                         plane_from_px,
                                     },
                                     &config.detect,
-                                    config.expected_markers,
-                                    config.roi.as_deref(),
+                                    &frame::MarkerLayout {
+                                        expected: config.expected_markers,
+                                        roi: config.roi.as_deref(),
+                                        segments: &segments,
+                                    },
                                     &mut tracker,
                                 ),
                                 Err(e) => {
@@ -1104,10 +1171,14 @@ impl VideoRun<'_> {
                                 plane_from_px,
                             },
                             config,
+                            &segments,
                             &mut tracker,
                         ),
                     }
                 };
+                if maps.is_some() {
+                    raw_marker_centroids(&undistorter, &mut m);
+                }
                 if m.status.is_ok() && overlay_pending {
                     overlay_pending = false;
                     match overlay::write_video_overlay(
@@ -1176,6 +1247,7 @@ fn measure_rgbd(
         intrinsics: intr,
     };
     let mut tracker = Tracker::new(ChainStart::Side(config.detect.clamp_side));
+    let segments = config.segment_plan();
     let total = listing.frames.len();
     let mut source: Box<dyn FrameSource> =
         Box::new(RgbdSource::new(listing.frames, (intr.width, intr.height)));
@@ -1221,6 +1293,7 @@ fn measure_rgbd(
                     f.depth.as_ref(),
                     &geometry,
                     config,
+                    &segments,
                     &mut tracker,
                 );
                 frame_record("color", index, time_s, pressure_kpa, m)

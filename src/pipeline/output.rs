@@ -1,5 +1,6 @@
-//! A session's outputs from its records: `per_frame.csv`, `per_video.csv`, `fit.json`
-//! (power laws), `session.json` (how they were made), `plots/` and `report.html`. Every
+//! A session's outputs from its records: `per_frame.csv`, `markers.csv`, `per_video.csv`,
+//! `fit.json` (power laws), `session.json` (how they were made), `plots/` and
+//! `report.html`. Every
 //! file is written atomically; the outputs depend only on the records (session.json
 //! also on which came from the cache), so a rerun writes identical files. When one
 //! cannot be written (a full disk), it and the ones after it are removed, so no output
@@ -14,9 +15,25 @@ use crate::report::{html, plot_xy, write_json, Series};
 use crate::session::PressureUnit;
 use crate::table::{write_csv, Column};
 
+use crate::segments::{Segment, SegmentStats};
+
+use super::markers::{write_markers_csv, SessionAxes};
+use super::profile;
 use super::provenance::{Provenance, SESSION_JSON};
 use super::records::{FrameRecord, VideoRecord};
 use super::PipelineError;
+
+/// The marker positions of every measured frame ([`super::markers`]).
+pub const MARKERS_CSV: &str = "markers.csv";
+
+/// The per-segment table of a segmented actuator ([`crate::segments`]).
+pub const PER_SEGMENT_CSV: &str = "per_segment.csv";
+
+/// Stems (in plots/) of the per-segment plots of a segmented actuator.
+pub const SEGMENT_PLOT_STEMS: [&str; 2] = [
+    "segment_radius_vs_pressure",
+    "segment_curvature_vs_pressure",
+];
 
 /// Stems (in plots/) of the session's plots; each has a .png and an .svg.
 pub const PLOT_STEMS: [&str; 4] = [
@@ -31,11 +48,14 @@ pub const PLOT_STEMS: [&str; 4] = [
 fn output_stages() -> Vec<Vec<String>> {
     let plots = PLOT_STEMS
         .iter()
+        .chain(&SEGMENT_PLOT_STEMS)
         .flat_map(|s| [format!("plots/{s}.png"), format!("plots/{s}.svg")])
         .collect();
     vec![
         vec!["per_frame.csv".into()],
+        vec![MARKERS_CSV.into()],
         vec!["per_video.csv".into()],
+        vec![PER_SEGMENT_CSV.into()],
         vec!["fit.json".into()],
         vec![SESSION_JSON.into()],
         plots,
@@ -63,6 +83,94 @@ pub struct SessionFits {
     /// Why a fit is missing, and the measured rows a fit had to leave out (each note
     /// is also a warning on stderr).
     pub notes: Vec<String>,
+    /// Segmented actuators: each segment's fits (absent without segments).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub segments: Vec<SegmentFits>,
+}
+
+/// Power-law fits of one segment of a segmented actuator (`null` when there are too few
+/// distinct pressures, as for the whole actuator).
+#[derive(Debug, Clone, Serialize)]
+pub struct SegmentFits {
+    /// Segment number, from 1 at the clamped end.
+    pub segment: usize,
+    /// Its markers ("1 2 3").
+    pub markers: String,
+    /// Radius (mm) vs pressure (kPa).
+    pub radius_mm_vs_kpa: Option<PowerLawFit>,
+    /// Curvature (1/m) vs pressure (kPa).
+    pub curvature_per_m_vs_kpa: Option<PowerLawFit>,
+    /// Bending angle over the segment (deg) vs pressure (kPa).
+    pub bending_angle_deg_vs_kpa: Option<PowerLawFit>,
+}
+
+/// Each segment's power laws over the measured rows (pressure > 0, finite values).
+pub fn fit_segment_records(rows: &[VideoRecord], segments: &[Segment]) -> Vec<SegmentFits> {
+    segments
+        .iter()
+        .enumerate()
+        .map(|(k, s)| {
+            let fit = |g: fn(&SegmentStats) -> f64| -> Option<PowerLawFit> {
+                let (xs, ys): (Vec<f64>, Vec<f64>) = rows
+                    .iter()
+                    .filter(|r| r.status.is_measured())
+                    .filter_map(|r| r.stats.segments.get(k).map(|st| (r.pressure_kpa, g(st))))
+                    .filter(|(x, y)| x.is_finite() && *x > 0.0 && y.is_finite())
+                    .unzip();
+                fit_power_law(&xs, &ys).ok()
+            };
+            SegmentFits {
+                segment: k + 1,
+                markers: s.label(),
+                radius_mm_vs_kpa: fit(|st| st.radius_mm),
+                curvature_per_m_vs_kpa: fit(|st| st.curvature_per_m),
+                bending_angle_deg_vs_kpa: fit(|st| st.bending_angle_deg),
+            }
+        })
+        .collect()
+}
+
+/// Writes `per_segment.csv`: one row per segment of each row of per_video.csv
+/// (`file,pressure_kpa,segment,markers,radius_mm,radius_mm_std,curvature_per_m,
+/// bending_angle_deg,fit_rms_px,frames_used,status`; RGB-D: `fit_rms_mm`).
+pub fn write_per_segment_csv(
+    path: &Path,
+    rows: &[VideoRecord],
+    segments: &[Segment],
+    rms: RmsUnit,
+) -> Result<(), PipelineError> {
+    let cells: Vec<(&VideoRecord, usize, Option<&SegmentStats>)> = rows
+        .iter()
+        .flat_map(|r| (0..segments.len()).map(move |k| (r, k, r.stats.segments.get(k))))
+        .collect();
+    let f = |g: fn(&SegmentStats) -> f64| -> Vec<f64> {
+        cells
+            .iter()
+            .map(|(_, _, st)| st.map_or(f64::NAN, g))
+            .collect()
+    };
+    write_csv(
+        path,
+        &[
+            Column::text("file", cells.iter().map(|c| c.0.file.clone())),
+            Column::num("pressure_kpa", 4, cells.iter().map(|c| c.0.pressure_kpa)),
+            Column::int("segment", cells.iter().map(|c| c.1 as u64 + 1)),
+            Column::text("markers", cells.iter().map(|c| segments[c.1].label())),
+            Column::num("radius_mm", 4, f(|s| s.radius_mm)),
+            Column::num("radius_mm_std", 4, f(|s| s.radius_mm_std)),
+            Column::num("curvature_per_m", 4, f(|s| s.curvature_per_m)),
+            Column::num("bending_angle_deg", 4, f(|s| s.bending_angle_deg)),
+            Column::num(rms.column(), 4, f(|s| s.fit_rms)),
+            Column::int(
+                "frames_used",
+                cells
+                    .iter()
+                    .map(|c| c.2.map_or(0, |s| s.frames_used) as u64),
+            ),
+            Column::text("status", cells.iter().map(|c| c.0.status.to_string())),
+        ],
+    )?;
+    Ok(())
 }
 
 /// Fits the measured rows (pressure > 0, finite values). Rows at or below 0 kPa stay in
@@ -125,6 +233,7 @@ pub fn fit_records(rows: &[VideoRecord], unit: PressureUnit) -> SessionFits {
             |r| r.stats.curvature_per_m,
         ),
         notes,
+        segments: vec![],
     };
     for (names, why) in failed {
         fits.notes
@@ -151,30 +260,76 @@ impl RmsUnit {
     }
 }
 
-/// Writes `per_frame.csv`.
+/// Writes `per_frame.csv`; after the fit RMS, the curvature profile: one column
+/// `curvature_m<k>_per_m` per inner marker k = 2 .. n-1 of the longest marker chain
+/// (the circle through markers k-1, k, k+1, [`profile::curvature_profile_per_m`]).
+/// With `smoothed`, `radius_mm_smooth`, `curvature_per_m_smooth` and
+/// `bending_angle_deg_smooth` follow their raw columns ([`super::smooth`]).
 pub fn write_per_frame_csv(
     path: &Path,
     rows: &[FrameRecord],
     rms: RmsUnit,
+    smoothed: bool,
 ) -> Result<(), PipelineError> {
     let f = |g: fn(&FrameRecord) -> f64| rows.iter().map(g).collect::<Vec<f64>>();
-    write_csv(
-        path,
-        &[
-            Column::text("file", rows.iter().map(|r| r.file.clone())),
-            Column::int("frame", rows.iter().map(|r| r.frame)),
-            Column::num("time_s", 4, f(|r| r.time_s)),
-            Column::num("pressure_kpa", 3, f(|r| r.pressure_kpa)),
-            Column::int("n_markers", rows.iter().map(|r| r.n_markers as u64)),
-            Column::int("n_ignored", rows.iter().map(|r| r.n_ignored as u64)),
-            Column::num("radius_px", 3, f(|r| r.radius_px)),
-            Column::num("radius_mm", 4, f(|r| r.radius_mm)),
-            Column::num("curvature_per_m", 4, f(|r| r.curvature_per_m)),
-            Column::num("bending_angle_deg", 3, f(|r| r.bending_angle_deg)),
-            Column::num(rms.column(), 4, f(|r| r.fit_rms)),
-            Column::text("status", rows.iter().map(|r| r.status.to_string())),
-        ],
-    )?;
+    let profiles: Vec<Vec<f64>> = rows
+        .iter()
+        .map(|r| profile::curvature_profile_per_m(&r.markers))
+        .collect();
+    let inner = profiles.iter().map(Vec::len).max().unwrap_or(0);
+    let mut cols = vec![
+        Column::text("file", rows.iter().map(|r| r.file.clone())),
+        Column::int("frame", rows.iter().map(|r| r.frame)),
+        Column::num("time_s", 4, f(|r| r.time_s)),
+        Column::num("pressure_kpa", 3, f(|r| r.pressure_kpa)),
+        Column::int("n_markers", rows.iter().map(|r| r.n_markers as u64)),
+        Column::int("n_ignored", rows.iter().map(|r| r.n_ignored as u64)),
+        Column::num("radius_px", 3, f(|r| r.radius_px)),
+        Column::num("radius_mm", 4, f(|r| r.radius_mm)),
+    ];
+    if smoothed {
+        cols.push(Column::num(
+            "radius_mm_smooth",
+            4,
+            f(|r| r.radius_mm_smooth),
+        ));
+    }
+    cols.push(Column::num("curvature_per_m", 4, f(|r| r.curvature_per_m)));
+    if smoothed {
+        cols.push(Column::num(
+            "curvature_per_m_smooth",
+            4,
+            f(|r| r.curvature_per_m_smooth),
+        ));
+    }
+    cols.push(Column::num(
+        "bending_angle_deg",
+        3,
+        f(|r| r.bending_angle_deg),
+    ));
+    if smoothed {
+        cols.push(Column::num(
+            "bending_angle_deg_smooth",
+            3,
+            f(|r| r.bending_angle_deg_smooth),
+        ));
+    }
+    cols.push(Column::num(rms.column(), 4, f(|r| r.fit_rms)));
+    for k in 0..inner {
+        cols.push(Column::num(
+            format!("curvature_m{}_per_m", k + 2),
+            4,
+            profiles
+                .iter()
+                .map(|p| p.get(k).copied().unwrap_or(f64::NAN))
+                .collect::<Vec<f64>>(),
+        ));
+    }
+    cols.push(Column::text(
+        "status",
+        rows.iter().map(|r| r.status.to_string()),
+    ));
+    write_csv(path, &cols)?;
     Ok(())
 }
 
@@ -205,6 +360,12 @@ pub fn write_per_video_csv(
         Column::num("curvature_per_m", 4, f(|r| r.stats.curvature_per_m)),
         Column::num("bending_angle_deg", 4, f(|r| r.stats.bending_angle_deg)),
         Column::num(rms.column(), 4, f(|r| r.stats.fit_rms)),
+        Column::num("tip_x_mm", 4, f(|r| r.stats.tip_x_mm)),
+        Column::num("tip_x_mm_std", 4, f(|r| r.stats.tip_x_mm_std)),
+        Column::num("tip_y_mm", 4, f(|r| r.stats.tip_y_mm)),
+        Column::num("tip_y_mm_std", 4, f(|r| r.stats.tip_y_mm_std)),
+        Column::num("tip_angle_deg", 4, f(|r| r.stats.tip_angle_deg)),
+        Column::num("tip_angle_deg_std", 4, f(|r| r.stats.tip_angle_deg_std)),
         Column::int(
             "frames_used",
             rows.iter().map(|r| r.stats.frames_used as u64),
@@ -223,8 +384,17 @@ pub fn write_per_video_csv(
 pub struct SessionOutputs<'a> {
     /// Session name (the report's title).
     pub name: &'a str,
-    /// Rows of per_frame.csv.
+    /// Rows of per_frame.csv (their markers: the rows of markers.csv).
     pub frames: &'a [FrameRecord],
+    /// The session's axes of markers.csv (`None` when no frame was measured).
+    pub axes: Option<&'a SessionAxes>,
+    /// Segments of a segmented actuator (empty: one arc, no per_segment.csv).
+    pub segments: &'a [Segment],
+    /// Warnings about the measurement the report shows (also on stderr).
+    pub warnings: &'a [String],
+    /// Whether the frames carry smoothed values (`smooth_s` on a ramp): per_frame.csv
+    /// gets the `*_smooth` columns.
+    pub smoothed: bool,
     /// Rows of per_video.csv.
     pub videos: &'a [VideoRecord],
     /// The manifest's pressure unit.
@@ -255,16 +425,27 @@ fn write_stages(
     s: &SessionOutputs,
     done: &mut usize,
 ) -> Result<SessionFits, PipelineError> {
-    write_per_frame_csv(&out.join("per_frame.csv"), s.frames, s.rms)?;
+    write_per_frame_csv(&out.join("per_frame.csv"), s.frames, s.rms, s.smoothed)?;
+    *done += 1;
+    write_markers_csv(&out.join(MARKERS_CSV), s.frames, s.axes)?;
     *done += 1;
     write_per_video_csv(&out.join("per_video.csv"), s.videos, s.unit, s.rms)?;
     *done += 1;
-    let fits = fit_records(s.videos, s.unit);
+    if s.segments.is_empty() {
+        // An earlier run's table must not stand for this run's.
+        remove_stale(&out.join(PER_SEGMENT_CSV))?;
+    } else {
+        write_per_segment_csv(&out.join(PER_SEGMENT_CSV), s.videos, s.segments, s.rms)?;
+    }
+    *done += 1;
+    let mut fits = fit_records(s.videos, s.unit);
+    fits.segments = fit_segment_records(s.videos, s.segments);
     write_json(&out.join("fit.json"), &fits)?;
     *done += 1;
     write_json(&out.join(SESSION_JSON), s.provenance)?;
     *done += 1;
-    let plots = write_plots(out, s.videos, &fits, s.frames)?;
+    let mut plots = write_plots(out, s.videos, &fits, s.frames)?;
+    plots.extend(write_segment_plots(out, s.videos, s.segments)?);
     *done += 1;
     html::write_session_report(
         &out.join("report.html"),
@@ -275,10 +456,87 @@ fn write_stages(
             fits: &fits,
             plots: &plots,
             provenance: Some(s.provenance),
+            segments: s.segments,
+            warnings: s.warnings,
         },
     )?;
     *done += 1;
     Ok(fits)
+}
+
+/// Removes `path` when it exists.
+fn remove_stale(path: &Path) -> Result<(), PipelineError> {
+    match std::fs::remove_file(path) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(PipelineError::Write {
+            path: path.to_path_buf(),
+            source: e,
+        }),
+        _ => Ok(()),
+    }
+}
+
+/// Draws radius and curvature vs pressure with one series per segment (nothing without
+/// segments; a segmented run's plots of an earlier run are removed); returns their stems.
+fn write_segment_plots(
+    out: &Path,
+    videos: &[VideoRecord],
+    segments: &[Segment],
+) -> Result<Vec<String>, PipelineError> {
+    if segments.is_empty() {
+        for stem in SEGMENT_PLOT_STEMS {
+            for ext in ["png", "svg"] {
+                remove_stale(&out.join("plots").join(format!("{stem}.{ext}")))?;
+            }
+        }
+        return Ok(vec![]);
+    }
+    let labels: Vec<String> = segments
+        .iter()
+        .enumerate()
+        .map(|(k, s)| format!("segment {} (markers {})", k + 1, s.label()))
+        .collect();
+    let series = |g: fn(&SegmentStats) -> f64| -> Vec<Series> {
+        labels
+            .iter()
+            .enumerate()
+            .map(|(k, label)| Series {
+                label,
+                points: videos
+                    .iter()
+                    .filter(|v| v.status.is_measured())
+                    .filter_map(|v| v.stats.segments.get(k).map(|s| (v.pressure_kpa, g(s))))
+                    .filter(|(x, y)| x.is_finite() && y.is_finite())
+                    .collect(),
+                line: true,
+            })
+            .collect()
+    };
+    let mut written = Vec::new();
+    for (stem, title, y_label, s) in [
+        (
+            SEGMENT_PLOT_STEMS[0],
+            "Radius of curvature per segment vs pressure",
+            "radius (mm)",
+            series(|s| s.radius_mm),
+        ),
+        (
+            SEGMENT_PLOT_STEMS[1],
+            "Curvature per segment vs pressure",
+            "curvature (1/m)",
+            series(|s| s.curvature_per_m),
+        ),
+    ] {
+        if plot_xy(
+            &out.join("plots").join(stem),
+            title,
+            "pressure (kPa)",
+            y_label,
+            &s,
+        )? {
+            written.push(format!("plots/{stem}"));
+        }
+    }
+    Ok(written)
 }
 
 /// Draws the session's plots; returns their stems relative to OUT (each has a .png and
@@ -413,6 +671,13 @@ mod tests {
                 curvature_per_m: 1000.0 / r,
                 bending_angle_deg: 10.0,
                 fit_rms: 0.05,
+                tip_x_mm: 90.0,
+                tip_x_mm_std: 0.2,
+                tip_y_mm: 30.0,
+                tip_y_mm_std: 0.1,
+                tip_angle_deg: 40.0,
+                tip_angle_deg_std: 0.5,
+                segments: vec![],
                 frames_used: 10,
                 frames_rejected: 0,
             },
@@ -432,17 +697,20 @@ mod tests {
         let mut lines = text.lines();
         assert_eq!(
             lines.next().unwrap(),
-            "file,pressure_kpa,pressure_bar,radius_mm,radius_mm_median,radius_mm_std,curvature_per_m,bending_angle_deg,fit_rms_px,frames_used,frames_rejected,status"
+            "file,pressure_kpa,pressure_bar,radius_mm,radius_mm_median,radius_mm_std,curvature_per_m,bending_angle_deg,fit_rms_px,tip_x_mm,tip_x_mm_std,tip_y_mm,tip_y_mm_std,tip_angle_deg,tip_angle_deg_std,frames_used,frames_rejected,status"
         );
         assert_eq!(
             lines.next().unwrap(),
-            "a.mp4,20.0000,0.2000,120.0000,120.0000,0.1000,8.3333,10.0000,0.0500,10,0,ok"
+            "a.mp4,20.0000,0.2000,120.0000,120.0000,0.1000,8.3333,10.0000,0.0500,90.0000,0.2000,30.0000,0.1000,40.0000,0.5000,10,0,ok"
         );
         assert!(lines
             .next()
             .unwrap()
             .starts_with("\"b, c.mp4\",40.0000,0.4000,80.0000,,"));
-        assert_eq!(lines.next().unwrap(), "x.mp4,,,,,,,,,0,0,listed twice");
+        assert_eq!(
+            lines.next().unwrap(),
+            "x.mp4,,,,,,,,,,,,,,,0,0,listed twice"
+        );
     }
 
     #[test]

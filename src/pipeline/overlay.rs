@@ -19,6 +19,12 @@ use super::frame::FrameMeasurement;
 /// more, and full-frame maps of a 4K frame would dominate the memory of a run).
 pub const OVERLAY_MAX_WIDTH: u32 = 1920;
 
+/// Colour of the one fitted circle (magenta).
+pub const CIRCLE_RGB: [u8; 3] = [230, 0, 230];
+/// Colours of the segments' circles of a segmented actuator, from the clamp.
+pub const SEGMENT_CIRCLE_RGB: [[u8; 3]; 4] =
+    [[230, 0, 230], [255, 140, 0], [0, 150, 255], [120, 60, 0]];
+
 /// Why an overlay was not written.
 #[derive(Debug, thiserror::Error)]
 pub enum OverlayError {
@@ -111,16 +117,26 @@ pub fn write_video_overlay(
         .iter()
         .map(|p| nalgebra::Point2::new(f(p.x), f(p.y)))
         .collect();
-    let center = nalgebra::Point2::new(f(m.center_px.x), f(m.center_px.y));
+    let scaled = |c: nalgebra::Point2<f64>, r: f64, colour| {
+        (nalgebra::Point2::new(f(c.x), f(c.y)), r / k as f64, colour)
+    };
+    // One circle, or one per segment (colours in turn).
+    let circles: Vec<_> = if m.segments.is_empty() {
+        vec![scaled(m.center_px, m.radius_px, CIRCLE_RGB)]
+    } else {
+        m.segments
+            .iter()
+            .enumerate()
+            .map(|(i, s)| {
+                scaled(
+                    s.center_px,
+                    s.radius_px,
+                    SEGMENT_CIRCLE_RGB[i % SEGMENT_CIRCLE_RGB.len()],
+                )
+            })
+            .collect()
+    };
     let rel = overlay_rel_path(file);
-    write_overlay(
-        &out.join(&rel),
-        &img,
-        &mask,
-        &markers,
-        &ignored,
-        center,
-        m.radius_px / k as f64,
-    )?;
+    write_overlay(&out.join(&rel), &img, &mask, &markers, &ignored, &circles)?;
     Ok(rel)
 }

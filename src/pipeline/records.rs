@@ -93,7 +93,7 @@ impl fmt::Display for FrameStatus {
 /// JSON has no such numbers (serde_json writes them as `null`, which does not read back
 /// as an `f64`, so a cache entry holding one would never be read). NaN is written as
 /// `null`, infinities as the strings `"inf"` and `"-inf"`.
-mod non_finite {
+pub(crate) mod non_finite {
     use serde::{Deserialize, Deserializer, Serializer};
 
     pub fn serialize<S: Serializer>(v: &f64, s: S) -> Result<S::Ok, S::Error> {
@@ -121,6 +121,24 @@ mod non_finite {
             Some(Repr::Text(t)) => Err(serde::de::Error::custom(format!("`{t}` is not a number"))),
         }
     }
+}
+
+/// One measured marker of a frame, as the frame's measurement placed it (before the
+/// session's axes of `markers.csv`, [`super::markers`], are applied).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct MarkerPoint {
+    /// Centroid in the raw (distorted) frame, px.
+    pub x_px: f64,
+    /// Centroid in the raw frame, px (y down).
+    pub y_px: f64,
+    /// Position in the actuator plane, mm: the scale board's plane (homography, or
+    /// undistorted px times mm per px); RGB-D: the camera's X, mm.
+    pub x_mm: f64,
+    /// Second plane coordinate, mm (RGB-D: the camera's Y).
+    pub y_mm: f64,
+    /// RGB-D: the camera's Z (depth along the optical axis), mm; NaN for a plane.
+    #[serde(with = "non_finite")]
+    pub z_mm: f64,
 }
 
 /// One row of `per_frame.csv`.
@@ -162,6 +180,39 @@ pub struct FrameRecord {
     pub fit_rms: f64,
     /// Outcome.
     pub status: FrameStatus,
+    /// The measured markers from the clamped end (empty when rejected): the rows of
+    /// `markers.csv`.
+    #[serde(default)]
+    pub markers: Vec<MarkerPoint>,
+    /// Segmented actuators: each segment's circle (empty without segments or when
+    /// rejected).
+    #[serde(default)]
+    pub segments: Vec<crate::segments::SegmentFit>,
+    /// Tip marker's x in the session's axes of markers.csv, mm (NaN until the session's
+    /// axes are known: set after every item is measured, never cached).
+    #[serde(skip, default = "nan")]
+    pub tip_x_mm: f64,
+    /// Tip marker's y in the session's axes, mm.
+    #[serde(skip, default = "nan")]
+    pub tip_y_mm: f64,
+    /// Tip angle in the session's axes, degrees ([`super::markers`]).
+    #[serde(skip, default = "nan")]
+    pub tip_angle_deg: f64,
+    /// With `smooth_s` (ramp and RGB-D): the radius of the smoothed marker tracks, mm
+    /// ([`super::smooth`]; set after the recording is measured, never cached).
+    #[serde(skip, default = "nan")]
+    pub radius_mm_smooth: f64,
+    /// With `smooth_s`: curvature of the smoothed tracks, 1/m.
+    #[serde(skip, default = "nan")]
+    pub curvature_per_m_smooth: f64,
+    /// With `smooth_s`: bending angle of the smoothed tracks, degrees.
+    #[serde(skip, default = "nan")]
+    pub bending_angle_deg_smooth: f64,
+}
+
+/// NaN, the default of values not in the cache.
+fn nan() -> f64 {
+    f64::NAN
 }
 
 impl FrameRecord {
@@ -187,6 +238,14 @@ impl FrameRecord {
             bending_angle_deg: f64::NAN,
             fit_rms: f64::NAN,
             status,
+            markers: vec![],
+            segments: vec![],
+            tip_x_mm: f64::NAN,
+            tip_y_mm: f64::NAN,
+            tip_angle_deg: f64::NAN,
+            radius_mm_smooth: f64::NAN,
+            curvature_per_m_smooth: f64::NAN,
+            bending_angle_deg_smooth: f64::NAN,
         }
     }
 }

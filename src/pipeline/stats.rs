@@ -8,8 +8,9 @@ use serde::{Deserialize, Serialize};
 
 use super::records::FrameRecord;
 
-/// Statistics of a group of frames.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// Statistics of a group of frames (equal when every value is, NaN matching NaN: a
+/// statistic that cannot be taken is the same missing value).
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct FrameStats {
     /// Mean radius over the measured frames, mm.
     pub radius_mm: f64,
@@ -23,10 +24,50 @@ pub struct FrameStats {
     pub bending_angle_deg: f64,
     /// Mean fit RMS (px, or mm for RGB-D).
     pub fit_rms: f64,
+    /// Mean tip x in the session's axes of markers.csv, mm.
+    pub tip_x_mm: f64,
+    /// Sample standard deviation of the tip x, mm.
+    pub tip_x_mm_std: f64,
+    /// Mean tip y, mm.
+    pub tip_y_mm: f64,
+    /// Sample standard deviation of the tip y, mm.
+    pub tip_y_mm_std: f64,
+    /// Mean tip angle, degrees.
+    pub tip_angle_deg: f64,
+    /// Sample standard deviation of the tip angle, degrees.
+    pub tip_angle_deg_std: f64,
+    /// Segmented actuators: each segment's statistics (empty without segments).
+    #[serde(default)]
+    pub segments: Vec<crate::segments::SegmentStats>,
     /// Frames measured.
     pub frames_used: usize,
     /// Frames rejected.
     pub frames_rejected: usize,
+}
+
+impl PartialEq for FrameStats {
+    fn eq(&self, o: &Self) -> bool {
+        let same = |a: f64, b: f64| a == b || (a.is_nan() && b.is_nan());
+        [
+            (self.radius_mm, o.radius_mm),
+            (self.radius_mm_median, o.radius_mm_median),
+            (self.radius_mm_std, o.radius_mm_std),
+            (self.curvature_per_m, o.curvature_per_m),
+            (self.bending_angle_deg, o.bending_angle_deg),
+            (self.fit_rms, o.fit_rms),
+            (self.tip_x_mm, o.tip_x_mm),
+            (self.tip_x_mm_std, o.tip_x_mm_std),
+            (self.tip_y_mm, o.tip_y_mm),
+            (self.tip_y_mm_std, o.tip_y_mm_std),
+            (self.tip_angle_deg, o.tip_angle_deg),
+            (self.tip_angle_deg_std, o.tip_angle_deg_std),
+        ]
+        .iter()
+        .all(|&(a, b)| same(a, b))
+            && self.segments == o.segments
+            && self.frames_used == o.frames_used
+            && self.frames_rejected == o.frames_rejected
+    }
 }
 
 impl FrameStats {
@@ -39,6 +80,13 @@ impl FrameStats {
             curvature_per_m: f64::NAN,
             bending_angle_deg: f64::NAN,
             fit_rms: f64::NAN,
+            tip_x_mm: f64::NAN,
+            tip_x_mm_std: f64::NAN,
+            tip_y_mm: f64::NAN,
+            tip_y_mm_std: f64::NAN,
+            tip_angle_deg: f64::NAN,
+            tip_angle_deg_std: f64::NAN,
+            segments: vec![],
             frames_used: 0,
             frames_rejected: rejected,
         }
@@ -48,6 +96,23 @@ impl FrameStats {
 /// Mean of a non-empty slice.
 fn mean(v: &[f64]) -> f64 {
     v.iter().sum::<f64>() / v.len() as f64
+}
+
+/// Sample standard deviation (0 for one value; NaN when the mean is not finite).
+fn sample_std(v: &[f64], mean: f64) -> f64 {
+    if v.len() > 1 && mean.is_finite() {
+        (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (v.len() - 1) as f64).sqrt()
+    } else if mean.is_finite() {
+        0.0
+    } else {
+        f64::NAN
+    }
+}
+
+/// Mean and sample standard deviation.
+fn mean_std(v: &[f64]) -> (f64, f64) {
+    let m = mean(v);
+    (m, sample_std(v, m))
 }
 
 /// Median: the middle value, or the mean of the two middle values.
@@ -85,6 +150,9 @@ pub fn summarize<'a>(frames: impl IntoIterator<Item = &'a FrameRecord>) -> Frame
     } else {
         0.0
     };
+    let (tip_x_mm, tip_x_mm_std) = mean_std(&col(|f| f.tip_x_mm));
+    let (tip_y_mm, tip_y_mm_std) = mean_std(&col(|f| f.tip_y_mm));
+    let (tip_angle_deg, tip_angle_deg_std) = mean_std(&col(|f| f.tip_angle_deg));
     FrameStats {
         radius_mm,
         radius_mm_median: median(&r),
@@ -92,6 +160,18 @@ pub fn summarize<'a>(frames: impl IntoIterator<Item = &'a FrameRecord>) -> Frame
         curvature_per_m: mean(&col(|f| f.curvature_per_m)),
         bending_angle_deg: mean(&col(|f| f.bending_angle_deg)),
         fit_rms: mean(&col(|f| f.fit_rms)),
+        tip_x_mm,
+        tip_x_mm_std,
+        tip_y_mm,
+        tip_y_mm_std,
+        tip_angle_deg,
+        tip_angle_deg_std,
+        segments: {
+            let fits: Vec<&[crate::segments::SegmentFit]> =
+                used.iter().map(|f| f.segments.as_slice()).collect();
+            let n_segments = used.iter().map(|f| f.segments.len()).max().unwrap_or(0);
+            crate::segments::summarize_segments(&fits, n_segments)
+        },
         frames_used: n,
         frames_rejected: rejected,
     }

@@ -29,6 +29,10 @@ pub struct SessionReport<'a> {
     pub plots: &'a [String],
     /// How the results were made: the scale and calibration are shown.
     pub provenance: Option<&'a Provenance>,
+    /// Segments of a segmented actuator (empty: no per-segment section).
+    pub segments: &'a [crate::segments::Segment],
+    /// Warnings about the measurement (one-circle check, ...), shown above the tables.
+    pub warnings: &'a [String],
 }
 
 /// Escapes text for HTML.
@@ -85,9 +89,16 @@ figure img,figure svg{{max-width:900px;height:auto}}</style></head><body>\n<h1>{
     let measured = r.videos.iter().filter(|v| v.status.is_measured()).count();
     let _ = writeln!(
         h,
-        "<p>{measured} of {} rows measured. Files: per_video.csv, per_frame.csv, fit.json, session.json, plots/, overlays/.</p>",
+        "<p>{measured} of {} rows measured. Files: per_video.csv, per_frame.csv, markers.csv, fit.json, session.json, plots/, overlays/.</p>",
         r.videos.len()
     );
+    if !r.warnings.is_empty() {
+        h.push_str("<h2>Warnings</h2>\n<ul class=\"warnings\">\n");
+        for w in r.warnings {
+            let _ = writeln!(h, "<li>{}</li>", escape(w));
+        }
+        h.push_str("</ul>\n");
+    }
     if let Some(p) = r.provenance {
         h.push_str("<h2>Setup</h2>\n<ul>\n");
         if let Some(s) = &p.scale {
@@ -137,7 +148,11 @@ figure img,figure svg{{max-width:900px;height:auto}}</style></head><body>\n<h1>{
             name = escape(&v.file),
         );
     }
-    h.push_str("</table>\n<h2>Fits (y = a x<sup>b</sup> + c, x in kPa)</h2>\n<ul>\n");
+    h.push_str("</table>\n");
+    if !r.segments.is_empty() {
+        segment_section(&mut h, r);
+    }
+    h.push_str("<h2>Fits (y = a x<sup>b</sup> + c, x in kPa)</h2>\n<ul>\n");
     for (what, f) in [
         ("radius (mm)", &r.fits.radius_mm_vs_kpa),
         ("curvature (1/m)", &r.fits.curvature_per_m_vs_kpa),
@@ -183,6 +198,42 @@ figure img,figure svg{{max-width:900px;height:auto}}</style></head><body>\n<h1>{
     }
     h.push_str("</body></html>\n");
     h
+}
+
+/// The per-segment table (per_segment.csv) and each segment's fits.
+fn segment_section(h: &mut String, r: &SessionReport) {
+    h.push_str("<h2>Per segment</h2>\n<p>Each segment's own circle (per_segment.csv), segments numbered from the clamp.</p>\n<table><tr><th class=\"l\">file</th><th>pressure (kPa)</th><th>segment</th><th class=\"l\">markers</th><th>radius (mm)</th><th>std (mm)</th><th>curvature (1/m)</th><th>angle (deg)</th><th>frames used</th></tr>\n");
+    for v in r.videos {
+        for (k, seg) in r.segments.iter().enumerate() {
+            let st = v.stats.segments.get(k);
+            let g = |f: fn(&crate::segments::SegmentStats) -> f64| st.map_or(f64::NAN, f);
+            let _ = writeln!(
+                h,
+                "<tr><td class=\"l\">{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+                escape(&v.file),
+                num(v.pressure_kpa, 2),
+                k + 1,
+                seg.label(),
+                num(g(|s| s.radius_mm), 3),
+                num(g(|s| s.radius_mm_std), 3),
+                num(g(|s| s.curvature_per_m), 3),
+                num(g(|s| s.bending_angle_deg), 2),
+                st.map_or(0, |s| s.frames_used),
+            );
+        }
+    }
+    h.push_str("</table>\n<ul>\n");
+    for f in &r.fits.segments {
+        let _ = match &f.radius_mm_vs_kpa {
+            Some(p) => writeln!(
+                h,
+                "<li>segment {} (markers {}), radius (mm) = a x<sup>b</sup> + c: a = {:.6}, b = {:.4}, c = {:.4}, R² = {:.5}</li>",
+                f.segment, f.markers, p.a, p.b, p.c, p.r_squared
+            ),
+            None => writeln!(h, "<li>segment {} (markers {}): no radius fit</li>", f.segment, f.markers),
+        };
+    }
+    h.push_str("</ul>\n");
 }
 
 /// Writes `report.html` atomically.

@@ -204,16 +204,16 @@ fn draw_chart<DB: DrawingBackend>(
 
 /// Draws the QA overlay on an undistorted frame: mask outline (green), centroids (blue
 /// crosses, numbered order by colour from yellow at the clamp to blue at the tip), red
-/// blobs that were not taken as markers (cyan hollow squares) and the fitted circle
-/// (magenta); writes PNG atomically.
+/// blobs that were not taken as markers (cyan hollow squares) and the fitted circles
+/// (`circles`: centre, radius px, colour; the one circle in magenta, or one per segment
+/// of a segmented actuator); writes PNG atomically.
 pub fn write_overlay(
     path: &Path,
     undistorted: &RgbImage,
     mask: &image::GrayImage,
     markers: &[Point2<f64>],
     ignored: &[Point2<f64>],
-    center: Point2<f64>,
-    radius_px: f64,
+    circles: &[(Point2<f64>, f64, [u8; 3])],
 ) -> Result<(), ReportError> {
     let mut img = undistorted.clone();
     let (w, h) = img.dimensions();
@@ -229,7 +229,10 @@ pub fn write_overlay(
             }
         }
     }
-    if radius_px.is_finite() && center.x.is_finite() && radius_px < 1e6 {
+    for &(center, radius_px, colour) in circles {
+        if !(radius_px.is_finite() && center.x.is_finite() && radius_px < 1e6) {
+            continue;
+        }
         let steps = ((radius_px * 2.0 * std::f64::consts::PI) as usize).clamp(64, 20_000);
         for i in 0..steps {
             let t = i as f64 / steps as f64 * std::f64::consts::TAU;
@@ -238,7 +241,7 @@ pub fn write_overlay(
                 center.y + radius_px * t.sin(),
             );
             if x >= 0.0 && y >= 0.0 && (x as u32) < w && (y as u32) < h {
-                img.put_pixel(x as u32, y as u32, image::Rgb([230, 0, 230]));
+                img.put_pixel(x as u32, y as u32, image::Rgb(colour));
             }
         }
     }

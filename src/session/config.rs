@@ -64,6 +64,14 @@ pub struct SessionConfig {
     /// Undistort every whole frame before detection (the original method; slower, for
     /// comparison) instead of undistorting only the detected centroids.
     pub full_frame_undistort: bool,
+    /// Segmented actuator: the markers of each segment, numbered from 1 at the clamped
+    /// end (`[[1, 2, 3], [3, 4, 5]]`; a marker may end one segment and start the next).
+    /// Each segment gets its own circle; the marker pick follows the segments.
+    pub segments: Option<Vec<Vec<usize>>>,
+    /// Ramp and RGB-D sessions: smooth the marker tracks over this many seconds
+    /// (Savitzky-Golay, quadratic) before fitting again; per_frame.csv gets
+    /// `radius_mm_smooth`, `curvature_per_m_smooth`, `bending_angle_deg_smooth`.
+    pub smooth_s: Option<f64>,
     /// Region of interest: a polygon of undistorted pixels `[[x, y], ...]` (at least 3
     /// vertices); red blobs outside it are never markers (counted as ignored).
     pub roi: Option<Vec<[f64; 2]>>,
@@ -87,6 +95,8 @@ impl Default for SessionConfig {
             ramp_bin_kpa: 1.0,
             ramp_time_offset_s: 0.0,
             full_frame_undistort: false,
+            segments: None,
+            smooth_s: None,
             roi: None,
             detect: DetectSettings::default(),
         }
@@ -280,6 +290,14 @@ impl SessionConfig {
         Ok(c)
     }
 
+    /// The checked segments of a segmented actuator (empty without `segments`).
+    pub fn segment_plan(&self) -> Vec<crate::segments::Segment> {
+        self.segments
+            .as_deref()
+            .and_then(|s| crate::segments::segments_from_spec(s, self.expected_markers).ok())
+            .unwrap_or_default()
+    }
+
     /// Reads `SESSION/bendscope.toml` when present, else the defaults.
     pub fn for_session(session: &Path) -> Result<Self, SessionError> {
         let p = session.join(CONFIG);
@@ -316,6 +334,19 @@ impl SessionConfig {
                     self.ramp_time_offset_s
                 ),
             );
+        }
+        if let Some(s) = self.smooth_s {
+            if !(s.is_finite() && s > 0.0) {
+                return top(
+                    "smooth_s",
+                    format!("{s}: must be a positive number of seconds (the filter's window)"),
+                );
+            }
+        }
+        if let Some(spec) = &self.segments {
+            if let Err(why) = crate::segments::segments_from_spec(spec, self.expected_markers) {
+                return top("segments", format!("{spec:?}: {why}"));
+            }
         }
         if self.frame_stride == 0 {
             return top("frame_stride", "0: must be at least 1".into());

@@ -321,6 +321,82 @@ impl Actuator {
     }
 }
 
+/// A segmented actuator in the plane: a clamp block and a band whose centre line leaves
+/// `clamp` (mm) along +x as a chain of circular arcs meeting tangentially (segment k of
+/// `lengths_mm[k]` with radius `radii_mm[k]`, all curving towards +y), with marker discs
+/// at the arc lengths `markers_s_mm`.
+pub struct SegmentedActuator {
+    pub clamp: [f64; 2],
+    pub radii_mm: Vec<f64>,
+    pub lengths_mm: Vec<f64>,
+    pub width_mm: f64,
+    pub markers_s_mm: Vec<f64>,
+    pub marker_mm: f64,
+    pub marker_bgr: [f64; 3],
+}
+
+impl SegmentedActuator {
+    /// Total length, mm.
+    pub fn length_mm(&self) -> f64 {
+        self.lengths_mm.iter().sum()
+    }
+
+    /// The point at arc length `s` and signed offset `d` from the centre line (mm;
+    /// d > 0 towards the centres of curvature).
+    pub fn at(&self, s: f64, d: f64) -> [f64; 2] {
+        let (mut p, mut heading, mut s0) = (self.clamp, 0.0f64, 0.0);
+        for (k, (&r, &len)) in self.radii_mm.iter().zip(&self.lengths_mm).enumerate() {
+            let last = k + 1 == self.radii_mm.len();
+            let ds = if last { s - s0 } else { (s - s0).min(len) };
+            let h = heading + ds / r;
+            let q = [
+                p[0] + r * (h.sin() - heading.sin()),
+                p[1] - r * (h.cos() - heading.cos()),
+            ];
+            if last || s <= s0 + len {
+                return [q[0] - d * h.sin(), q[1] + d * h.cos()];
+            }
+            (p, heading, s0) = (q, h, s0 + len);
+        }
+        p
+    }
+
+    /// Draws it; returns the marker centres (plane mm).
+    pub fn draw(&self, canvas: &mut Canvas, cam: &CvCamera, pose: &Pose) -> Vec<[f64; 2]> {
+        let (c, w) = (self.clamp, self.width_mm);
+        let block = quad(
+            [
+                [c[0] - 30.0, c[1] - w],
+                [c[0], c[1] - w],
+                [c[0], c[1] + w],
+                [c[0] - 30.0, c[1] + w],
+            ],
+            10,
+        );
+        canvas.polygon(&cam.project(pose, &block), [70.0, 70.0, 75.0]);
+        let n = 240;
+        let len = self.length_mm();
+        let mut band: Vec<[f64; 2]> = (0..=n)
+            .map(|i| self.at(len * i as f64 / n as f64, -w / 2.0))
+            .collect();
+        band.extend(
+            (0..=n)
+                .rev()
+                .map(|i| self.at(len * i as f64 / n as f64, w / 2.0)),
+        );
+        canvas.polygon(&cam.project(pose, &band), [215.0, 222.0, 225.0]);
+        self.markers_s_mm
+            .iter()
+            .map(|&s| {
+                let centre = self.at(s, 0.0);
+                let disc = Actuator::disc(centre, self.marker_mm);
+                canvas.polygon(&cam.project(pose, &disc), self.marker_bgr);
+                centre
+            })
+            .collect()
+    }
+}
+
 /// Rodrigues vector of the rotation Rz(c) Ry(b) Rx(a) (radians).
 pub fn rvec_from_angles(a: f64, b: f64, c: f64) -> [f64; 3] {
     let m = nalgebra::Rotation3::from_euler_angles(a, b, c);
