@@ -20,7 +20,8 @@ side_face.json (the filmed face per step, input of bendscope render), vtu/ + act
 actuator), summary.json; with --blocked force.csv; with --sweep sweep.csv.
 Config sections: [geometry] chambers b i f m p r c g d e l n top_wall roof (mm, method.md §4 names); \
 [material] preset c1 c2 c3 bulk_modulus_mpa density_g_cm3 tensile_strength_mpa scale; [mesh] size_mm; \
-[load] pressures_kpa gravity; [solver] max_iterations tolerance. Print the defaults with --print-config."
+[load] pressures_kpa gravity; [solver] max_iterations tolerance; [layer] thickness_mm youngs_modulus_mpa poisson_ratio height_mm \
+element (membrane or solid). Print the defaults with --print-config."
 )]
 pub struct SimulateArgs {
     /// Actuator file (TOML) [default: the reference actuator, Dragon Skin 30].

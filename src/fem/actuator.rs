@@ -25,8 +25,9 @@ use serde::{Deserialize, Serialize};
 
 use super::contact::{Contact, ContactConfig, ContactPair};
 use super::hex::{nodal_volumes, HexGeometry};
-use super::layer::LayerConfig;
+use super::layer::{LayerConfig, LayerElement};
 use super::material::{MaterialPreset, Yeoh, DEFAULT_BULK_TO_SHEAR};
+use super::membrane::MembraneElement;
 use super::pressure::CLOSED;
 use super::solve::{Model, NewtonSettings};
 use super::FemError;
@@ -683,11 +684,18 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
     let layer_z = cfg
         .layer
         .as_ref()
+        .filter(|l| l.element == LayerElement::Solid)
         .map(|l| (l.height_mm, l.height_mm + l.thickness_mm));
+    let membrane_z = cfg
+        .layer
+        .as_ref()
+        .filter(|l| l.element == LayerElement::Membrane)
+        .map(LayerConfig::membrane_height_mm);
     let mut fz = vec![0.0, z_channel, z_cavity, z_gap, g.marker_z(), z_top, a];
     if let Some((z0, z1)) = layer_z {
         fz.extend([z0, z1]);
     }
+    fz.extend(membrane_z);
     let zs = coordinate_lines(fz, h, &[(0.0, z_channel), (z_top, a)]);
     let (nx, ny, nz) = (xs.len() - 1, ys.len() - 1, zs.len() - 1);
     if nx * ny * nz > MAX_ELEMENTS {
@@ -766,6 +774,27 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
                     (i, j + 1, k + 1),
                 ];
                 elements.push(corners.map(|(a, b, c)| node(a, b, c, &mut nodes)));
+            }
+        }
+    }
+
+    // Membrane layer: a quad on the plane z = membrane_z under every solid cell above
+    // it (the base is solid through its whole length and width there).
+    let mut membranes = Vec::new();
+    if let (Some(zm), Some(layer)) = (membrane_z, cfg.layer.as_ref()) {
+        let km = index_of(&zs, zm);
+        let section = layer.section();
+        for j in 0..ny {
+            for i in 0..nx {
+                let above = km < nz && cells[cell_id(i, j, km)] == Cell::Solid;
+                let below = km > 0 && cells[cell_id(i, j, km - 1)] == Cell::Solid;
+                if above || below {
+                    let corners = [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)];
+                    membranes.push(MembraneElement {
+                        nodes: corners.map(|(a, b)| node_of[grid_id(a, b, km)]),
+                        section,
+                    });
+                }
             }
         }
     }
@@ -949,6 +978,7 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
             volume_weights: CLOSED,
             element_material,
             extra_materials: cfg.layer.iter().map(LayerConfig::material).collect(),
+            membranes,
             contact: cfg.contact.as_ref().filter(|c| c.enabled).map(|c| Contact {
                 pairs: wall_pairs.clone(),
                 penalty_mpa_per_mm: c.penalty_for(&material, h),

@@ -645,6 +645,7 @@ mod tests {
             volume_weights: crate::fem::pressure::CLOSED,
             element_material: Vec::new(),
             extra_materials: Vec::new(),
+            membranes: Vec::new(),
             contact: Some(Contact {
                 pairs: pairs.clone(),
                 penalty_mpa_per_mm: penalty,

@@ -1,23 +1,41 @@
-//! Strain-limiting layer: a thin, stiff sheet (paper, fabric, fibre glass) moulded into
-//! the actuator's base, as a thin linear-elastic solid bonded to the silicone.
+//! Strain-limiting layer: a thin, stiff sheet (paper, fabric, fibre glass) or strip
+//! (PLA) moulded into the actuator's base, bonded to the silicone.
 //!
-//! The layer is a slab of hexahedra through the whole base (length and width) at a
-//! height in the bottom, one element thick, sharing its nodes with the silicone
-//! (bonded). Its material is the compressible neo-Hookean solid with the layer's
-//! Young's modulus E and Poisson ratio ν (μ = E / 2(1 + ν), κ = E / 3(1 − 2ν)), which is
-//! the linear-elastic solid at the layer's small strains and stays objective under the
-//! actuator's large rotations; the Q1/P0 element ([`super::hex`]) takes it as a Yeoh set
-//! with C2 = C3 = 0. A sheet works mostly in membrane (stretch), which one element
-//! through its thickness carries exactly; its own bending stiffness (E t³/12) is
-//! negligible beside the silicone's.
+//! Two ways to mesh it (`[layer] element`). `membrane` (default): membrane elements
+//! ([`super::membrane`]) on the layer's mid-plane, sharing the silicone's nodes there;
+//! the silicone mesh runs through the layer's volume (its own stiffness there, E_s t,
+//! is 10⁻³-10⁻⁴ of the sheet's). A sheet works in membrane (stretch); its own bending
+//! stiffness E t³/12 is left out (about 1-2% of the section's bending stiffness for a
+//! 0.1-0.2 mm sheet on a 4 mm strip, less under the actuator's taller base). `solid`: a
+//! slab of hexahedra through the layer's thickness, a compressible neo-Hookean solid
+//! with the layer's E and ν (μ = E / 2(1 + ν), κ = E / 3(1 − 2ν): linear elastic at its
+//! small strains, objective under large rotations; the Q1/P0 element ([`super::hex`])
+//! takes it as a Yeoh set with C2 = C3 = 0), for a strip whose own bending stiffness
+//! counts; trilinear hexahedra lock in bending when much longer than thick, so a solid
+//! layer needs elements along it not much longer than its thickness.
 //!
 //! Verified against the composite (transformed-section) beam in pure bending
-//! ([`composite_beam_curvature`]): a silicone strip with the layer at its bottom.
+//! ([`composite_beam_curvature`]): a silicone strip with a fabric or paper sheet
+//! (membrane) or a PLA strip (solid) at its bottom.
 
 use serde::{Deserialize, Serialize};
 
 use super::material::Yeoh;
+use super::membrane::MembraneSection;
 use super::FemError;
+
+/// How a strain-limiting layer is meshed (`[layer] element`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum LayerElement {
+    /// Membrane elements on the layer's mid-plane ([`super::membrane`]): for sheets
+    /// (paper, fabric, fibre glass) whose own bending stiffness is negligible.
+    #[default]
+    Membrane,
+    /// One slab of hexahedra through the layer's thickness: for strips whose own
+    /// bending stiffness counts (a 1 mm PLA strip), meshed finely enough along.
+    Solid,
+}
 
 /// An optional strain-limiting layer in the base (`[layer]` in the config).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -31,11 +49,12 @@ pub struct LayerConfig {
     pub poisson_ratio: f64,
     /// Height of the layer's underside above the bottom face, mm (0: on the bottom).
     pub height_mm: f64,
+    /// How the layer is meshed: `"membrane"` (default) or `"solid"`.
+    pub element: LayerElement,
 }
 
 /// Default layer: a fabric-like sheet, 0.2 mm, E = 200 MPa, ν = 0.3, 1 mm above the
-/// bottom (measured on the reference actuator in the README; a paper-stiff layer,
-/// 3 GPa, does not converge yet).
+/// bottom, as membranes (measured on the reference actuator in the README).
 impl Default for LayerConfig {
     fn default() -> Self {
         Self {
@@ -43,6 +62,7 @@ impl Default for LayerConfig {
             youngs_modulus_mpa: 200.0,
             poisson_ratio: 0.3,
             height_mm: 1.0,
+            element: LayerElement::Membrane,
         }
     }
 }
@@ -88,6 +108,20 @@ impl LayerConfig {
             ));
         }
         Ok(())
+    }
+
+    /// The layer as a membrane section (thickness, E, ν).
+    pub fn section(&self) -> MembraneSection {
+        MembraneSection {
+            thickness_mm: self.thickness_mm,
+            youngs_modulus_mpa: self.youngs_modulus_mpa,
+            poisson_ratio: self.poisson_ratio,
+        }
+    }
+
+    /// Height of the membrane's plane above the bottom face, mm: the layer's mid-plane.
+    pub fn membrane_height_mm(&self) -> f64 {
+        self.height_mm + 0.5 * self.thickness_mm
     }
 
     /// The layer's material: compressible neo-Hookean with E and ν.
@@ -147,6 +181,7 @@ pub fn composite_beam_curvature(layers: &[BeamLayer], width_mm: f64, moment_nmm:
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fem::membrane::MembraneElement;
     use crate::fem::solve::{solve_static, Model, NewtonSettings};
     use nalgebra::Vector3;
 
@@ -168,41 +203,52 @@ mod tests {
         assert!((z - 1.5).abs() < 1e-12 && (d - 2.0 * 27.0 / 12.0).abs() < 1e-12);
     }
 
-    /// A silicone strip (4 mm, neo-Hookean μ = 0.2 MPa, κ = 1000 μ) with a 0.2 mm layer
-    /// bonded under it (E = 200 MPa, ν = 0.3), length 20 mm, width 2 mm, under a pure
-    /// moment: the traction E_i κ (z − z_n) of the exact beam solution on its end x = L,
-    /// symmetry plane x = 0; `nx` elements along, `nz` through the silicone, one through
-    /// the layer. Returns the FEM curvature, read from the end section's rotation, over
-    /// the composite beam's M / (b D), and the all-silicone section's over it.
-    fn strip_curvature_ratio(nx: usize, nz_silicone: usize) -> (f64, f64) {
+    /// A silicone strip (4 mm, neo-Hookean μ = 0.2 MPa, κ = 1000 μ) with `layer` bonded
+    /// under it (0 to t), length 20 mm, width 2 mm, under a pure moment: the traction
+    /// E_i κ (z − z_n) of the exact beam solution on its end x = L, symmetry plane x = 0;
+    /// `nx` elements along, `nz` through the silicone. A solid layer gets `nz_layer`
+    /// hexahedra through its thickness; a membrane layer lies on its mid-plane z = t/2
+    /// with silicone (one element) between it and the bottom face, as in the actuator.
+    /// Returns the FEM curvature, read from the end section's rotation, over the
+    /// composite beam's M / (b D), and the all-silicone section's over it.
+    fn strip_curvature_ratio(
+        layer: &LayerConfig,
+        nx: usize,
+        nz_silicone: usize,
+        nz_layer: usize,
+    ) -> (f64, f64) {
         let silicone = Yeoh {
             c1: 0.1,
             c2: 0.0,
             c3: 0.0,
             bulk_modulus: 200.0,
         };
-        let layer = LayerConfig {
-            thickness_mm: 0.2,
-            youngs_modulus_mpa: 200.0,
-            poisson_ratio: 0.3,
-            height_mm: 0.0,
-        };
+        let t = layer.thickness_mm;
         let mu = 2.0 * silicone.c1;
         let e_s = 9.0 * silicone.bulk_modulus * mu / (3.0 * silicone.bulk_modulus + mu);
         let (len, width) = (20.0, 2.0);
-        let zs: Vec<f64> = std::iter::once(0.0)
-            .chain((0..=nz_silicone).map(|k| 0.2 + 4.0 * k as f64 / nz_silicone as f64))
+        let solid = layer.element == LayerElement::Solid;
+        let bottom: Vec<f64> = if solid {
+            (0..nz_layer)
+                .map(|k| t * k as f64 / nz_layer as f64)
+                .collect()
+        } else {
+            vec![0.0, 0.5 * t]
+        };
+        let zs: Vec<f64> = bottom
+            .into_iter()
+            .chain((0..=nz_silicone).map(|k| t + 4.0 * k as f64 / nz_silicone as f64))
             .collect();
         let sections = [
             BeamLayer {
                 youngs_modulus_mpa: layer.youngs_modulus_mpa,
                 z0_mm: 0.0,
-                z1_mm: 0.2,
+                z1_mm: t,
             },
             BeamLayer {
                 youngs_modulus_mpa: e_s,
-                z0_mm: 0.2,
-                z1_mm: 4.2,
+                z0_mm: t,
+                z1_mm: t + 4.0,
             },
         ];
         let (z_n, _) = composite_section(&sections);
@@ -219,10 +265,12 @@ mod tests {
                 }
             }
         }
+        let in_layer = |k: usize| solid && zs[k + 1] <= t + 1e-12;
         let mut elements = Vec::new();
         let mut element_material = Vec::new();
-        for k in 0..nz {
-            for i in 0..nx {
+        let mut membranes = Vec::new();
+        for i in 0..nx {
+            for k in 0..nz {
                 elements.push([
                     id(i, 0, k),
                     id(i + 1, 0, k),
@@ -233,7 +281,13 @@ mod tests {
                     id(i + 1, 1, k + 1),
                     id(i, 1, k + 1),
                 ]);
-                element_material.push(u8::from(k == 0));
+                element_material.push(u8::from(in_layer(k)));
+            }
+            if !solid {
+                membranes.push(MembraneElement {
+                    nodes: [id(i, 0, 1), id(i + 1, 0, 1), id(i + 1, 1, 1), id(i, 1, 1)],
+                    section: layer.section(),
+                });
             }
         }
         let mut fixed = vec![false; 3 * nodes.len()];
@@ -245,13 +299,16 @@ mod tests {
             fixed[3 * id(0, 0, k) + 1] = true;
         }
         fixed[3 * id(0, 0, 0) + 2] = true;
-        // End x = L: traction σ(z) = −E_i κ (z − z_n) per element row, consistent nodal
-        // forces of a linear load on each edge (b/2 to each of the 2 nodes across).
+        // End x = L: traction σ(z) = −E_i κ (z − z_n) of the exact solution, consistent
+        // nodal forces of a linear load on each edge (b/2 to each of the 2 nodes across);
+        // a membrane's share, E κ (z_m − z_n) t b, goes to its two end nodes.
         for k in 0..nz {
-            let e = if k == 0 {
+            let e = if in_layer(k) {
                 layer.youngs_modulus_mpa
-            } else {
+            } else if zs[k] >= t - 1e-12 {
                 e_s
+            } else {
+                continue; // the silicone under a membrane: in the layer's volume
             };
             let (za, zb) = (zs[k], zs[k + 1]);
             let (sa, sb) = (e * kappa * (za - z_n), e * kappa * (zb - z_n));
@@ -259,6 +316,12 @@ mod tests {
             for j in 0..2 {
                 loads[3 * id(nx, j, k)] += -0.5 * width * dz * (2.0 * sa + sb) / 6.0;
                 loads[3 * id(nx, j, k + 1)] += -0.5 * width * dz * (sa + 2.0 * sb) / 6.0;
+            }
+        }
+        if !solid {
+            let s = layer.youngs_modulus_mpa * kappa * (0.5 * t - z_n);
+            for j in 0..2 {
+                loads[3 * id(nx, j, 1)] += -0.5 * width * t * s;
             }
         }
         let model = Model {
@@ -271,6 +334,7 @@ mod tests {
             volume_weights: crate::fem::pressure::CLOSED,
             element_material,
             extra_materials: vec![layer.material()],
+            membranes,
             contact: None,
         };
         let r = solve_static(&model, &NewtonSettings::default()).unwrap();
@@ -282,7 +346,7 @@ mod tests {
             &[BeamLayer {
                 youngs_modulus_mpa: e_s,
                 z0_mm: 0.0,
-                z1_mm: 4.2,
+                z1_mm: t + 4.0,
             }],
             width,
             moment,
@@ -290,10 +354,21 @@ mod tests {
         (fem / exact, homogeneous / exact)
     }
 
+    fn fabric(element: LayerElement) -> LayerConfig {
+        LayerConfig {
+            thickness_mm: 0.2,
+            youngs_modulus_mpa: 200.0,
+            poisson_ratio: 0.3,
+            height_mm: 0.0,
+            element,
+        }
+    }
+
     #[test]
     fn bilayer_strip_in_pure_bending_matches_the_composite_beam() {
-        let (coarse, homogeneous) = strip_curvature_ratio(40, 8);
-        let (fine, _) = strip_curvature_ratio(80, 16);
+        let layer = fabric(LayerElement::Solid);
+        let (coarse, homogeneous) = strip_curvature_ratio(&layer, 40, 8, 1);
+        let (fine, _) = strip_curvature_ratio(&layer, 80, 16, 1);
         eprintln!(
             "bilayer strip, FEM / composite-beam curvature: {coarse:.4} (0.5 mm), {fine:.4} (0.25 mm); all-silicone section {homogeneous:.3}"
         );
@@ -303,5 +378,66 @@ mod tests {
         assert!(homogeneous > 2.0, "{homogeneous}");
         assert!(coarse < fine && fine <= 1.0 + 1e-3, "{coarse} {fine}");
         assert!((fine - 1.0).abs() < 0.015, "{fine}");
+    }
+
+    /// The same strip with the sheet as membranes on its mid-plane: a fabric sheet
+    /// (0.2 mm, 200 MPa) and a paper sheet (0.1 mm, 3 GPa, 5000 x the silicone). The
+    /// membrane lacks the sheet's own bending stiffness E t³/12 (0.9% and 1.7% of the
+    /// section's D here) and the exact beam counts it, so the FEM curves slightly more.
+    #[test]
+    fn membrane_sheet_in_pure_bending_matches_the_composite_beam() {
+        for layer in [
+            fabric(LayerElement::Membrane),
+            LayerConfig {
+                thickness_mm: 0.1,
+                youngs_modulus_mpa: 3000.0,
+                ..fabric(LayerElement::Membrane)
+            },
+        ] {
+            let (coarse, homogeneous) = strip_curvature_ratio(&layer, 40, 8, 1);
+            let (fine, _) = strip_curvature_ratio(&layer, 80, 16, 1);
+            eprintln!(
+                "membrane {} mm, {} MPa: FEM / composite-beam curvature {coarse:.4} (0.5 mm), {fine:.4} (0.25 mm); all-silicone {homogeneous:.3}",
+                layer.thickness_mm, layer.youngs_modulus_mpa
+            );
+            assert!(homogeneous > 2.0, "{homogeneous}");
+            assert!((coarse - 1.0).abs() < 0.015, "{coarse}");
+            assert!((fine - 1.0).abs() < 0.015, "{fine}");
+        }
+    }
+
+    /// A PLA strip (1 mm, 4 GPa) as a solid layer, 4 hexahedra through it: its own
+    /// bending stiffness dominates the section (56 x the all-silicone one). Beam theory
+    /// leaves the strip free to curve anticlastically across its width; one element
+    /// across the 2 mm width cannot (it is linear in y), so with ν = 0.35 the strip sits
+    /// between the beam and the plate (D / (1 − ν²), curvature ratio 0.8775); with ν = 0
+    /// there is no anticlastic curvature and the beam must be met.
+    #[test]
+    fn pla_strip_in_pure_bending_matches_the_composite_beam() {
+        let pla = LayerConfig {
+            thickness_mm: 1.0,
+            youngs_modulus_mpa: 4000.0,
+            poisson_ratio: 0.35,
+            height_mm: 0.0,
+            element: LayerElement::Solid,
+        };
+        let no_poisson = LayerConfig {
+            poisson_ratio: 0.0,
+            ..pla.clone()
+        };
+        let (coarse, homogeneous) = strip_curvature_ratio(&no_poisson, 40, 8, 4);
+        let (fine, _) = strip_curvature_ratio(&no_poisson, 80, 16, 4);
+        let (with_poisson, _) = strip_curvature_ratio(&pla, 80, 16, 4);
+        eprintln!(
+            "PLA strip: FEM / composite-beam curvature, nu = 0: {coarse:.4} (0.5 mm), {fine:.4} (0.25 mm); nu = 0.35: {with_poisson:.4}; all-silicone {homogeneous:.1}"
+        );
+        assert!(homogeneous > 50.0, "{homogeneous}");
+        assert!(coarse < fine && fine <= 1.0 + 1e-3, "{coarse} {fine}");
+        assert!((fine - 1.0).abs() < 0.015, "{fine}");
+        let plate = 1.0 - pla.poisson_ratio * pla.poisson_ratio;
+        assert!(
+            with_poisson > plate && with_poisson < fine,
+            "{with_poisson}"
+        );
     }
 }

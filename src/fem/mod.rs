@@ -6,7 +6,8 @@
 //!
 //! Data flows: [`material`] (Yeoh silicone, isochoric/volumetric split, stress and
 //! tangent) -> [`hex`] (Q1/P0 mean-dilatation hexahedron) and [`pressure`] (cavity
-//! faces, follower pressure as −p V) and [`contact`] (frictionless node-to-surface
+//! faces, follower pressure as −p V) and [`membrane`] (4-node membranes for thin stiff
+//! sheets, [`layer`]) and [`contact`] (frictionless node-to-surface
 //! penalty contact between the facing chamber walls, optional) -> [`solve`] (Newton on
 //! the three-field form, adaptive load steps) -> [`actuator`] (the parametric PneuNets geometry and its half
 //! mesh) -> [`simulate`] (the pressure ramp and the quantities read off each step),
@@ -15,7 +16,8 @@
 //! Verified (tests): Yeoh uniaxial and equibiaxial stress against method.md §5; stress,
 //! tangent, pressure force and load stiffness against finite differences; the uniaxial
 //! block exactly; the plane-strain thick cylinder against the analytic inflation
-//! pressure; Cook's membrane against its reference tip displacement; the contact
+//! pressure; Cook's membrane against its reference tip displacement; the membrane
+//! element's patch test and the composite beam with a sheet or strip; the contact
 //! tangent against finite differences and the pressed-blocks patch test.
 
 pub mod actuator;
@@ -24,6 +26,7 @@ pub mod contact;
 pub mod hex;
 pub mod layer;
 pub mod material;
+pub mod membrane;
 pub mod output;
 pub mod pressure;
 pub mod simulate;

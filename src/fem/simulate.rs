@@ -383,6 +383,64 @@ mod tests {
 }
 
 #[cfg(test)]
+mod layer_tests {
+    use super::*;
+    use crate::fem::actuator::{build_mesh, ActuatorConfig, LoadConfig, MeshConfig};
+    use crate::fem::layer::{LayerConfig, LayerElement};
+
+    /// The reference actuator (2.5 mm mesh, gravity on) with a paper layer (0.1 mm,
+    /// 3 GPa, 1 mm above the bottom) meshed as `element`.
+    fn paper(element: LayerElement) -> (ActuatorMesh, Ramp) {
+        let cfg = ActuatorConfig {
+            mesh: MeshConfig { size_mm: 2.5 },
+            load: LoadConfig {
+                gravity: true,
+                ..Default::default()
+            },
+            layer: Some(LayerConfig {
+                thickness_mm: 0.1,
+                youngs_modulus_mpa: 3000.0,
+                element,
+                ..Default::default()
+            }),
+            ..Default::default()
+        };
+        let mesh = build_mesh(&cfg).unwrap();
+        let started = std::time::Instant::now();
+        let ramp = run_ramp(
+            &mesh,
+            &[10.0, 60.0, 115.0],
+            &RampSettings::default(),
+            |_, _| {},
+        )
+        .unwrap();
+        eprintln!(
+            "paper layer ({element:?}): {:.1} s, {:?}",
+            started.elapsed().as_secs_f64(),
+            ramp.steps
+                .iter()
+                .map(|s| (
+                    s.pressure_kpa,
+                    s.radius_mm,
+                    s.bottom_elongation_pct,
+                    s.newton_iterations
+                ))
+                .collect::<Vec<_>>()
+        );
+        (mesh, ramp)
+    }
+
+    #[test]
+    fn paper_layer_converges_under_gravity_over_the_ramp() {
+        for element in [LayerElement::Membrane, LayerElement::Solid] {
+            let (_, ramp) = paper(element);
+            assert!(ramp.failure.is_none(), "{element:?}: {:?}", ramp.failure);
+            assert_eq!(ramp.steps.len(), 3);
+        }
+    }
+}
+
+#[cfg(test)]
 mod contact_tests {
     use super::*;
     use crate::fem::actuator::{build_mesh, ActuatorConfig, Geometry, LoadConfig, MeshConfig};
