@@ -33,6 +33,9 @@ from nbclient import NotebookClient
 
 notebook, cwd = sys.argv[1], sys.argv[2]
 nb = nbformat.read(notebook, as_version=4)
+stale = [i for i, c in enumerate(nb.cells) if c.cell_type == "code" and (c.outputs or c.execution_count)]
+if stale:
+    sys.exit(f"{notebook}: cells {stale} hold outputs: strip them (jupyter nbconvert --clear-output --inplace)")
 NotebookClient(nb, timeout=1200, kernel_name="python3", resources={"metadata": {"path": cwd}}).execute()
 print(f"notebook {notebook}: {len(nb.cells)} cells executed")
 PY
