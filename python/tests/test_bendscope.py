@@ -104,7 +104,13 @@ def test_bad_simulate_config_raises_the_cli_message(tmp_path):
 
 
 def test_simulate_matches_the_cli(tmp_path):
-    sim = bendscope.simulate(pressures=[20, 40], mesh_size=4, out=tmp_path / "py", vtu=False)
+    calls = []
+    sim = bendscope.simulate(
+        pressures=[20, 40], mesh_size=4, out=tmp_path / "py", vtu=False,
+        progress=lambda *a: calls.append(a),
+    )
+    # One call per converged step.
+    assert [(d, t) for _, d, t in calls] == [(1, 2), (2, 2)]
     run = run_cli(
         "simulate", "--pressures", "20,40", "--mesh-size", 4, "--no-vtu",
         "-o", tmp_path / "cli", cwd=tmp_path,
@@ -131,14 +137,21 @@ def test_default_config_round_trips_through_simulate(tmp_path):
 
 
 def test_calibrate_matches_the_cli_and_the_camera(tmp_path):
-    c = bendscope.calibrate(EXAMPLE / "calib", out=tmp_path / "py.yaml")
+    calls = []
+    c = bendscope.calibrate(
+        EXAMPLE / "calib", out=tmp_path / "py.yaml", progress=lambda *a: calls.append(a)
+    )
+    # One call per view, from the threads that search them.
+    views_given = len(list((EXAMPLE / "calib").iterdir()))
+    assert sorted(d for _, d, _ in calls) == list(range(1, views_given + 1))
+    assert all(w == "finding corners" and t == views_given for w, _, t in calls)
     run = run_cli("calibrate", EXAMPLE / "calib", "-o", tmp_path / "cli.yaml", cwd=tmp_path)
     assert run.returncode == 0, run.stderr
     rms = float(re.search(r"RMS reprojection error = ([0-9.]+) px", run.stdout).group(1))
     assert abs(c["rms_px"] - rms) <= 5e-5  # the CLI prints 4 decimals
     views = int(re.search(r"from (\d+) view", run.stdout).group(1))
     assert len(c["views_used"]) == views
-    assert len(c["views_used"]) + len(c["views_rejected"]) == len(list((EXAMPLE / "calib").iterdir()))
+    assert len(c["views_used"]) + len(c["views_rejected"]) == views_given
     assert c["rms_px"] < 1.0
     k = json.loads((EXAMPLE / "truth.json").read_text())["camera"]["k"]
     for (r, col) in [(0, 0), (1, 1), (0, 2), (1, 2)]:
