@@ -12,6 +12,7 @@ PKGS=(
   parallel
   socat
   chromium
+  python3-venv python3-pip
 )
 
 missing=()

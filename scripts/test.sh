@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
-# Set-up (Debian packages when missing), then the whole test suite.
+# Set-up (Debian packages when missing), then the whole test suite: the cargo tests, then
+# the Python package's tests and notebook (scripts/test-python.sh).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh --no-build
 cargo test --locked --all-targets "$@"
+scripts/test-python.sh

@@ -11,6 +11,7 @@
 //! - [`file`]: read and write calibration files (OpenCV `FileStorage` YAML).
 //! - [`destination`]: where `calibrate` writes by default, and not over another
 //!   camera's file.
+//! - [`sources`]: the views given as images, folders or videos.
 //! - [`undistort`]: raw pixel <-> undistorted pixel for points, full-frame maps and the
 //!   crop rectangle free of the black border, inside the valid field.
 
@@ -20,6 +21,7 @@ pub mod destination;
 pub mod field;
 pub mod file;
 pub mod solve;
+pub mod sources;
 pub mod undistort;
 
 mod cv;
