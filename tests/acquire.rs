@@ -1,15 +1,17 @@
 //! `bendscope acquire` against device simulators that speak the real protocols: a
 //! pressure regulator on a pseudo-terminal pair made by socat (first-order pressure
-//! response, the serial line protocol of hardware/regulator/regulator.ino), and an Open
-//! GoPro HTTP server on 127.0.0.1 that "films" the example session's videos: each
-//! recording is the example video whose pressure is nearest the simulated regulator's at
-//! the shutter, so `process` on the acquired session must give the example's radii.
+//! response, the serial line protocol of hardware/regulator/regulator.ino), and a GoPro
+//! HTTP server on 127.0.0.1 (the Open GoPro API, or the legacy WiFi API of HERO5-HERO8
+//! with its control and media servers on two ports and wake-on-LAN by UDP) that "films"
+//! the example session's videos: each recording is the example video whose pressure is
+//! nearest the simulated regulator's at the shutter, so `process` on the acquired session
+//! must give the example's radii.
 
 mod common;
 
 use std::fs;
 use std::io::{BufRead, BufReader, Read, Write};
-use std::net::{TcpListener, TcpStream};
+use std::net::{TcpListener, TcpStream, UdpSocket};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::sync::{Arc, Mutex};
@@ -165,10 +167,41 @@ struct CamState {
     lost_after: Option<usize>,
     recordings: usize,
     downloads: usize,
+    /// The legacy WiFi API (HERO5-HERO8): GOPRnnnn/GP01nnnn names, `/gp/gpControl`.
+    legacy: bool,
+    /// Legacy mode: 0 video, 1 photo (a camera starts in photo mode).
+    mode: i64,
+    /// Legacy status "10": recording.
+    encoding: bool,
+    /// Asleep until a wake-on-LAN packet for this MAC comes: answers nothing.
+    asleep: Option<[u8; 6]>,
+    /// Magic packets received for the right MAC.
+    wakes: usize,
+    /// File names served short once (a consistent Content-Length: a file still written).
+    short_once: Vec<String>,
+    /// Downloads served short.
+    short_served: usize,
+    /// Stopped recordings leave no file on the card.
+    no_file: bool,
+}
+
+/// Which API a listener of the simulator serves.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Role {
+    /// Open GoPro: control and media on one port.
+    OpenGoPro,
+    /// Legacy control (`url`, http://10.5.5.9 on a camera).
+    LegacyControl,
+    /// Legacy media (`media_url`, http://10.5.5.9:8080 on a camera).
+    LegacyMedia,
 }
 
 struct CamSim {
     url: String,
+    /// The legacy media server (the Open GoPro simulator: `url`).
+    media_url: String,
+    /// UDP port receiving wake-on-LAN packets.
+    wake_port: u16,
     state: Arc<Mutex<CamState>>,
 }
 
@@ -192,25 +225,75 @@ impl CamSim {
     fn start_with(mut state: CamState, regulator: Arc<Mutex<RegState>>) -> CamSim {
         state.next_number = 201;
         // An older video on the card: not part of any recording of the run.
-        state.media.push((
-            "100GOPRO".into(),
-            "GX010200.MP4".into(),
-            Arc::new(vec![0; 10]),
-        ));
-        let listener = TcpListener::bind("127.0.0.1:0").unwrap();
-        let url = format!("http://{}", listener.local_addr().unwrap());
+        let older = if state.legacy {
+            "GOPR0200.MP4"
+        } else {
+            "GX010200.MP4"
+        };
+        state
+            .media
+            .push(("100GOPRO".into(), older.into(), Arc::new(vec![0; 10])));
+        let roles = if state.legacy {
+            vec![Role::LegacyControl, Role::LegacyMedia]
+        } else {
+            vec![Role::OpenGoPro]
+        };
         let state = Arc::new(Mutex::new(state));
-        let shared = Arc::clone(&state);
         let videos = example_videos();
+        let mut urls = vec![];
+        for role in roles {
+            let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+            urls.push(format!("http://{}", listener.local_addr().unwrap()));
+            let (shared, regulator, videos) =
+                (Arc::clone(&state), Arc::clone(&regulator), videos.clone());
+            thread::spawn(move || {
+                for stream in listener.incoming() {
+                    let Ok(stream) = stream else { continue };
+                    let (state, regulator, videos) =
+                        (Arc::clone(&shared), Arc::clone(&regulator), videos.clone());
+                    thread::spawn(move || serve(stream, role, &state, &regulator, &videos));
+                }
+            });
+        }
+        // Wake-on-LAN: 6 x 0xFF, then the MAC 16 times.
+        let udp = UdpSocket::bind("127.0.0.1:0").unwrap();
+        let wake_port = udp.local_addr().unwrap().port();
+        let shared = Arc::clone(&state);
         thread::spawn(move || {
-            for stream in listener.incoming() {
-                let Ok(stream) = stream else { continue };
-                let (state, regulator, videos) =
-                    (Arc::clone(&shared), Arc::clone(&regulator), videos.clone());
-                thread::spawn(move || serve(stream, &state, &regulator, &videos));
+            let mut buf = [0u8; 512];
+            while let Ok(n) = udp.recv(&mut buf) {
+                let mut s = shared.lock().unwrap();
+                if let Some(mac) = s.asleep {
+                    let mut magic = vec![0xFFu8; 6];
+                    for _ in 0..16 {
+                        magic.extend_from_slice(&mac);
+                    }
+                    if buf[..n] == magic[..] {
+                        s.asleep = None;
+                        s.wakes += 1;
+                    }
+                }
             }
         });
-        CamSim { url, state }
+        let media_url = urls.last().unwrap().clone();
+        CamSim {
+            url: urls[0].clone(),
+            media_url,
+            wake_port,
+            state,
+        }
+    }
+
+    /// A HERO5-HERO8 on the legacy WiFi API filming `regulator`'s pressure.
+    fn wifi(state: CamState, regulator: &Arc<Mutex<RegState>>) -> CamSim {
+        CamSim::films(
+            CamState {
+                legacy: true,
+                mode: 1,
+                ..state
+            },
+            regulator,
+        )
     }
 
     /// Attach the regulator whose pressure the camera films.
@@ -230,8 +313,33 @@ fn respond(stream: &mut TcpStream, status: &str, body: &[u8], cut: bool) {
     let _ = stream.flush();
 }
 
+/// The recording's video(s) nearest `p` on the card: the first chapter, and a second
+/// one for numbers in `chapters`, named as the camera's API generation names them.
+fn add_recording(s: &mut CamState, p: f64, videos: &[(f64, Arc<Vec<u8>>)]) {
+    let (_, bytes) = videos
+        .iter()
+        .min_by(|a, b| (a.0 - p).abs().total_cmp(&(b.0 - p).abs()))
+        .unwrap();
+    let n = s.next_number;
+    s.next_number += 1;
+    s.recordings += 1;
+    if s.no_file {
+        return;
+    }
+    let (first, second) = if s.legacy {
+        (format!("GOPR{n:04}.MP4"), format!("GP01{n:04}.MP4"))
+    } else {
+        (format!("GX01{n:04}.MP4"), format!("GX02{n:04}.MP4"))
+    };
+    s.media.push(("100GOPRO".into(), first, Arc::clone(bytes)));
+    if s.chapters.contains(&n) {
+        s.media.push(("100GOPRO".into(), second, Arc::clone(bytes)));
+    }
+}
+
 fn serve(
     mut stream: TcpStream,
+    role: Role,
     state: &Mutex<CamState>,
     regulator: &Mutex<RegState>,
     videos: &[(f64, Arc<Vec<u8>>)],
@@ -247,11 +355,57 @@ fn serve(
     let head = String::from_utf8_lossy(&head).into_owned();
     let path = head.split_whitespace().nth(1).unwrap_or("").to_string();
     let mut s = state.lock().unwrap();
-    if s.lost_after.is_some_and(|n| s.recordings >= n) {
-        return; // dropped: the camera is gone
+    if s.lost_after.is_some_and(|n| s.recordings >= n) || s.asleep.is_some() {
+        return; // dropped: the camera is gone, or asleep
     }
     let ok = |stream: &mut TcpStream| respond(stream, "200 OK", b"{}", false);
+    let legacy_control = path.starts_with("/gp/gpControl");
+    let media = path == "/gopro/media/list"
+        || path == "/gp/gpMediaList"
+        || path.starts_with("/videos/DCIM/");
+    let served = match role {
+        Role::OpenGoPro => !legacy_control && path != "/gp/gpMediaList",
+        Role::LegacyControl => legacy_control,
+        Role::LegacyMedia => media && path != "/gopro/media/list",
+    };
+    if !served {
+        return respond(&mut stream, "404 Not Found", b"{}", false);
+    }
     match path.as_str() {
+        "/gp/gpControl/status" => {
+            let body = serde_json::json!({
+                "status": {"1": 1, "2": 3, "8": 0, "10": i32::from(s.encoding), "43": s.mode},
+                "settings": {"2": 9}
+            });
+            respond(&mut stream, "200 OK", body.to_string().as_bytes(), false)
+        }
+        "/gp/gpControl/command/mode?p=0" => {
+            s.mode = 0;
+            ok(&mut stream)
+        }
+        "/gp/gpControl/command/shutter?p=1" if s.mode != 0 => {
+            // Photo mode: the shutter takes a photo.
+            let n = s.next_number;
+            s.next_number += 1;
+            s.media.push((
+                "100GOPRO".into(),
+                format!("GOPR{n:04}.JPG"),
+                Arc::new(vec![1; 10]),
+            ));
+            ok(&mut stream)
+        }
+        "/gp/gpControl/command/shutter?p=1" => {
+            s.recording_kpa = Some(regulator.lock().unwrap().pressure_kpa());
+            s.encoding = true;
+            ok(&mut stream)
+        }
+        "/gp/gpControl/command/shutter?p=0" => {
+            s.encoding = false;
+            if let Some(p) = s.recording_kpa.take() {
+                add_recording(&mut s, p, videos);
+            }
+            ok(&mut stream)
+        }
         "/gopro/camera/control/wired_usb?p=1" | "/gopro/camera/keep_alive" => ok(&mut stream),
         "/gopro/camera/shutter/start" if s.busy => {
             respond(&mut stream, "409 Conflict", b"{}", false)
@@ -262,29 +416,11 @@ fn serve(
         }
         "/gopro/camera/shutter/stop" => {
             if let Some(p) = s.recording_kpa.take() {
-                let (_, bytes) = videos
-                    .iter()
-                    .min_by(|a, b| (a.0 - p).abs().total_cmp(&(b.0 - p).abs()))
-                    .unwrap();
-                let n = s.next_number;
-                s.next_number += 1;
-                s.media.push((
-                    "100GOPRO".into(),
-                    format!("GX01{n:04}.MP4"),
-                    Arc::clone(bytes),
-                ));
-                if s.chapters.contains(&n) {
-                    s.media.push((
-                        "100GOPRO".into(),
-                        format!("GX02{n:04}.MP4"),
-                        Arc::clone(bytes),
-                    ));
-                }
-                s.recordings += 1;
+                add_recording(&mut s, p, videos);
             }
             ok(&mut stream)
         }
-        "/gopro/media/list" => {
+        "/gopro/media/list" | "/gp/gpMediaList" => {
             let fs: Vec<serde_json::Value> = s
                 .media
                 .iter()
@@ -303,6 +439,13 @@ fn serve(
             match found {
                 Some((name, bytes)) => {
                     let cut = s.cut.contains(&name);
+                    if let Some(i) = s.short_once.iter().position(|n| *n == name) {
+                        s.short_once.remove(i);
+                        s.short_served += 1;
+                        drop(s);
+                        let short = &bytes[..bytes.len() / 2];
+                        return respond(&mut stream, "200 OK", short, false);
+                    }
                     if !cut {
                         s.downloads += 1;
                     }
@@ -456,7 +599,14 @@ fn an_acquired_session_is_measured_by_process_with_the_known_radii() {
     }
     assert_eq!(rows[2][col(&h, "files")], "GX010203.MP4;GX020203.MP4");
     assert_no_temporaries(&s);
-    // The session is measured: add the scale photo, calibration photos and settings.
+    assert_process_gives_the_example_radii(&b, "GX010203.MP4", "GX010201.MP4");
+}
+
+/// `process` measures the acquired session (with the example's scale photo, calibration
+/// photos and settings added) with the example's known radii (0.5%), the recording
+/// `two_chapters` over both its chapters (16 frames) and `one_chapter` over its 8.
+fn assert_process_gives_the_example_radii(b: &Bench, two_chapters: &str, one_chapter: &str) {
+    let s = b.session();
     let ex = fixture("sessions/example");
     copy_dir(&ex.join("calib"), &s.join("calib"));
     fs::copy(ex.join("scale.jpg"), s.join("scale.jpg")).unwrap();
@@ -485,7 +635,131 @@ fn an_acquired_session_is_measured_by_process_with_the_known_radii() {
     // The two-chapter recording is measured over both chapters.
     let (fh, frames) = read_csv(&out.join("per_frame.csv"));
     let n = |f: &str| frames.iter().filter(|r| r[col(&fh, "file")] == f).count();
-    assert_eq!((n("GX010203.MP4"), n("GX010201.MP4")), (16, 8));
+    assert_eq!((n(two_chapters), n(one_chapter)), (16, 8));
+}
+
+/// The `[camera]` section of a HERO5-HERO8 simulator on the legacy WiFi API.
+fn gopro_wifi(cam: &CamSim) -> String {
+    format!(
+        "kind = \"gopro-wifi\"\nurl = \"{}\"\nmedia_url = \"{}\"\nwake_port = {}\ntimeout_s = 0.5",
+        cam.url, cam.media_url, cam.wake_port
+    )
+}
+
+const HERO7_MAC: [u8; 6] = [0xd8, 0x96, 0x85, 0x0a, 0xbc, 0x01];
+
+#[test]
+fn a_hero7_over_wifi_is_woken_recorded_and_its_session_measured_with_the_known_radii() {
+    let b = Bench::new();
+    let reg = RegState::new(RegMode::Normal);
+    let sim = RegSim::start(b.path(), &reg);
+    // Asleep (answers nothing until the magic packet), in photo mode, the third
+    // recording in two chapters (GOPR0203.MP4, GP010203.MP4).
+    let cam = CamSim::wifi(
+        CamState {
+            chapters: vec![203],
+            asleep: Some(HERO7_MAC),
+            ..Default::default()
+        },
+        &reg,
+    );
+    let camera = format!("{}\nwake_mac = \"D8:96:85:0A:BC:01\"", gopro_wifi(&cam));
+    let protocol = b.protocol(STEPS, &sim.port, &camera);
+    let run = b.acquire(&protocol);
+    assert_eq!(run.code, 0, "{run}");
+    assert!(run.stdout.contains("5 recorded, 5 of 5"), "{run}");
+    assert!(
+        cam.state.lock().unwrap().wakes >= 1,
+        "woken by the magic packet"
+    );
+    assert_eq!(cam.state.lock().unwrap().mode, 0, "switched to video mode");
+    assert_eq!(sets(&reg), [20.0, 35.0, 50.0, 65.0, 80.0, 0.0]);
+    let s = b.session();
+    assert_eq!(
+        manifest(&s),
+        (0..5)
+            .map(|i| (format!("GOPR{:04}.MP4", 201 + i), EXAMPLE_KPA[i]))
+            .collect::<Vec<_>>()
+    );
+    assert!(s.join("GP010203.MP4").is_file(), "the chapter is fetched");
+    assert!(!s.join("GOPR0200.MP4").exists(), "an older video is not");
+    assert_videos_match_the_example(&s);
+    let (h, rows) = read_csv(&s.join("acquisition_log.csv"));
+    assert_eq!(rows[2][col(&h, "files")], "GOPR0203.MP4;GP010203.MP4");
+    assert_no_temporaries(&s);
+    assert_process_gives_the_example_radii(&b, "GOPR0203.MP4", "GOPR0201.MP4");
+}
+
+#[test]
+fn a_short_download_over_wifi_is_tried_again_and_kept_whole() {
+    let b = Bench::new();
+    let reg = RegState::new(RegMode::Normal);
+    let sim = RegSim::start(b.path(), &reg);
+    // Served once with half its bytes and a Content-Length saying so (a file the camera
+    // still writes): only the media list's size tells it is short.
+    let cam = CamSim::wifi(
+        CamState {
+            short_once: vec!["GOPR0202.MP4".into()],
+            ..Default::default()
+        },
+        &reg,
+    );
+    let run = b.acquire(&b.protocol(STEPS, &sim.port, &gopro_wifi(&cam)));
+    assert_eq!(run.code, 0, "{run}");
+    assert_eq!(cam.state.lock().unwrap().short_served, 1);
+    assert_eq!(cam.state.lock().unwrap().downloads, 5, "{run}");
+    assert_eq!(manifest(&b.session()).len(), 5);
+    assert_videos_match_the_example(&b.session());
+    assert_no_temporaries(&b.session());
+}
+
+#[test]
+fn a_wifi_camera_off_its_network_asleep_or_recording_nothing_is_reported_vented() {
+    let b = Bench::new();
+    let reg = RegState::new(RegMode::Normal);
+    let sim = RegSim::start(b.path(), &reg);
+    // Not reachable (the host is not on the camera's network).
+    let free = TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap();
+    let camera = format!("kind = \"gopro-wifi\"\nurl = \"http://{free}\"\nmedia_url = \"http://{free}\"\ntimeout_s = 0.5");
+    let run = b.acquire(&b.protocol(STEPS, &sim.port, &camera));
+    run.assert_bad_input(&[
+        "GoPro (WiFi) at http://",
+        "join the camera's WiFi network",
+        "http://10.5.5.9",
+    ]);
+    assert_eq!(sets(&reg), [0.0]);
+    assert!(!b.session().join("pressures.csv").exists());
+    // Asleep, no wake_mac given: the same, naming wake_mac.
+    let cam = CamSim::wifi(
+        CamState {
+            asleep: Some(HERO7_MAC),
+            ..Default::default()
+        },
+        &reg,
+    );
+    let run = b.acquire(&b.protocol(STEPS, &sim.port, &gopro_wifi(&cam)));
+    run.assert_bad_input(&["join the camera's WiFi network", "wake_mac"]);
+    assert_eq!(sets(&reg), [0.0, 0.0]);
+    // Awake, but the recording never appears in the media list.
+    let cam = CamSim::wifi(
+        CamState {
+            no_file: true,
+            ..Default::default()
+        },
+        &reg,
+    );
+    let run = b.acquire(&b.protocol(STEPS, &sim.port, &gopro_wifi(&cam)));
+    assert_eq!(run.code, 1, "{run}");
+    assert!(
+        run.stderr.contains("no new video in the media list")
+            && run.stderr.contains("vented to 0 kPa; 0 of 5"),
+        "{run}"
+    );
+    assert_eq!(sets(&reg)[2..], [20.0, 0.0]);
+    assert_eq!(cam.state.lock().unwrap().recordings, 1);
 }
 
 #[test]
