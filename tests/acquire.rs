@@ -40,6 +40,176 @@ enum RegMode {
     Silent,
     /// Answers bytes that are no protocol (what a wrong baud rate gives).
     Garbage,
+    /// The PWM valve sketch (hardware/pwm_valve/pwm_valve.ino) and its pneumatics: [`Valve`].
+    Valve,
+}
+
+// The sketch's constants (hardware/pwm_valve/pwm_valve.ino).
+/// PWM period, ms (20 Hz).
+const VALVE_PERIOD_MS: u64 = 50;
+/// Sensor reading interval, ms.
+const VALVE_SAMPLE_MS: u64 = 2;
+/// Supply pressure (feed-forward), kPa.
+const SUPPLY_KPA: f64 = 200.0;
+/// Proportional gain, %/kPa.
+const VALVE_KP: f64 = 1.5;
+/// Integral gain, %/(kPa s).
+const VALVE_KI: f64 = 3.0;
+// The simulated bench.
+/// Fill time constant with the valve energised (supply -> actuator), s.
+const TAU_FILL_S: f64 = 0.3;
+/// Exhaust time constant with the valve released (actuator -> exhaust), s.
+const TAU_EXHAUST_S: f64 = 0.3;
+/// Leak time constant (fittings, the actuator's seal), s.
+const TAU_LEAK_S: f64 = 10.0;
+/// Standard deviation of one sensor reading, kPa (uniform noise).
+const SENSOR_NOISE_KPA: f64 = 0.5;
+
+/// A 3/2 solenoid valve pulsed at 20 Hz on an actuator, simulated in 1 ms steps (forward
+/// Euler): energised, dp/dt = (SUPPLY - p) / TAU_FILL; released, dp/dt = -p / TAU_EXHAUST;
+/// always a leak -p / TAU_LEAK. The sketch's loop runs on it: sensor readings every 2 ms
+/// with noise, their mean over each period is what `GET` answers and what the PI
+/// controller with feed-forward (the sketch's gains) acts on at the period's end.
+#[derive(Debug)]
+struct Valve {
+    /// True pressure, kPa.
+    p_kpa: f64,
+    /// Simulated time, ms since `t0`.
+    t_ms: u64,
+    t0: Instant,
+    set_kpa: f64,
+    open_loop: bool,
+    duty_pct: f64,
+    integral_pct: f64,
+    sum_kpa: f64,
+    samples: u32,
+    /// Mean sensor reading over the last period, kPa.
+    period_mean_kpa: f64,
+    /// Lowest and highest true pressure of the current period, kPa.
+    period_min_kpa: f64,
+    period_max_kpa: f64,
+    /// Largest true ripple (max - min within a period) seen at a set point, kPa.
+    max_ripple_kpa: f64,
+    /// xorshift64 state of the sensor noise.
+    rng: u64,
+}
+
+impl Valve {
+    fn new() -> Valve {
+        Valve {
+            p_kpa: 0.0,
+            t_ms: 0,
+            t0: Instant::now(),
+            set_kpa: 0.0,
+            open_loop: false,
+            duty_pct: 0.0,
+            integral_pct: 0.0,
+            sum_kpa: 0.0,
+            samples: 0,
+            period_mean_kpa: 0.0,
+            period_min_kpa: 0.0,
+            period_max_kpa: 0.0,
+            max_ripple_kpa: 0.0,
+            rng: 0x9E37_79B9_7F4A_7C15,
+        }
+    }
+
+    /// A uniform noise sample with standard deviation SENSOR_NOISE_KPA.
+    fn noise_kpa(&mut self) -> f64 {
+        self.rng ^= self.rng << 13;
+        self.rng ^= self.rng >> 7;
+        self.rng ^= self.rng << 17;
+        let u = (self.rng >> 11) as f64 / (1u64 << 53) as f64;
+        (2.0 * u - 1.0) * SENSOR_NOISE_KPA * 3f64.sqrt()
+    }
+
+    /// Runs the bench up to the present.
+    fn advance(&mut self) {
+        let now_ms = self.t0.elapsed().as_millis() as u64;
+        while self.t_ms < now_ms {
+            // The share of this millisecond the valve is energised (the sketch's timer
+            // PWM switches within a millisecond: 3125 steps a period).
+            let phase = (self.t_ms % VALVE_PERIOD_MS) as f64;
+            let on_ms = self.duty_pct / 100.0 * VALVE_PERIOD_MS as f64;
+            let energised = (on_ms - phase).clamp(0.0, 1.0);
+            let p = self.p_kpa;
+            let flow =
+                energised * (SUPPLY_KPA - p) / TAU_FILL_S - (1.0 - energised) * p / TAU_EXHAUST_S;
+            self.p_kpa = p + (flow - p / TAU_LEAK_S) * 1e-3;
+            self.period_min_kpa = self.period_min_kpa.min(self.p_kpa);
+            self.period_max_kpa = self.period_max_kpa.max(self.p_kpa);
+            if self.t_ms % VALVE_SAMPLE_MS == 0 {
+                let reading = (self.p_kpa + self.noise_kpa()).max(0.0);
+                self.sum_kpa += reading;
+                self.samples += 1;
+            }
+            self.t_ms += 1;
+            if self.t_ms % VALVE_PERIOD_MS == 0 {
+                self.end_of_period();
+            }
+        }
+    }
+
+    /// The sketch's `endOfPeriod`: the period's mean, then the new duty.
+    fn end_of_period(&mut self) {
+        self.period_mean_kpa = self.sum_kpa / f64::from(self.samples.max(1));
+        (self.sum_kpa, self.samples) = (0.0, 0);
+        if self.set_kpa > 0.0 {
+            let ripple = self.period_max_kpa - self.period_min_kpa;
+            self.max_ripple_kpa = self.max_ripple_kpa.max(ripple);
+        }
+        (self.period_min_kpa, self.period_max_kpa) = (self.p_kpa, self.p_kpa);
+        if self.open_loop {
+            return;
+        }
+        if self.set_kpa <= 0.0 {
+            self.integral_pct = 0.0;
+            self.duty_pct = 0.0;
+            return;
+        }
+        let e = self.set_kpa - self.period_mean_kpa;
+        let ff_pct = 100.0 * self.set_kpa / SUPPLY_KPA;
+        // Conditional integration: not while the duty is pinned and e pushes further.
+        let raw = ff_pct + VALVE_KP * e + self.integral_pct;
+        if (raw < 100.0 || e < 0.0) && (raw > 0.0 || e > 0.0) {
+            self.integral_pct = (self.integral_pct + VALVE_KI * e * VALVE_PERIOD_MS as f64 / 1e3)
+                .clamp(-100.0, 100.0);
+        }
+        self.duty_pct = (ff_pct + VALVE_KP * e + self.integral_pct).clamp(0.0, 100.0);
+    }
+
+    /// The sketch's answer to one line.
+    fn answer(&mut self, line: &str) -> String {
+        self.advance();
+        if let Some(v) = line.strip_prefix("SET ") {
+            let Ok(v) = v.trim().parse::<f64>() else {
+                return "ERR SET needs a number in kPa".into();
+            };
+            if v == 0.0 {
+                (self.set_kpa, self.open_loop) = (0.0, false);
+                (self.integral_pct, self.duty_pct) = (0.0, 0.0);
+            } else {
+                if self.open_loop {
+                    self.integral_pct = 0.0;
+                }
+                (self.set_kpa, self.open_loop) = (v, false);
+            }
+            format!("OK {v:.2}")
+        } else if let Some(d) = line.strip_prefix("DUTY ") {
+            match d.trim().parse::<f64>() {
+                Ok(d) if (0.0..=100.0).contains(&d) => {
+                    (self.open_loop, self.set_kpa, self.integral_pct) = (true, 0.0, 0.0);
+                    self.duty_pct = d;
+                    format!("OK DUTY {d:.1}")
+                }
+                _ => "ERR DUTY needs a percentage 0..100".into(),
+            }
+        } else if line == "GET" {
+            format!("P {:.3}", self.period_mean_kpa)
+        } else {
+            "ERR unknown command (SET <kPa>, GET or DUTY <percent>)".into()
+        }
+    }
 }
 
 /// The simulated pneumatics: p(t) = target + (p0 - target) exp(-(t - t0) / tau).
@@ -51,6 +221,8 @@ struct RegState {
     /// Every `SET` received, in order (refused ones too).
     sets: Vec<f64>,
     mode: RegMode,
+    /// The valve bench, in mode Valve.
+    valve: Valve,
 }
 
 impl RegState {
@@ -61,9 +233,15 @@ impl RegState {
             t0: Instant::now(),
             sets: vec![],
             mode,
+            valve: Valve::new(),
         }))
     }
-    fn pressure_kpa(&self) -> f64 {
+    /// The true pressure now.
+    fn pressure_kpa(&mut self) -> f64 {
+        if self.mode == RegMode::Valve {
+            self.valve.advance();
+            return self.valve.p_kpa;
+        }
         let t = self.t0.elapsed().as_secs_f64();
         self.target_kpa + (self.p0_kpa - self.target_kpa) * (-t / TAU_S).exp()
     }
@@ -72,6 +250,15 @@ impl RegState {
         match self.mode {
             RegMode::Silent => return None,
             RegMode::Garbage => return Some(b"\xf0\x8f\xaa\x13x\xfe\n".to_vec()),
+            RegMode::Valve => {
+                if let Some(v) = line
+                    .strip_prefix("SET ")
+                    .and_then(|v| v.trim().parse().ok())
+                {
+                    self.sets.push(v);
+                }
+                return Some(format!("{}\r\n", self.valve.answer(line)).into_bytes());
+            }
             _ => {}
         }
         let text = if let Some(v) = line.strip_prefix("SET ") {
@@ -1036,6 +1223,50 @@ fn a_ramp_writes_one_video_and_its_pressure_log() {
     assert_eq!(*sets(&reg).last().unwrap(), 0.0);
     let top = sets(&reg)[sets(&reg).len() - 2];
     assert_eq!(top, 12.0);
+}
+
+#[test]
+fn a_pwm_valve_reaches_each_set_point_through_the_sketchs_closed_loop() {
+    let b = Bench::new();
+    let reg = RegState::new(RegMode::Valve);
+    let sim = RegSim::start(b.path(), &reg);
+    let cam = CamSim::films(CamState::default(), &reg);
+    let plan =
+        "[steps]\npressures_kpa = [20, 50, 80]\nstabilize_s = 3.0\nrecord_s = 0.5\nsample_hz = 20";
+    let protocol = b.protocol(plan, &sim.port, &gopro(&cam.url));
+    let text = fs::read_to_string(&protocol).unwrap();
+    fs::write(
+        &protocol,
+        text.replace("[regulator]\n", "[regulator]\nkind = \"serial\"\n"),
+    )
+    .unwrap();
+    let run = b.acquire(&protocol);
+    assert_eq!(run.code, 0, "{run}");
+    assert!(!run.stderr.contains("warning"), "{run}");
+    assert_eq!(sets(&reg), [20.0, 50.0, 80.0, 0.0]);
+    // Settled: averaged over a period the plant is first order (tau 0.3 s, 1.94 kPa per
+    // % of duty), the loop gain 2.9; what is left of the rise's overshoot and the leak's
+    // offset decays with the integral's time constant, 0.67 s (3.5 s leave 0.035 kPa);
+    // after 3 s that, plus the noise of the mean of 10 period means (0.03 kPa), stays
+    // well within 0.25 kPa, a quarter of the 1 kPa acquire warns at. The spread of the
+    // readings is the noise of one period mean, 0.5 / sqrt(25) = 0.1 kPa.
+    let (h, rows) = read_csv(&b.session().join("acquisition_log.csv"));
+    assert_eq!(rows.len(), 3);
+    for (r, p) in rows.iter().zip([20.0, 50.0, 80.0]) {
+        let mean: f64 = r[col(&h, "measured_mean_kpa")].parse().unwrap();
+        let std: f64 = r[col(&h, "measured_std_kpa")].parse().unwrap();
+        assert!((mean - p).abs() < 0.25, "{p} kPa: mean {mean}");
+        assert!(std < 0.25, "{p} kPa: spread {std}");
+    }
+    // The valve pulses: the true pressure ripples by kPa within a period, which the
+    // period means that GET answers do not show.
+    let ripple = reg.lock().unwrap().valve.max_ripple_kpa;
+    assert!(ripple > 2.0, "ripple {ripple} kPa");
+    // Vented at the end: the valve released, the pressure falls.
+    thread::sleep(Duration::from_millis(600));
+    let p = reg.lock().unwrap().pressure_kpa();
+    assert!(p < 20.0, "{p} kPa 0.6 s after the vent");
+    assert_eq!(reg.lock().unwrap().valve.duty_pct, 0.0);
 }
 
 #[test]

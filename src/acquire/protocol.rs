@@ -24,6 +24,9 @@ use super::AcquireError;
 use crate::fem::actuator::parse_range;
 use crate::session::{KPA_PER_BAR, KPA_PER_PSI};
 
+/// The one `[regulator] kind` (the default): a device speaking the serial line protocol
+/// (hardware/regulator/regulator.ino or hardware/pwm_valve/pwm_valve.ino).
+pub const REGULATOR_KIND_SERIAL: &str = "serial";
 /// The regulator sketch's baud rate (hardware/regulator/regulator.ino).
 pub const DEFAULT_BAUD: u32 = 115_200;
 /// Default wait for one answer of the regulator, s.
@@ -259,6 +262,7 @@ struct RawRamp {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawRegulator {
+    kind: Option<String>,
     port: String,
     baud: Option<u32>,
     timeout_s: Option<f64>,
@@ -457,6 +461,15 @@ fn ramp_plan(r: RawRamp) -> Result<RampPlan, String> {
 }
 
 fn regulator_config(r: RawRegulator) -> Result<RegulatorConfig, String> {
+    // One kind: the serial line protocol, which both sketches speak (the proportional
+    // regulator's, hardware/regulator, and the PWM valve's, hardware/pwm_valve).
+    if let Some(kind) = r.kind.as_deref() {
+        if !kind.eq_ignore_ascii_case(REGULATOR_KIND_SERIAL) {
+            return Err(format!(
+                "[regulator] kind = \"{kind}\": use \"serial\" (the SET/GET line protocol of hardware/regulator and hardware/pwm_valve, for a proportional regulator or a PWM solenoid valve alike)"
+            ));
+        }
+    }
     if r.port.trim().is_empty() {
         return Err(
             "[regulator] port is empty: give the serial port, e.g. \"/dev/ttyACM0\"".into(),
@@ -786,6 +799,23 @@ mod tests {
         .unwrap_err()
         .to_string();
         assert!(e.contains("\"gopro-wifi\" (HERO5-HERO8 over WiFi)"), "{e}");
+    }
+
+    #[test]
+    fn the_regulator_kind_is_serial_for_both_sketches() {
+        let with_kind = |kind: &str| {
+            Protocol::parse(
+                &format!("[ramp]\nrate_kpa_s = 1\ntop_kpa = 10\n[regulator]\nkind = \"{kind}\"\nport = \"x\"\n[camera]\nkind = \"webcam\""),
+                Path::new("p.toml"),
+            )
+        };
+        assert!(with_kind("serial").is_ok());
+        assert!(with_kind("Serial").is_ok());
+        let e = with_kind("pwm").unwrap_err().to_string();
+        assert!(
+            e.contains("kind = \"pwm\"") && e.contains("hardware/pwm_valve"),
+            "{e}"
+        );
     }
 
     #[test]
