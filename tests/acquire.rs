@@ -138,13 +138,13 @@ impl Valve {
             self.p_kpa = p + (flow - p / TAU_LEAK_S) * 1e-3;
             self.period_min_kpa = self.period_min_kpa.min(self.p_kpa);
             self.period_max_kpa = self.period_max_kpa.max(self.p_kpa);
-            if self.t_ms % VALVE_SAMPLE_MS == 0 {
+            if self.t_ms.is_multiple_of(VALVE_SAMPLE_MS) {
                 let reading = (self.p_kpa + self.noise_kpa()).max(0.0);
                 self.sum_kpa += reading;
                 self.samples += 1;
             }
             self.t_ms += 1;
-            if self.t_ms % VALVE_PERIOD_MS == 0 {
+            if self.t_ms.is_multiple_of(VALVE_PERIOD_MS) {
                 self.end_of_period();
             }
         }
