@@ -1,15 +1,17 @@
 //! `bendscope acquire` against device simulators that speak the real protocols: a
 //! pressure regulator on a pseudo-terminal pair made by socat (first-order pressure
-//! response, the serial line protocol of hardware/regulator/regulator.ino), and an Open
-//! GoPro HTTP server on 127.0.0.1 that "films" the example session's videos: each
-//! recording is the example video whose pressure is nearest the simulated regulator's at
-//! the shutter, so `process` on the acquired session must give the example's radii.
+//! response, the serial line protocol of hardware/regulator/regulator.ino), and a GoPro
+//! HTTP server on 127.0.0.1 (the Open GoPro API, or the legacy WiFi API of HERO5-HERO8
+//! with its control and media servers on two ports and wake-on-LAN by UDP) that "films"
+//! the example session's videos: each recording is the example video whose pressure is
+//! nearest the simulated regulator's at the shutter, so `process` on the acquired session
+//! must give the example's radii.
 
 mod common;
 
 use std::fs;
 use std::io::{BufRead, BufReader, Read, Write};
-use std::net::{TcpListener, TcpStream};
+use std::net::{TcpListener, TcpStream, UdpSocket};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::sync::{Arc, Mutex};
@@ -38,6 +40,176 @@ enum RegMode {
     Silent,
     /// Answers bytes that are no protocol (what a wrong baud rate gives).
     Garbage,
+    /// The PWM valve sketch (hardware/pwm_valve/pwm_valve.ino) and its pneumatics: [`Valve`].
+    Valve,
+}
+
+// The sketch's constants (hardware/pwm_valve/pwm_valve.ino).
+/// PWM period, ms (20 Hz).
+const VALVE_PERIOD_MS: u64 = 50;
+/// Sensor reading interval, ms.
+const VALVE_SAMPLE_MS: u64 = 2;
+/// Supply pressure (feed-forward), kPa.
+const SUPPLY_KPA: f64 = 200.0;
+/// Proportional gain, %/kPa.
+const VALVE_KP: f64 = 1.5;
+/// Integral gain, %/(kPa s).
+const VALVE_KI: f64 = 3.0;
+// The simulated bench.
+/// Fill time constant with the valve energised (supply -> actuator), s.
+const TAU_FILL_S: f64 = 0.3;
+/// Exhaust time constant with the valve released (actuator -> exhaust), s.
+const TAU_EXHAUST_S: f64 = 0.3;
+/// Leak time constant (fittings, the actuator's seal), s.
+const TAU_LEAK_S: f64 = 10.0;
+/// Standard deviation of one sensor reading, kPa (uniform noise).
+const SENSOR_NOISE_KPA: f64 = 0.5;
+
+/// A 3/2 solenoid valve pulsed at 20 Hz on an actuator, simulated in 1 ms steps (forward
+/// Euler): energised, dp/dt = (SUPPLY - p) / TAU_FILL; released, dp/dt = -p / TAU_EXHAUST;
+/// always a leak -p / TAU_LEAK. The sketch's loop runs on it: sensor readings every 2 ms
+/// with noise, their mean over each period is what `GET` answers and what the PI
+/// controller with feed-forward (the sketch's gains) acts on at the period's end.
+#[derive(Debug)]
+struct Valve {
+    /// True pressure, kPa.
+    p_kpa: f64,
+    /// Simulated time, ms since `t0`.
+    t_ms: u64,
+    t0: Instant,
+    set_kpa: f64,
+    open_loop: bool,
+    duty_pct: f64,
+    integral_pct: f64,
+    sum_kpa: f64,
+    samples: u32,
+    /// Mean sensor reading over the last period, kPa.
+    period_mean_kpa: f64,
+    /// Lowest and highest true pressure of the current period, kPa.
+    period_min_kpa: f64,
+    period_max_kpa: f64,
+    /// Largest true ripple (max - min within a period) seen at a set point, kPa.
+    max_ripple_kpa: f64,
+    /// xorshift64 state of the sensor noise.
+    rng: u64,
+}
+
+impl Valve {
+    fn new() -> Valve {
+        Valve {
+            p_kpa: 0.0,
+            t_ms: 0,
+            t0: Instant::now(),
+            set_kpa: 0.0,
+            open_loop: false,
+            duty_pct: 0.0,
+            integral_pct: 0.0,
+            sum_kpa: 0.0,
+            samples: 0,
+            period_mean_kpa: 0.0,
+            period_min_kpa: 0.0,
+            period_max_kpa: 0.0,
+            max_ripple_kpa: 0.0,
+            rng: 0x9E37_79B9_7F4A_7C15,
+        }
+    }
+
+    /// A uniform noise sample with standard deviation SENSOR_NOISE_KPA.
+    fn noise_kpa(&mut self) -> f64 {
+        self.rng ^= self.rng << 13;
+        self.rng ^= self.rng >> 7;
+        self.rng ^= self.rng << 17;
+        let u = (self.rng >> 11) as f64 / (1u64 << 53) as f64;
+        (2.0 * u - 1.0) * SENSOR_NOISE_KPA * 3f64.sqrt()
+    }
+
+    /// Runs the bench up to the present.
+    fn advance(&mut self) {
+        let now_ms = self.t0.elapsed().as_millis() as u64;
+        while self.t_ms < now_ms {
+            // The share of this millisecond the valve is energised (the sketch's timer
+            // PWM switches within a millisecond: 3125 steps a period).
+            let phase = (self.t_ms % VALVE_PERIOD_MS) as f64;
+            let on_ms = self.duty_pct / 100.0 * VALVE_PERIOD_MS as f64;
+            let energised = (on_ms - phase).clamp(0.0, 1.0);
+            let p = self.p_kpa;
+            let flow =
+                energised * (SUPPLY_KPA - p) / TAU_FILL_S - (1.0 - energised) * p / TAU_EXHAUST_S;
+            self.p_kpa = p + (flow - p / TAU_LEAK_S) * 1e-3;
+            self.period_min_kpa = self.period_min_kpa.min(self.p_kpa);
+            self.period_max_kpa = self.period_max_kpa.max(self.p_kpa);
+            if self.t_ms.is_multiple_of(VALVE_SAMPLE_MS) {
+                let reading = (self.p_kpa + self.noise_kpa()).max(0.0);
+                self.sum_kpa += reading;
+                self.samples += 1;
+            }
+            self.t_ms += 1;
+            if self.t_ms.is_multiple_of(VALVE_PERIOD_MS) {
+                self.end_of_period();
+            }
+        }
+    }
+
+    /// The sketch's `endOfPeriod`: the period's mean, then the new duty.
+    fn end_of_period(&mut self) {
+        self.period_mean_kpa = self.sum_kpa / f64::from(self.samples.max(1));
+        (self.sum_kpa, self.samples) = (0.0, 0);
+        if self.set_kpa > 0.0 {
+            let ripple = self.period_max_kpa - self.period_min_kpa;
+            self.max_ripple_kpa = self.max_ripple_kpa.max(ripple);
+        }
+        (self.period_min_kpa, self.period_max_kpa) = (self.p_kpa, self.p_kpa);
+        if self.open_loop {
+            return;
+        }
+        if self.set_kpa <= 0.0 {
+            self.integral_pct = 0.0;
+            self.duty_pct = 0.0;
+            return;
+        }
+        let e = self.set_kpa - self.period_mean_kpa;
+        let ff_pct = 100.0 * self.set_kpa / SUPPLY_KPA;
+        // Conditional integration: not while the duty is pinned and e pushes further.
+        let raw = ff_pct + VALVE_KP * e + self.integral_pct;
+        if (raw < 100.0 || e < 0.0) && (raw > 0.0 || e > 0.0) {
+            self.integral_pct = (self.integral_pct + VALVE_KI * e * VALVE_PERIOD_MS as f64 / 1e3)
+                .clamp(-100.0, 100.0);
+        }
+        self.duty_pct = (ff_pct + VALVE_KP * e + self.integral_pct).clamp(0.0, 100.0);
+    }
+
+    /// The sketch's answer to one line.
+    fn answer(&mut self, line: &str) -> String {
+        self.advance();
+        if let Some(v) = line.strip_prefix("SET ") {
+            let Ok(v) = v.trim().parse::<f64>() else {
+                return "ERR SET needs a number in kPa".into();
+            };
+            if v == 0.0 {
+                (self.set_kpa, self.open_loop) = (0.0, false);
+                (self.integral_pct, self.duty_pct) = (0.0, 0.0);
+            } else {
+                if self.open_loop {
+                    self.integral_pct = 0.0;
+                }
+                (self.set_kpa, self.open_loop) = (v, false);
+            }
+            format!("OK {v:.2}")
+        } else if let Some(d) = line.strip_prefix("DUTY ") {
+            match d.trim().parse::<f64>() {
+                Ok(d) if (0.0..=100.0).contains(&d) => {
+                    (self.open_loop, self.set_kpa, self.integral_pct) = (true, 0.0, 0.0);
+                    self.duty_pct = d;
+                    format!("OK DUTY {d:.1}")
+                }
+                _ => "ERR DUTY needs a percentage 0..100".into(),
+            }
+        } else if line == "GET" {
+            format!("P {:.3}", self.period_mean_kpa)
+        } else {
+            "ERR unknown command (SET <kPa>, GET or DUTY <percent>)".into()
+        }
+    }
 }
 
 /// The simulated pneumatics: p(t) = target + (p0 - target) exp(-(t - t0) / tau).
@@ -49,6 +221,8 @@ struct RegState {
     /// Every `SET` received, in order (refused ones too).
     sets: Vec<f64>,
     mode: RegMode,
+    /// The valve bench, in mode Valve.
+    valve: Valve,
 }
 
 impl RegState {
@@ -59,9 +233,15 @@ impl RegState {
             t0: Instant::now(),
             sets: vec![],
             mode,
+            valve: Valve::new(),
         }))
     }
-    fn pressure_kpa(&self) -> f64 {
+    /// The true pressure now.
+    fn pressure_kpa(&mut self) -> f64 {
+        if self.mode == RegMode::Valve {
+            self.valve.advance();
+            return self.valve.p_kpa;
+        }
         let t = self.t0.elapsed().as_secs_f64();
         self.target_kpa + (self.p0_kpa - self.target_kpa) * (-t / TAU_S).exp()
     }
@@ -70,6 +250,15 @@ impl RegState {
         match self.mode {
             RegMode::Silent => return None,
             RegMode::Garbage => return Some(b"\xf0\x8f\xaa\x13x\xfe\n".to_vec()),
+            RegMode::Valve => {
+                if let Some(v) = line
+                    .strip_prefix("SET ")
+                    .and_then(|v| v.trim().parse().ok())
+                {
+                    self.sets.push(v);
+                }
+                return Some(format!("{}\r\n", self.valve.answer(line)).into_bytes());
+            }
             _ => {}
         }
         let text = if let Some(v) = line.strip_prefix("SET ") {
@@ -165,10 +354,41 @@ struct CamState {
     lost_after: Option<usize>,
     recordings: usize,
     downloads: usize,
+    /// The legacy WiFi API (HERO5-HERO8): GOPRnnnn/GP01nnnn names, `/gp/gpControl`.
+    legacy: bool,
+    /// Legacy mode: 0 video, 1 photo (a camera starts in photo mode).
+    mode: i64,
+    /// Legacy status "10": recording.
+    encoding: bool,
+    /// Asleep until a wake-on-LAN packet for this MAC comes: answers nothing.
+    asleep: Option<[u8; 6]>,
+    /// Magic packets received for the right MAC.
+    wakes: usize,
+    /// File names served short once (a consistent Content-Length: a file still written).
+    short_once: Vec<String>,
+    /// Downloads served short.
+    short_served: usize,
+    /// Stopped recordings leave no file on the card.
+    no_file: bool,
+}
+
+/// Which API a listener of the simulator serves.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Role {
+    /// Open GoPro: control and media on one port.
+    OpenGoPro,
+    /// Legacy control (`url`, http://10.5.5.9 on a camera).
+    LegacyControl,
+    /// Legacy media (`media_url`, http://10.5.5.9:8080 on a camera).
+    LegacyMedia,
 }
 
 struct CamSim {
     url: String,
+    /// The legacy media server (the Open GoPro simulator: `url`).
+    media_url: String,
+    /// UDP port receiving wake-on-LAN packets.
+    wake_port: u16,
     state: Arc<Mutex<CamState>>,
 }
 
@@ -192,25 +412,75 @@ impl CamSim {
     fn start_with(mut state: CamState, regulator: Arc<Mutex<RegState>>) -> CamSim {
         state.next_number = 201;
         // An older video on the card: not part of any recording of the run.
-        state.media.push((
-            "100GOPRO".into(),
-            "GX010200.MP4".into(),
-            Arc::new(vec![0; 10]),
-        ));
-        let listener = TcpListener::bind("127.0.0.1:0").unwrap();
-        let url = format!("http://{}", listener.local_addr().unwrap());
+        let older = if state.legacy {
+            "GOPR0200.MP4"
+        } else {
+            "GX010200.MP4"
+        };
+        state
+            .media
+            .push(("100GOPRO".into(), older.into(), Arc::new(vec![0; 10])));
+        let roles = if state.legacy {
+            vec![Role::LegacyControl, Role::LegacyMedia]
+        } else {
+            vec![Role::OpenGoPro]
+        };
         let state = Arc::new(Mutex::new(state));
-        let shared = Arc::clone(&state);
         let videos = example_videos();
+        let mut urls = vec![];
+        for role in roles {
+            let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+            urls.push(format!("http://{}", listener.local_addr().unwrap()));
+            let (shared, regulator, videos) =
+                (Arc::clone(&state), Arc::clone(&regulator), videos.clone());
+            thread::spawn(move || {
+                for stream in listener.incoming() {
+                    let Ok(stream) = stream else { continue };
+                    let (state, regulator, videos) =
+                        (Arc::clone(&shared), Arc::clone(&regulator), videos.clone());
+                    thread::spawn(move || serve(stream, role, &state, &regulator, &videos));
+                }
+            });
+        }
+        // Wake-on-LAN: 6 x 0xFF, then the MAC 16 times.
+        let udp = UdpSocket::bind("127.0.0.1:0").unwrap();
+        let wake_port = udp.local_addr().unwrap().port();
+        let shared = Arc::clone(&state);
         thread::spawn(move || {
-            for stream in listener.incoming() {
-                let Ok(stream) = stream else { continue };
-                let (state, regulator, videos) =
-                    (Arc::clone(&shared), Arc::clone(&regulator), videos.clone());
-                thread::spawn(move || serve(stream, &state, &regulator, &videos));
+            let mut buf = [0u8; 512];
+            while let Ok(n) = udp.recv(&mut buf) {
+                let mut s = shared.lock().unwrap();
+                if let Some(mac) = s.asleep {
+                    let mut magic = vec![0xFFu8; 6];
+                    for _ in 0..16 {
+                        magic.extend_from_slice(&mac);
+                    }
+                    if buf[..n] == magic[..] {
+                        s.asleep = None;
+                        s.wakes += 1;
+                    }
+                }
             }
         });
-        CamSim { url, state }
+        let media_url = urls.last().unwrap().clone();
+        CamSim {
+            url: urls[0].clone(),
+            media_url,
+            wake_port,
+            state,
+        }
+    }
+
+    /// A HERO5-HERO8 on the legacy WiFi API filming `regulator`'s pressure.
+    fn wifi(state: CamState, regulator: &Arc<Mutex<RegState>>) -> CamSim {
+        CamSim::films(
+            CamState {
+                legacy: true,
+                mode: 1,
+                ..state
+            },
+            regulator,
+        )
     }
 
     /// Attach the regulator whose pressure the camera films.
@@ -230,8 +500,33 @@ fn respond(stream: &mut TcpStream, status: &str, body: &[u8], cut: bool) {
     let _ = stream.flush();
 }
 
+/// The recording's video(s) nearest `p` on the card: the first chapter, and a second
+/// one for numbers in `chapters`, named as the camera's API generation names them.
+fn add_recording(s: &mut CamState, p: f64, videos: &[(f64, Arc<Vec<u8>>)]) {
+    let (_, bytes) = videos
+        .iter()
+        .min_by(|a, b| (a.0 - p).abs().total_cmp(&(b.0 - p).abs()))
+        .unwrap();
+    let n = s.next_number;
+    s.next_number += 1;
+    s.recordings += 1;
+    if s.no_file {
+        return;
+    }
+    let (first, second) = if s.legacy {
+        (format!("GOPR{n:04}.MP4"), format!("GP01{n:04}.MP4"))
+    } else {
+        (format!("GX01{n:04}.MP4"), format!("GX02{n:04}.MP4"))
+    };
+    s.media.push(("100GOPRO".into(), first, Arc::clone(bytes)));
+    if s.chapters.contains(&n) {
+        s.media.push(("100GOPRO".into(), second, Arc::clone(bytes)));
+    }
+}
+
 fn serve(
     mut stream: TcpStream,
+    role: Role,
     state: &Mutex<CamState>,
     regulator: &Mutex<RegState>,
     videos: &[(f64, Arc<Vec<u8>>)],
@@ -247,11 +542,57 @@ fn serve(
     let head = String::from_utf8_lossy(&head).into_owned();
     let path = head.split_whitespace().nth(1).unwrap_or("").to_string();
     let mut s = state.lock().unwrap();
-    if s.lost_after.is_some_and(|n| s.recordings >= n) {
-        return; // dropped: the camera is gone
+    if s.lost_after.is_some_and(|n| s.recordings >= n) || s.asleep.is_some() {
+        return; // dropped: the camera is gone, or asleep
     }
     let ok = |stream: &mut TcpStream| respond(stream, "200 OK", b"{}", false);
+    let legacy_control = path.starts_with("/gp/gpControl");
+    let media = path == "/gopro/media/list"
+        || path == "/gp/gpMediaList"
+        || path.starts_with("/videos/DCIM/");
+    let served = match role {
+        Role::OpenGoPro => !legacy_control && path != "/gp/gpMediaList",
+        Role::LegacyControl => legacy_control,
+        Role::LegacyMedia => media && path != "/gopro/media/list",
+    };
+    if !served {
+        return respond(&mut stream, "404 Not Found", b"{}", false);
+    }
     match path.as_str() {
+        "/gp/gpControl/status" => {
+            let body = serde_json::json!({
+                "status": {"1": 1, "2": 3, "8": 0, "10": i32::from(s.encoding), "43": s.mode},
+                "settings": {"2": 9}
+            });
+            respond(&mut stream, "200 OK", body.to_string().as_bytes(), false)
+        }
+        "/gp/gpControl/command/mode?p=0" => {
+            s.mode = 0;
+            ok(&mut stream)
+        }
+        "/gp/gpControl/command/shutter?p=1" if s.mode != 0 => {
+            // Photo mode: the shutter takes a photo.
+            let n = s.next_number;
+            s.next_number += 1;
+            s.media.push((
+                "100GOPRO".into(),
+                format!("GOPR{n:04}.JPG"),
+                Arc::new(vec![1; 10]),
+            ));
+            ok(&mut stream)
+        }
+        "/gp/gpControl/command/shutter?p=1" => {
+            s.recording_kpa = Some(regulator.lock().unwrap().pressure_kpa());
+            s.encoding = true;
+            ok(&mut stream)
+        }
+        "/gp/gpControl/command/shutter?p=0" => {
+            s.encoding = false;
+            if let Some(p) = s.recording_kpa.take() {
+                add_recording(&mut s, p, videos);
+            }
+            ok(&mut stream)
+        }
         "/gopro/camera/control/wired_usb?p=1" | "/gopro/camera/keep_alive" => ok(&mut stream),
         "/gopro/camera/shutter/start" if s.busy => {
             respond(&mut stream, "409 Conflict", b"{}", false)
@@ -262,29 +603,11 @@ fn serve(
         }
         "/gopro/camera/shutter/stop" => {
             if let Some(p) = s.recording_kpa.take() {
-                let (_, bytes) = videos
-                    .iter()
-                    .min_by(|a, b| (a.0 - p).abs().total_cmp(&(b.0 - p).abs()))
-                    .unwrap();
-                let n = s.next_number;
-                s.next_number += 1;
-                s.media.push((
-                    "100GOPRO".into(),
-                    format!("GX01{n:04}.MP4"),
-                    Arc::clone(bytes),
-                ));
-                if s.chapters.contains(&n) {
-                    s.media.push((
-                        "100GOPRO".into(),
-                        format!("GX02{n:04}.MP4"),
-                        Arc::clone(bytes),
-                    ));
-                }
-                s.recordings += 1;
+                add_recording(&mut s, p, videos);
             }
             ok(&mut stream)
         }
-        "/gopro/media/list" => {
+        "/gopro/media/list" | "/gp/gpMediaList" => {
             let fs: Vec<serde_json::Value> = s
                 .media
                 .iter()
@@ -303,6 +626,13 @@ fn serve(
             match found {
                 Some((name, bytes)) => {
                     let cut = s.cut.contains(&name);
+                    if let Some(i) = s.short_once.iter().position(|n| *n == name) {
+                        s.short_once.remove(i);
+                        s.short_served += 1;
+                        drop(s);
+                        let short = &bytes[..bytes.len() / 2];
+                        return respond(&mut stream, "200 OK", short, false);
+                    }
                     if !cut {
                         s.downloads += 1;
                     }
@@ -456,7 +786,14 @@ fn an_acquired_session_is_measured_by_process_with_the_known_radii() {
     }
     assert_eq!(rows[2][col(&h, "files")], "GX010203.MP4;GX020203.MP4");
     assert_no_temporaries(&s);
-    // The session is measured: add the scale photo, calibration photos and settings.
+    assert_process_gives_the_example_radii(&b, "GX010203.MP4", "GX010201.MP4");
+}
+
+/// `process` measures the acquired session (with the example's scale photo, calibration
+/// photos and settings added) with the example's known radii (0.5%), the recording
+/// `two_chapters` over both its chapters (16 frames) and `one_chapter` over its 8.
+fn assert_process_gives_the_example_radii(b: &Bench, two_chapters: &str, one_chapter: &str) {
+    let s = b.session();
     let ex = fixture("sessions/example");
     copy_dir(&ex.join("calib"), &s.join("calib"));
     fs::copy(ex.join("scale.jpg"), s.join("scale.jpg")).unwrap();
@@ -485,7 +822,131 @@ fn an_acquired_session_is_measured_by_process_with_the_known_radii() {
     // The two-chapter recording is measured over both chapters.
     let (fh, frames) = read_csv(&out.join("per_frame.csv"));
     let n = |f: &str| frames.iter().filter(|r| r[col(&fh, "file")] == f).count();
-    assert_eq!((n("GX010203.MP4"), n("GX010201.MP4")), (16, 8));
+    assert_eq!((n(two_chapters), n(one_chapter)), (16, 8));
+}
+
+/// The `[camera]` section of a HERO5-HERO8 simulator on the legacy WiFi API.
+fn gopro_wifi(cam: &CamSim) -> String {
+    format!(
+        "kind = \"gopro-wifi\"\nurl = \"{}\"\nmedia_url = \"{}\"\nwake_port = {}\ntimeout_s = 0.5",
+        cam.url, cam.media_url, cam.wake_port
+    )
+}
+
+const HERO7_MAC: [u8; 6] = [0xd8, 0x96, 0x85, 0x0a, 0xbc, 0x01];
+
+#[test]
+fn a_hero7_over_wifi_is_woken_recorded_and_its_session_measured_with_the_known_radii() {
+    let b = Bench::new();
+    let reg = RegState::new(RegMode::Normal);
+    let sim = RegSim::start(b.path(), &reg);
+    // Asleep (answers nothing until the magic packet), in photo mode, the third
+    // recording in two chapters (GOPR0203.MP4, GP010203.MP4).
+    let cam = CamSim::wifi(
+        CamState {
+            chapters: vec![203],
+            asleep: Some(HERO7_MAC),
+            ..Default::default()
+        },
+        &reg,
+    );
+    let camera = format!("{}\nwake_mac = \"D8:96:85:0A:BC:01\"", gopro_wifi(&cam));
+    let protocol = b.protocol(STEPS, &sim.port, &camera);
+    let run = b.acquire(&protocol);
+    assert_eq!(run.code, 0, "{run}");
+    assert!(run.stdout.contains("5 recorded, 5 of 5"), "{run}");
+    assert!(
+        cam.state.lock().unwrap().wakes >= 1,
+        "woken by the magic packet"
+    );
+    assert_eq!(cam.state.lock().unwrap().mode, 0, "switched to video mode");
+    assert_eq!(sets(&reg), [20.0, 35.0, 50.0, 65.0, 80.0, 0.0]);
+    let s = b.session();
+    assert_eq!(
+        manifest(&s),
+        (0..5)
+            .map(|i| (format!("GOPR{:04}.MP4", 201 + i), EXAMPLE_KPA[i]))
+            .collect::<Vec<_>>()
+    );
+    assert!(s.join("GP010203.MP4").is_file(), "the chapter is fetched");
+    assert!(!s.join("GOPR0200.MP4").exists(), "an older video is not");
+    assert_videos_match_the_example(&s);
+    let (h, rows) = read_csv(&s.join("acquisition_log.csv"));
+    assert_eq!(rows[2][col(&h, "files")], "GOPR0203.MP4;GP010203.MP4");
+    assert_no_temporaries(&s);
+    assert_process_gives_the_example_radii(&b, "GOPR0203.MP4", "GOPR0201.MP4");
+}
+
+#[test]
+fn a_short_download_over_wifi_is_tried_again_and_kept_whole() {
+    let b = Bench::new();
+    let reg = RegState::new(RegMode::Normal);
+    let sim = RegSim::start(b.path(), &reg);
+    // Served once with half its bytes and a Content-Length saying so (a file the camera
+    // still writes): only the media list's size tells it is short.
+    let cam = CamSim::wifi(
+        CamState {
+            short_once: vec!["GOPR0202.MP4".into()],
+            ..Default::default()
+        },
+        &reg,
+    );
+    let run = b.acquire(&b.protocol(STEPS, &sim.port, &gopro_wifi(&cam)));
+    assert_eq!(run.code, 0, "{run}");
+    assert_eq!(cam.state.lock().unwrap().short_served, 1);
+    assert_eq!(cam.state.lock().unwrap().downloads, 5, "{run}");
+    assert_eq!(manifest(&b.session()).len(), 5);
+    assert_videos_match_the_example(&b.session());
+    assert_no_temporaries(&b.session());
+}
+
+#[test]
+fn a_wifi_camera_off_its_network_asleep_or_recording_nothing_is_reported_vented() {
+    let b = Bench::new();
+    let reg = RegState::new(RegMode::Normal);
+    let sim = RegSim::start(b.path(), &reg);
+    // Not reachable (the host is not on the camera's network).
+    let free = TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap();
+    let camera = format!("kind = \"gopro-wifi\"\nurl = \"http://{free}\"\nmedia_url = \"http://{free}\"\ntimeout_s = 0.5");
+    let run = b.acquire(&b.protocol(STEPS, &sim.port, &camera));
+    run.assert_bad_input(&[
+        "GoPro (WiFi) at http://",
+        "join the camera's WiFi network",
+        "http://10.5.5.9",
+    ]);
+    assert_eq!(sets(&reg), [0.0]);
+    assert!(!b.session().join("pressures.csv").exists());
+    // Asleep, no wake_mac given: the same, naming wake_mac.
+    let cam = CamSim::wifi(
+        CamState {
+            asleep: Some(HERO7_MAC),
+            ..Default::default()
+        },
+        &reg,
+    );
+    let run = b.acquire(&b.protocol(STEPS, &sim.port, &gopro_wifi(&cam)));
+    run.assert_bad_input(&["join the camera's WiFi network", "wake_mac"]);
+    assert_eq!(sets(&reg), [0.0, 0.0]);
+    // Awake, but the recording never appears in the media list.
+    let cam = CamSim::wifi(
+        CamState {
+            no_file: true,
+            ..Default::default()
+        },
+        &reg,
+    );
+    let run = b.acquire(&b.protocol(STEPS, &sim.port, &gopro_wifi(&cam)));
+    assert_eq!(run.code, 1, "{run}");
+    assert!(
+        run.stderr.contains("no new video in the media list")
+            && run.stderr.contains("vented to 0 kPa; 0 of 5"),
+        "{run}"
+    );
+    assert_eq!(sets(&reg)[2..], [20.0, 0.0]);
+    assert_eq!(cam.state.lock().unwrap().recordings, 1);
 }
 
 #[test]
@@ -762,6 +1223,50 @@ fn a_ramp_writes_one_video_and_its_pressure_log() {
     assert_eq!(*sets(&reg).last().unwrap(), 0.0);
     let top = sets(&reg)[sets(&reg).len() - 2];
     assert_eq!(top, 12.0);
+}
+
+#[test]
+fn a_pwm_valve_reaches_each_set_point_through_the_sketchs_closed_loop() {
+    let b = Bench::new();
+    let reg = RegState::new(RegMode::Valve);
+    let sim = RegSim::start(b.path(), &reg);
+    let cam = CamSim::films(CamState::default(), &reg);
+    let plan =
+        "[steps]\npressures_kpa = [20, 50, 80]\nstabilize_s = 3.0\nrecord_s = 0.5\nsample_hz = 20";
+    let protocol = b.protocol(plan, &sim.port, &gopro(&cam.url));
+    let text = fs::read_to_string(&protocol).unwrap();
+    fs::write(
+        &protocol,
+        text.replace("[regulator]\n", "[regulator]\nkind = \"serial\"\n"),
+    )
+    .unwrap();
+    let run = b.acquire(&protocol);
+    assert_eq!(run.code, 0, "{run}");
+    assert!(!run.stderr.contains("warning"), "{run}");
+    assert_eq!(sets(&reg), [20.0, 50.0, 80.0, 0.0]);
+    // Settled: averaged over a period the plant is first order (tau 0.3 s, 1.94 kPa per
+    // % of duty), the loop gain 2.9; what is left of the rise's overshoot and the leak's
+    // offset decays with the integral's time constant, 0.67 s (3.5 s leave 0.035 kPa);
+    // after 3 s that, plus the noise of the mean of 10 period means (0.03 kPa), stays
+    // well within 0.25 kPa, a quarter of the 1 kPa acquire warns at. The spread of the
+    // readings is the noise of one period mean, 0.5 / sqrt(25) = 0.1 kPa.
+    let (h, rows) = read_csv(&b.session().join("acquisition_log.csv"));
+    assert_eq!(rows.len(), 3);
+    for (r, p) in rows.iter().zip([20.0, 50.0, 80.0]) {
+        let mean: f64 = r[col(&h, "measured_mean_kpa")].parse().unwrap();
+        let std: f64 = r[col(&h, "measured_std_kpa")].parse().unwrap();
+        assert!((mean - p).abs() < 0.25, "{p} kPa: mean {mean}");
+        assert!(std < 0.25, "{p} kPa: spread {std}");
+    }
+    // The valve pulses: the true pressure ripples by kPa within a period, which the
+    // period means that GET answers do not show.
+    let ripple = reg.lock().unwrap().valve.max_ripple_kpa;
+    assert!(ripple > 2.0, "ripple {ripple} kPa");
+    // Vented at the end: the valve released, the pressure falls.
+    thread::sleep(Duration::from_millis(600));
+    let p = reg.lock().unwrap().pressure_kpa();
+    assert!(p < 20.0, "{p} kPa 0.6 s after the vent");
+    assert_eq!(reg.lock().unwrap().valve.duty_pct, 0.0);
 }
 
 #[test]

@@ -1,13 +1,15 @@
-//! The cameras: a GoPro driven through the Open GoPro HTTP API over USB, or a UVC (V4L2)
-//! webcam recorded by the `ffmpeg` program. Both sit behind [`Camera`]: start a
-//! recording, keep the camera awake, stop, then fetch the files of that recording into
-//! the session folder.
+//! The cameras: a GoPro driven through the Open GoPro HTTP API over USB or WiFi, or a UVC
+//! (V4L2) webcam recorded by the `ffmpeg` program (a HERO5-HERO8 through the older WiFi
+//! API: [`super::gopro_wifi`]). All sit behind [`Camera`]: start a recording, keep the
+//! camera awake, stop, then fetch the files of that recording into the session folder.
 //!
-//! # GoPro (Open GoPro HTTP API 2.0, wired USB)
+//! # GoPro (Open GoPro HTTP API 2.0, wired USB or WiFi)
 //!
-//! The camera appears as a USB network interface; its API listens on
+//! Over USB the camera appears as a USB network interface; its API listens on
 //! `http://172.2X.1YZ.51:8080`, where X, Y and Z are the last three digits of its serial
-//! number. Requests used: `GET /gopro/camera/control/wired_usb?p=1` (take control),
+//! number. Over WiFi (its access point on, the host on its network) the same API listens
+//! on `http://10.5.5.9:8080`; the wired-USB control request is then not sent (it is for
+//! USB). Requests used: `GET /gopro/camera/control/wired_usb?p=1` (take control over USB),
 //! `/gopro/camera/keep_alive` (every few seconds), `/gopro/camera/shutter/start` and
 //! `/stop`, `/gopro/media/list` (`{"media": [{"d": "100GOPRO", "fs": [{"n":
 //! "GX010001.MP4", "s": "1234"}]}]}`) and `GET /videos/DCIM/<d>/<n>` to download. The
@@ -43,9 +45,9 @@ use crate::session::{gopro_parts, VIDEO_EXTENSIONS};
 /// Interval between keep-alive requests while waiting, s.
 pub const KEEP_ALIVE_S: f64 = 3.0;
 /// Interval between requests to a busy camera, or between media-list polls.
-const POLL: Duration = Duration::from_millis(200);
+pub(super) const POLL: Duration = Duration::from_millis(200);
 /// Wait for the files of a stopped recording to appear in the media list, s.
-const MEDIA_WAIT_S: f64 = 10.0;
+pub(super) const MEDIA_WAIT_S: f64 = 10.0;
 /// Download attempts per file (a cut connection is tried again).
 const DOWNLOAD_ATTEMPTS: u32 = 3;
 /// Read size of a download, bytes.
@@ -185,21 +187,7 @@ impl GoPro {
     /// A GoPro at `url` (`http://172.2X.1YZ.51:8080`); `timeout_s` per request.
     pub fn new(url: &str, timeout_s: f64) -> GoPro {
         let timeout = Duration::from_secs_f64(timeout_s);
-        let agent: ureq::Agent = ureq::Agent::config_builder()
-            .proxy(None)
-            .http_status_as_error(false)
-            .timeout_global(Some(timeout))
-            .build()
-            .into();
-        // Downloads take as long as they take; a stalled one times out per read.
-        let download_agent: ureq::Agent = ureq::Agent::config_builder()
-            .proxy(None)
-            .http_status_as_error(false)
-            .timeout_connect(Some(timeout))
-            .timeout_recv_response(Some(timeout))
-            .timeout_per_read(Some(timeout))
-            .build()
-            .into();
+        let (agent, download_agent) = http_agents(timeout);
         GoPro {
             url: url.trim_end_matches('/').to_string(),
             timeout,
@@ -254,14 +242,45 @@ impl GoPro {
     }
 }
 
+/// True for the address a GoPro has on its own WiFi network (`10.5.5.9`), where the
+/// Open GoPro API needs no wired-USB control request.
+pub fn is_wifi_address(url: &str) -> bool {
+    let rest = url.strip_prefix("http://").unwrap_or(url);
+    let authority = rest.split('/').next().unwrap_or(rest);
+    authority.split(':').next() == Some(GOPRO_WIFI_HOST)
+}
+
+/// The camera's address on its own WiFi network (HERO5 and later).
+pub const GOPRO_WIFI_HOST: &str = "10.5.5.9";
+
+/// The HTTP agents of a camera: one for requests (`timeout` in all), one for downloads,
+/// which take as long as they take (a stalled one times out per read).
+pub(super) fn http_agents(timeout: Duration) -> (ureq::Agent, ureq::Agent) {
+    let agent: ureq::Agent = ureq::Agent::config_builder()
+        .proxy(None)
+        .http_status_as_error(false)
+        .timeout_global(Some(timeout))
+        .build()
+        .into();
+    let download_agent: ureq::Agent = ureq::Agent::config_builder()
+        .proxy(None)
+        .http_status_as_error(false)
+        .timeout_connect(Some(timeout))
+        .timeout_recv_response(Some(timeout))
+        .timeout_per_read(Some(timeout))
+        .build()
+        .into();
+    (agent, download_agent)
+}
+
 /// What a transport error means for the user.
 fn transport_error(e: &ureq::Error, path: &str) -> String {
     match e {
         ureq::Error::ConnectionFailed | ureq::Error::HostNotFound => format!(
-            "no answer to {path} ({e}): is the camera on, connected by USB, and the url its USB address (http://172.2X.1YZ.51:8080)?"
+            "no answer to {path} ({e}): is the camera on, connected by USB, and the url its USB address (http://172.2X.1YZ.51:8080)? (over WiFi: join its network, url http://10.5.5.9:8080)"
         ),
         ureq::Error::Io(io) if io.kind() == std::io::ErrorKind::ConnectionRefused => format!(
-            "connection refused on {path}: is the camera on, connected by USB, and the url its USB address (http://172.2X.1YZ.51:8080)?"
+            "connection refused on {path}: is the camera on, connected by USB, and the url its USB address (http://172.2X.1YZ.51:8080)? (over WiFi: join its network, url http://10.5.5.9:8080)"
         ),
         ureq::Error::Timeout(_) => format!("{path} timed out: the camera stopped answering (battery, cable?)"),
         _ => format!("{path} failed: {e} (the camera was lost: battery, cable?)"),
@@ -334,7 +353,9 @@ impl Camera for GoPro {
     }
 
     fn connect(&mut self) -> Result<(), AcquireError> {
-        self.get("/gopro/camera/control/wired_usb?p=1")?;
+        if !is_wifi_address(&self.url) {
+            self.get("/gopro/camera/control/wired_usb?p=1")?;
+        }
         self.get("/gopro/camera/keep_alive")?;
         self.media()?;
         Ok(())
@@ -353,38 +374,18 @@ impl Camera for GoPro {
     fn stop(&mut self) -> Result<Vec<CameraFile>, AcquireError> {
         self.get("/gopro/camera/shutter/stop")?;
         let before = self.before.take().unwrap_or_default();
-        let deadline = Instant::now() + Duration::from_secs_f64(MEDIA_WAIT_S);
-        loop {
-            let new = new_files(&before, &self.media()?);
-            if !new.is_empty() {
-                // Chapters of a long recording may be listed a moment apart.
-                std::thread::sleep(POLL);
-                return Ok(new_files(&before, &self.media()?));
-            }
-            if Instant::now() >= deadline {
-                return Err(self.camera_error(format!(
-                    "no new video in the media list {MEDIA_WAIT_S} s after the recording stopped: is the camera in video mode with a card in?"
-                )));
-            }
-            std::thread::sleep(POLL);
-        }
+        recording_files(&before, || self.media(), |why| self.camera_error(why))
     }
 
     fn fetch(&mut self, file: &CameraFile, dest: &Path) -> Result<u64, AcquireError> {
-        let path = format!("/videos/DCIM/{}", file.source);
-        let mut last = String::new();
-        for _ in 0..DOWNLOAD_ATTEMPTS {
-            match self.download_once(&path, file, dest) {
-                Ok(n) => return Ok(n),
-                Err(why) => last = why,
-            }
-        }
-        Err(AcquireError::Download {
-            file: file.name.clone(),
-            why: format!(
-                "{last} ({DOWNLOAD_ATTEMPTS} attempts; the recording stays on the camera's card: run acquire again to fetch it)"
-            ),
-        })
+        let file = with_listed_size(file, || self.media());
+        fetch_with_retries(
+            &self.download_agent,
+            &self.url,
+            &file,
+            dest,
+            transport_error,
+        )
     }
 
     fn abort(&mut self) {
@@ -393,55 +394,135 @@ impl Camera for GoPro {
     }
 }
 
-impl GoPro {
-    /// One download attempt; the reason when it fails (the partial file is removed).
-    fn download_once(&self, path: &str, file: &CameraFile, dest: &Path) -> Result<u64, String> {
-        let mut resp = self
-            .download_agent
-            .get(format!("{}{path}", self.url))
-            .call()
-            .map_err(|e| transport_error(&e, path))?;
-        let status = resp.status().as_u16();
-        if !(200..=299).contains(&status) {
-            return Err(format!("{path} answered HTTP {status}"));
+/// The files of a recording just stopped: the videos of `media()` not in `before`,
+/// waited for up to [`MEDIA_WAIT_S`] (a camera lists a file once it is written), with
+/// the chapters of a long recording, which may be listed a moment apart.
+pub(super) fn recording_files(
+    before: &[CameraFile],
+    media: impl Fn() -> Result<Vec<CameraFile>, AcquireError>,
+    error: impl Fn(String) -> AcquireError,
+) -> Result<Vec<CameraFile>, AcquireError> {
+    let deadline = Instant::now() + Duration::from_secs_f64(MEDIA_WAIT_S);
+    loop {
+        let new = new_files(before, &media()?);
+        if !new.is_empty() {
+            std::thread::sleep(POLL);
+            return Ok(new_files(before, &media()?));
         }
-        let announced: Option<u64> = resp
-            .headers()
-            .get("content-length")
-            .and_then(|v| v.to_str().ok())
-            .and_then(|v| v.trim().parse().ok());
-        let expected = announced.or(file.size);
-        let mut reader = resp.body_mut().with_config().limit(u64::MAX).reader();
-        let mut copied = 0u64;
-        let of = expected.map(|n| format!(" of {n}")).unwrap_or_default();
-        crate::io::write_atomic_with(dest, |f| {
-            let mut buf = vec![0u8; DOWNLOAD_BUFFER_BYTES];
-            loop {
-                let n = match reader.read(&mut buf) {
-                    Ok(0) => break,
-                    Ok(n) => n,
-                    Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
-                    Err(e) => {
-                        return Err(std::io::Error::new(
-                            e.kind(),
-                            format!("the download was cut after {copied}{of} bytes ({e})"),
-                        ))
-                    }
-                };
-                f.write_all(&buf[..n])?;
-                copied += n as u64;
-            }
-            match expected {
-                Some(n) if n != copied => Err(std::io::Error::new(
-                    std::io::ErrorKind::UnexpectedEof,
-                    format!("the download was cut after {copied}{of} bytes"),
-                )),
-                _ => Ok(()),
-            }
-        })
-        .map_err(|e| format!("{path}: {e}"))?;
-        Ok(copied)
+        if Instant::now() >= deadline {
+            return Err(error(format!(
+                "no new video in the media list {MEDIA_WAIT_S} s after the recording stopped: is the camera in video mode with a card in?"
+            )));
+        }
+        std::thread::sleep(POLL);
     }
+}
+
+/// `file` with its size as the camera's media list gives it, when `file` has none (a
+/// recording named by the acquisition log, which keeps no sizes): what a download's
+/// length is checked against. Unchanged when the list cannot be read or lacks it.
+pub(super) fn with_listed_size(
+    file: &CameraFile,
+    media: impl Fn() -> Result<Vec<CameraFile>, AcquireError>,
+) -> CameraFile {
+    let size = file.size.or_else(|| {
+        media()
+            .ok()?
+            .into_iter()
+            .find(|f| f.source == file.source)?
+            .size
+    });
+    CameraFile {
+        size,
+        ..file.clone()
+    }
+}
+
+/// Downloads `GET <media_url>/videos/DCIM/<file.source>` into `dest` (atomically),
+/// [`DOWNLOAD_ATTEMPTS`] times at most (a cut or short download is tried again);
+/// `transport` says what a transport error means for this camera.
+pub(super) fn fetch_with_retries(
+    agent: &ureq::Agent,
+    media_url: &str,
+    file: &CameraFile,
+    dest: &Path,
+    transport: fn(&ureq::Error, &str) -> String,
+) -> Result<u64, AcquireError> {
+    let path = format!("/videos/DCIM/{}", file.source);
+    let mut last = String::new();
+    for _ in 0..DOWNLOAD_ATTEMPTS {
+        match download_once(agent, media_url, &path, file, dest, transport) {
+            Ok(n) => return Ok(n),
+            Err(why) => last = why,
+        }
+    }
+    Err(AcquireError::Download {
+        file: file.name.clone(),
+        why: format!(
+            "{last} ({DOWNLOAD_ATTEMPTS} attempts; the recording stays on the camera's card: run acquire again to fetch it)"
+        ),
+    })
+}
+
+/// One download attempt; the reason when it fails (the partial file is removed). The
+/// length is checked against the answer's Content-Length and the media list's size: a
+/// file served short (the camera still writing it) is no recording.
+fn download_once(
+    agent: &ureq::Agent,
+    media_url: &str,
+    path: &str,
+    file: &CameraFile,
+    dest: &Path,
+    transport: fn(&ureq::Error, &str) -> String,
+) -> Result<u64, String> {
+    let mut resp = agent
+        .get(format!("{media_url}{path}"))
+        .call()
+        .map_err(|e| transport(&e, path))?;
+    let status = resp.status().as_u16();
+    if !(200..=299).contains(&status) {
+        return Err(format!("{path} answered HTTP {status}"));
+    }
+    let announced: Option<u64> = resp
+        .headers()
+        .get("content-length")
+        .and_then(|v| v.to_str().ok())
+        .and_then(|v| v.trim().parse().ok());
+    let expected = announced.or(file.size);
+    let mut reader = resp.body_mut().with_config().limit(u64::MAX).reader();
+    let mut copied = 0u64;
+    let of = expected.map(|n| format!(" of {n}")).unwrap_or_default();
+    crate::io::write_atomic_with(dest, |f| {
+        let mut buf = vec![0u8; DOWNLOAD_BUFFER_BYTES];
+        loop {
+            let n = match reader.read(&mut buf) {
+                Ok(0) => break,
+                Ok(n) => n,
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+                Err(e) => {
+                    return Err(std::io::Error::new(
+                        e.kind(),
+                        format!("the download was cut after {copied}{of} bytes ({e})"),
+                    ))
+                }
+            };
+            f.write_all(&buf[..n])?;
+            copied += n as u64;
+        }
+        match (expected, file.size) {
+            (Some(n), _) if n != copied => Err(std::io::Error::new(
+                std::io::ErrorKind::UnexpectedEof,
+                format!("the download was cut after {copied}{of} bytes"),
+            )),
+            (_, Some(n)) if n != copied => Err(std::io::Error::new(
+                std::io::ErrorKind::UnexpectedEof,
+                format!("{copied} bytes came, the media list says {n}"),
+            )),
+            _ => Ok(()),
+        }
+    })
+    .map_err(|e| format!("{path}: {e}"))?;
+    Ok(copied)
 }
 
 /// A webcam recorded through ffmpeg.
@@ -717,6 +798,14 @@ mod tests {
         assert_eq!((new[0].size, new[1].size), (Some(8), Some(7)));
         assert!(parse_media_list("{}").unwrap_err().contains("media"));
         assert!(parse_media_list("<html>").unwrap_err().contains("not JSON"));
+    }
+
+    #[test]
+    fn only_the_wifi_address_skips_the_wired_usb_request() {
+        assert!(is_wifi_address("http://10.5.5.9:8080"));
+        assert!(is_wifi_address("http://10.5.5.9"));
+        assert!(!is_wifi_address("http://172.25.123.51:8080"));
+        assert!(!is_wifi_address("http://10.5.5.90:8080"));
     }
 
     #[test]

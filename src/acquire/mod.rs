@@ -15,9 +15,11 @@
 //! it), and stops such a recorder first ([`camera::stop_earlier_recorder`]).
 //!
 //! Modules: [`protocol`] (the TOML), [`regulator`] (the serial line protocol), [`camera`]
-//! (GoPro over HTTP, webcam through ffmpeg), [`session`] (the files written).
+//! (GoPro over the Open GoPro HTTP API, webcam through ffmpeg), [`gopro_wifi`] (HERO5-HERO8
+//! through the legacy WiFi API), [`session`] (the files written).
 
 pub mod camera;
+pub mod gopro_wifi;
 pub mod protocol;
 pub mod regulator;
 pub mod session;
@@ -27,6 +29,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use camera::{Camera, CameraFile, GoPro, Webcam};
+use gopro_wifi::GoProWifi;
 use protocol::{CameraConfig, Plan, Protocol, RampPlan, SetPoint, StepPlan};
 use regulator::SerialRegulator;
 use session::{LogRow, PressureStats, RampSample, STATUS_NOT_DOWNLOADED, STATUS_OK};
@@ -261,6 +264,7 @@ pub fn acquire(
     );
     let mut camera: Box<dyn Camera> = match &protocol.camera {
         CameraConfig::GoPro { url, timeout_s } => Box::new(GoPro::new(url, *timeout_s)),
+        CameraConfig::GoProWifi(w) => Box::new(GoProWifi::new(w)),
         CameraConfig::Webcam(w) => Box::new(Webcam::new(w, session)),
     };
     if let Err(e) = camera.connect() {

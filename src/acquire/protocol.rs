@@ -12,7 +12,7 @@
 //! port = "/dev/ttyACM0"
 //! baud = 115200
 //! [camera]
-//! kind = "gopro"                 # or "webcam" with device = "/dev/video0", size, fps
+//! kind = "gopro"                 # or "gopro-wifi" (HERO5-8), or "webcam" with device = "/dev/video0", size, fps
 //! url = "http://172.2X.1YZ.51:8080"
 //! ```
 
@@ -24,6 +24,9 @@ use super::AcquireError;
 use crate::fem::actuator::parse_range;
 use crate::session::{KPA_PER_BAR, KPA_PER_PSI};
 
+/// The one `[regulator] kind` (the default): a device speaking the serial line protocol
+/// (hardware/regulator/regulator.ino or hardware/pwm_valve/pwm_valve.ino).
+pub const REGULATOR_KIND_SERIAL: &str = "serial";
 /// The regulator sketch's baud rate (hardware/regulator/regulator.ino).
 pub const DEFAULT_BAUD: u32 = 115_200;
 /// Default wait for one answer of the regulator, s.
@@ -39,6 +42,12 @@ pub const DEFAULT_SAMPLE_HZ: f64 = 10.0;
 pub const DEFAULT_LOG_HZ: f64 = 20.0;
 /// Default wait for one camera HTTP request, s.
 pub const DEFAULT_CAMERA_TIMEOUT_S: f64 = 5.0;
+/// Control API of a HERO5-HERO8 on its own WiFi network (the camera is the access point).
+pub const DEFAULT_GOPRO_WIFI_URL: &str = "http://10.5.5.9";
+/// Media server of a HERO5-HERO8 on its WiFi network (media list and downloads).
+pub const DEFAULT_GOPRO_WIFI_MEDIA_URL: &str = "http://10.5.5.9:8080";
+/// UDP port of the wake-on-LAN magic packet (the discard port, as the cameras expect).
+pub const DEFAULT_WAKE_PORT: u16 = 9;
 /// Highest sampling or logging rate accepted, Hz (the serial line answers one `GET` in
 /// about a millisecond; faster logging only repeats readings).
 pub const MAX_RATE_HZ: f64 = 200.0;
@@ -167,8 +176,25 @@ pub enum CameraConfig {
         /// Wait for one HTTP request, s.
         timeout_s: f64,
     },
+    /// A GoPro HERO5-HERO8 through its legacy WiFi API (`/gp/gpControl/...`).
+    GoProWifi(GoProWifiConfig),
     /// A UVC (V4L2) webcam recorded through the `ffmpeg` program.
     Webcam(WebcamConfig),
+}
+
+/// A HERO5-HERO8 on its own WiFi network, driven through the legacy HTTP API.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GoProWifiConfig {
+    /// Control API base URL ([`DEFAULT_GOPRO_WIFI_URL`]).
+    pub url: String,
+    /// Media server base URL ([`DEFAULT_GOPRO_WIFI_MEDIA_URL`]).
+    pub media_url: String,
+    /// Wait for one HTTP request, s.
+    pub timeout_s: f64,
+    /// The camera's MAC address, for the wake-on-LAN packet a sleeping camera needs.
+    pub wake_mac: Option<[u8; 6]>,
+    /// UDP port of the wake-on-LAN packet, sent to the host of `url`.
+    pub wake_port: u16,
 }
 
 /// A webcam recorded by running `ffmpeg`.
@@ -236,6 +262,7 @@ struct RawRamp {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawRegulator {
+    kind: Option<String>,
     port: String,
     baud: Option<u32>,
     timeout_s: Option<f64>,
@@ -249,6 +276,9 @@ struct RawRegulator {
 struct RawCamera {
     kind: String,
     url: Option<String>,
+    media_url: Option<String>,
+    wake_mac: Option<String>,
+    wake_port: Option<u16>,
     timeout_s: Option<f64>,
     device: Option<String>,
     format: Option<String>,
@@ -431,6 +461,15 @@ fn ramp_plan(r: RawRamp) -> Result<RampPlan, String> {
 }
 
 fn regulator_config(r: RawRegulator) -> Result<RegulatorConfig, String> {
+    // One kind: the serial line protocol, which both sketches speak (the proportional
+    // regulator's, hardware/regulator, and the PWM valve's, hardware/pwm_valve).
+    if let Some(kind) = r.kind.as_deref() {
+        if !kind.eq_ignore_ascii_case(REGULATOR_KIND_SERIAL) {
+            return Err(format!(
+                "[regulator] kind = \"{kind}\": use \"serial\" (the SET/GET line protocol of hardware/regulator and hardware/pwm_valve, for a proportional regulator or a PWM solenoid valve alike)"
+            ));
+        }
+    }
     if r.port.trim().is_empty() {
         return Err(
             "[regulator] port is empty: give the serial port, e.g. \"/dev/ttyACM0\"".into(),
@@ -456,32 +495,111 @@ fn regulator_config(r: RawRegulator) -> Result<RegulatorConfig, String> {
     })
 }
 
+/// A MAC address `AA:BB:CC:DD:EE:FF` (or with `-`, or 12 hex digits).
+pub fn parse_mac(text: &str) -> Result<[u8; 6], String> {
+    let hex: String = text
+        .trim()
+        .chars()
+        .filter(|c| !matches!(c, ':' | '-'))
+        .collect();
+    let bad = || {
+        format!(
+            "[camera] wake_mac = \"{text}\": give the camera's MAC address as AA:BB:CC:DD:EE:FF (the GoPro app or the camera's Connections menu shows it)"
+        )
+    };
+    if hex.len() != 12 || !hex.chars().all(|c| c.is_ascii_hexdigit()) {
+        return Err(bad());
+    }
+    let mut mac = [0u8; 6];
+    for (i, byte) in mac.iter_mut().enumerate() {
+        *byte = u8::from_str_radix(&hex[2 * i..2 * i + 2], 16).map_err(|_| bad())?;
+    }
+    Ok(mac)
+}
+
+/// A plain `http://` URL without its trailing `/`.
+fn http_url(url: &str, key: &str, example: &str) -> Result<String, String> {
+    let url = url.trim_end_matches('/').to_string();
+    if !url.starts_with("http://") {
+        return Err(format!(
+            "[camera] {key} = \"{url}\": the GoPro's API is plain http://, e.g. {example}"
+        ));
+    }
+    Ok(url)
+}
+
+/// Refuses the webcam's keys in a GoPro's section.
+fn no_webcam_keys(c: &RawCamera) -> Result<(), String> {
+    for (key, set) in [
+        ("device", c.device.is_some()),
+        ("size", c.size.is_some()),
+        ("fps", c.fps.is_some()),
+        ("format", c.format.is_some()),
+        ("input_format", c.input_format.is_some()),
+        ("ffmpeg", c.ffmpeg.is_some()),
+    ] {
+        if set {
+            return Err(format!(
+                "[camera] {key} is for kind = \"webcam\", not a GoPro"
+            ));
+        }
+    }
+    Ok(())
+}
+
 fn camera_config(c: RawCamera) -> Result<CameraConfig, String> {
-    match c.kind.to_ascii_lowercase().as_str() {
-        "gopro" => {
-            let Some(url) = c.url else {
-                return Err("[camera] kind = \"gopro\" needs url = \"http://172.2X.1YZ.51:8080\" (X, Y, Z: the last three digits of the camera's serial number)".into());
-            };
-            let url = url.trim_end_matches('/').to_string();
-            if !url.starts_with("http://") {
+    let kind = c.kind.to_ascii_lowercase();
+    if kind != "gopro-wifi" {
+        for (key, set) in [
+            ("media_url", c.media_url.is_some()),
+            ("wake_mac", c.wake_mac.is_some()),
+            ("wake_port", c.wake_port.is_some()),
+        ] {
+            if set {
                 return Err(format!(
-                    "[camera] url = \"{url}\": the GoPro's USB API is plain http://, e.g. http://172.2X.1YZ.51:8080"
+                    "[camera] {key} is for kind = \"gopro-wifi\" (HERO5-HERO8 over WiFi)"
                 ));
             }
-            for (key, set) in [
-                ("device", c.device.is_some()),
-                ("size", c.size.is_some()),
-                ("fps", c.fps.is_some()),
-                ("format", c.format.is_some()),
-                ("input_format", c.input_format.is_some()),
-                ("ffmpeg", c.ffmpeg.is_some()),
-            ] {
-                if set {
-                    return Err(format!(
-                        "[camera] {key} is for kind = \"webcam\", not a GoPro"
-                    ));
-                }
+        }
+    }
+    match kind.as_str() {
+        "gopro-wifi" => {
+            no_webcam_keys(&c)?;
+            let url = http_url(
+                c.url.as_deref().unwrap_or(DEFAULT_GOPRO_WIFI_URL),
+                "url",
+                DEFAULT_GOPRO_WIFI_URL,
+            )?;
+            let media_url = http_url(
+                c.media_url
+                    .as_deref()
+                    .unwrap_or(DEFAULT_GOPRO_WIFI_MEDIA_URL),
+                "media_url",
+                DEFAULT_GOPRO_WIFI_MEDIA_URL,
+            )?;
+            let wake_port = c.wake_port.unwrap_or(DEFAULT_WAKE_PORT);
+            if wake_port == 0 {
+                return Err(format!(
+                    "[camera] wake_port = 0: give a UDP port (the cameras listen on {DEFAULT_WAKE_PORT})"
+                ));
             }
+            Ok(CameraConfig::GoProWifi(GoProWifiConfig {
+                url,
+                media_url,
+                timeout_s: positive(
+                    c.timeout_s.unwrap_or(DEFAULT_CAMERA_TIMEOUT_S),
+                    "[camera] timeout_s",
+                )?,
+                wake_mac: c.wake_mac.as_deref().map(parse_mac).transpose()?,
+                wake_port,
+            }))
+        }
+        "gopro" => {
+            no_webcam_keys(&c)?;
+            let Some(url) = c.url else {
+                return Err("[camera] kind = \"gopro\" needs url = \"http://172.2X.1YZ.51:8080\" over USB (X, Y, Z: the last three digits of the camera's serial number), or \"http://10.5.5.9:8080\" on the camera's WiFi network".into());
+            };
+            let url = http_url(&url, "url", "http://172.2X.1YZ.51:8080 (USB) or http://10.5.5.9:8080 (WiFi)")?;
             Ok(CameraConfig::GoPro {
                 url,
                 timeout_s: positive(
@@ -518,7 +636,7 @@ fn camera_config(c: RawCamera) -> Result<CameraConfig, String> {
             }))
         }
         other => Err(format!(
-            "[camera] kind = \"{other}\": use \"gopro\" or \"webcam\""
+            "[camera] kind = \"{other}\": use \"gopro\" (HERO9 and later, USB or WiFi), \"gopro-wifi\" (HERO5-HERO8 over WiFi) or \"webcam\""
         )),
     }
 }
@@ -624,6 +742,80 @@ mod tests {
             Path::new("p.toml"),
         );
         assert!(allowed.is_ok(), "{allowed:?}");
+    }
+
+    #[test]
+    fn a_gopro_wifi_camera_has_the_legacy_addresses_and_a_checked_wake_mac() {
+        let wifi = |camera: &str| {
+            Protocol::parse(
+                &format!("[ramp]\nrate_kpa_s = 1\ntop_kpa = 10\n[regulator]\nport = \"x\"\n[camera]\nkind = \"gopro-wifi\"\n{camera}"),
+                Path::new("p.toml"),
+            )
+        };
+        assert_eq!(
+            wifi("").unwrap().camera,
+            CameraConfig::GoProWifi(GoProWifiConfig {
+                url: "http://10.5.5.9".into(),
+                media_url: "http://10.5.5.9:8080".into(),
+                timeout_s: DEFAULT_CAMERA_TIMEOUT_S,
+                wake_mac: None,
+                wake_port: 9,
+            })
+        );
+        let p = wifi("url = \"http://127.0.0.1:1/\"\nmedia_url = \"http://127.0.0.1:2\"\nwake_mac = \"d8:96:85:0A:bc:01\"\nwake_port = 4000").unwrap();
+        let CameraConfig::GoProWifi(w) = &p.camera else {
+            panic!()
+        };
+        assert_eq!(
+            (w.url.as_str(), w.media_url.as_str(), w.wake_port),
+            ("http://127.0.0.1:1", "http://127.0.0.1:2", 4000)
+        );
+        assert_eq!(w.wake_mac, Some([0xd8, 0x96, 0x85, 0x0a, 0xbc, 0x01]));
+        assert_eq!(
+            parse_mac("D8-96-85-0A-BC-01"),
+            Ok([0xd8, 0x96, 0x85, 0x0a, 0xbc, 0x01])
+        );
+        for (camera, needle) in [
+            ("wake_mac = \"d8:96:85\"", "AA:BB:CC:DD:EE:FF"),
+            ("wake_mac = \"zz:96:85:0a:bc:01\"", "wake_mac"),
+            ("media_url = \"https://10.5.5.9\"", "plain http://"),
+            ("device = \"/dev/video0\"", "not a GoPro"),
+            ("wake_port = 0", "wake_port = 0"),
+        ] {
+            let e = wifi(camera).unwrap_err().to_string();
+            assert!(e.contains(needle), "{camera}: {e}");
+        }
+        let e = Protocol::parse(
+            "[ramp]\nrate_kpa_s = 1\ntop_kpa = 10\n[regulator]\nport = \"x\"\n[camera]\nkind = \"gopro\"\nurl = \"http://10.5.5.9:8080\"\nwake_mac = \"d8:96:85:0a:bc:01\"",
+            Path::new("p.toml"),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("wake_mac is for kind = \"gopro-wifi\""), "{e}");
+        let e = Protocol::parse(
+            "[ramp]\nrate_kpa_s = 1\ntop_kpa = 10\n[regulator]\nport = \"x\"\n[camera]\nkind = \"hero7\"",
+            Path::new("p.toml"),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("\"gopro-wifi\" (HERO5-HERO8 over WiFi)"), "{e}");
+    }
+
+    #[test]
+    fn the_regulator_kind_is_serial_for_both_sketches() {
+        let with_kind = |kind: &str| {
+            Protocol::parse(
+                &format!("[ramp]\nrate_kpa_s = 1\ntop_kpa = 10\n[regulator]\nkind = \"{kind}\"\nport = \"x\"\n[camera]\nkind = \"webcam\""),
+                Path::new("p.toml"),
+            )
+        };
+        assert!(with_kind("serial").is_ok());
+        assert!(with_kind("Serial").is_ok());
+        let e = with_kind("pwm").unwrap_err().to_string();
+        assert!(
+            e.contains("kind = \"pwm\"") && e.contains("hardware/pwm_valve"),
+            "{e}"
+        );
     }
 
     #[test]

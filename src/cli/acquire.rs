@@ -18,7 +18,8 @@ use super::{EXIT_BAD_INPUT, EXIT_OK, EXIT_PARTIAL};
 #[command(
     after_help = "PROTOCOL.toml: [steps] pressures_kpa = [40, 55, 70] (or pressures = \"40:115:15\", unit = \"kPa\"|\"bar\"|\"psi\"), \
 stabilize_s (required), record_s (required), repeats (1), vent_at_end (true), sample_hz (10); or [ramp] rate_kpa_s, top_kpa, start_kpa (0), log_hz, stabilize_s (0); \
-[regulator] port, baud (115200), timeout_s, retries, boot_s, max_kpa; [camera] kind = \"gopro\" with url = \"http://172.2X.1YZ.51:8080\", \
+[regulator] port, baud (115200), timeout_s, retries, boot_s, max_kpa; [camera] kind = \"gopro\" (HERO9+) with url = \"http://172.2X.1YZ.51:8080\" (USB) or \"http://10.5.5.9:8080\" (WiFi), \
+or kind = \"gopro-wifi\" (HERO5-8 on the camera's WiFi) with url (http://10.5.5.9), media_url (http://10.5.5.9:8080), wake_mac, wake_port (9), \
 or kind = \"webcam\" with device, size, fps, input_format (format = \"lavfi\": size and fps scale and resample the graph's output). \
 SESSION gets the videos, pressures.csv (or pressure_log.csv), protocol.toml and acquisition_log.csv. \
 Ctrl-C (or SIGTERM), a lost camera or a regulator error vents to 0 kPa and keeps what was recorded; the same command resumes. \
@@ -120,6 +121,7 @@ fn print_plan(args: &AcquireArgs) -> Result<u8> {
         p.regulator.baud,
         match &p.camera {
             CameraConfig::GoPro { url, .. } => format!("GoPro at {url}"),
+            CameraConfig::GoProWifi(w) => format!("GoPro (WiFi) at {}", w.url),
             CameraConfig::Webcam(w) => format!("webcam {} ({})", w.device, w.format),
         }
     );

@@ -82,14 +82,25 @@ pub fn implausible_pressures(m: &Manifest) -> Vec<SessionIssue> {
         .collect()
 }
 
-/// GoPro naming: `GX` or `GH` (or `GL`), two chapter digits, four recording digits.
-/// Returns (prefix letters, chapter, recording).
+/// GoPro naming: `GX` or `GH` (or `GL`), two chapter digits, four recording digits
+/// (HERO6 and later); or the older naming (HERO5, and HERO6-8 in H.264 on some
+/// firmware): `GOPRnnnn` for the first chapter, then `GP01nnnn`, `GP02nnnn`, ... for
+/// the second, third, ... Returns (prefix letters, chapter, recording), chapters
+/// counted from 1 in both namings (`GOPR0042` is ("GP", 1, "0042"), `GP010042` is
+/// ("GP", 2, "0042")).
 pub fn gopro_parts(name: &str) -> Option<(String, u32, String)> {
     let stem = Path::new(name)
         .file_stem()?
         .to_string_lossy()
         .to_ascii_uppercase();
     let b = stem.as_bytes();
+    if b.len() == 8 && stem.starts_with("GOPR") && b[4..].iter().all(u8::is_ascii_digit) {
+        return Some(("GP".into(), 1, stem[4..].to_string()));
+    }
+    if b.len() == 8 && stem.starts_with("GP") && b[2..].iter().all(u8::is_ascii_digit) {
+        let chapter: u32 = stem[2..4].parse().ok()?;
+        return Some(("GP".into(), chapter + 1, stem[4..].to_string()));
+    }
     if b.len() != 8
         || b[0] != b'G'
         || !b[1].is_ascii_alphabetic()
@@ -418,6 +429,26 @@ mod tests {
             Some(("GX".into(), 2, "0123".into()))
         );
         assert_eq!(gopro_parts("clip.mp4"), None);
+    }
+
+    #[test]
+    fn the_older_gopro_naming_continues_gopr_with_gp01_gp02() {
+        let d = session(
+            "file,pressure_kpa\nGOPR0042.MP4,20\n",
+            &["GOPR0042.MP4", "GP020042.MP4", "GP010042.MP4"],
+        );
+        let m = read_manifest(d.path()).unwrap();
+        assert!(m.issues.is_empty(), "{:?}", m.issues);
+        assert_eq!(m.entries[0].chapters, vec!["GP010042.MP4", "GP020042.MP4"]);
+        assert_eq!(
+            gopro_parts("GOPR0042.MP4"),
+            Some(("GP".into(), 1, "0042".into()))
+        );
+        assert_eq!(
+            gopro_parts("GP010042.MP4"),
+            Some(("GP".into(), 2, "0042".into()))
+        );
+        assert_eq!(gopro_parts("GOPRO042.MP4"), None);
     }
 
     #[test]
