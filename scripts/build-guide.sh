@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Builds the user guide (docs/, an mdBook) into target/guide/ (not committed): installs
-# mdBook into target/tools/ first when it is missing (cargo install from crates.io, a few
-# minutes on 2 cores; 0.4.40 builds with Rust 1.95). Open target/guide/index.html.
+# mdBook into target/tools/ first when it is missing (cargo install from crates.io, about
+# 5 minutes on the shared 2-core machine; 0.4.40 builds with Rust 1.95). Open target/guide/index.html.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 version=0.4.40
