@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
-# Set-up (Debian packages when missing), then the whole test suite: the cargo tests, then
-# the Python package's tests and notebook (scripts/test-python.sh).
+# Set-up (Debian packages when missing), then the whole test suite: the offline link check of
+# README.md and the guide (scripts/check-links.py, under a second), the cargo tests, then the
+# Python package's tests and notebook (scripts/test-python.sh).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh --no-build
+python3 scripts/check-links.py
 cargo test --locked --all-targets "$@"
 scripts/test-python.sh
