@@ -350,7 +350,7 @@ impl Protocol {
             }
             None if top > DEFAULT_MAX_KPA => {
                 return Err(bad(format!(
-                    "a set point of {top} kPa exceeds {DEFAULT_MAX_KPA} kPa, the limit without [regulator] max_kpa (the README wiring's sensor range): lower the pressures (check their unit), or set [regulator] max_kpa to your bench's range"
+                    "a set point of {top} kPa exceeds {DEFAULT_MAX_KPA} kPa, the limit without [regulator] max_kpa (the sensor range of the wiring in docs/src/howto/rigs.md): lower the pressures (check their unit), or set [regulator] max_kpa to your bench's range"
                 )));
             }
             _ => {}

@@ -78,7 +78,7 @@ pub struct SimulateArgs {
 pub enum Model {
     /// The finite-element model.
     Fem,
-    /// The analytic chamber model (README: where it departs from the FEM).
+    /// The analytic chamber model (docs/src/howto/fem.md: where it departs from the FEM).
     Analytic,
 }
 

@@ -24,7 +24,7 @@ use super::{EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_NOTHING, EXIT_OK, EXIT_PARTIA
     after_help = "Outputs in DIR: designs.csv (one row per point: id, status, seconds, the factors, radius_mm@P ... cavity_volume_mm3@P per kept pressure P, height_mm), failures.csv, \
 runs/<id>/ (config.toml, steps.csv, summary.json, log, status.json), sweep.json. Running again resumes: finished points are skipped.
 Ctrl-C or SIGTERM stops the running points (status interrupted), writes designs.csv and exits 130; running again resumes them.
-Plan format: see examples/plans/two-factor.toml and the README."
+Plan format: see examples/plans/two-factor.toml and docs/src/reference.md (sweep)."
 )]
 pub struct SweepArgs {
     /// What else to do.
