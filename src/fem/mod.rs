@@ -11,7 +11,8 @@
 //! penalty contact between the facing chamber walls, optional) -> [`solve`] (Newton on
 //! the three-field form, adaptive load steps) -> [`actuator`] (the parametric PneuNets geometry and its half
 //! mesh) -> [`simulate`] (the pressure ramp and the quantities read off each step),
-//! [`vtu`] (ParaView files) and [`output`] (every result file of a run or a sweep).
+//! [`vtu`] (ParaView files), [`output`] (every result file of a run or a sweep) and
+//! [`inp`] (the model as an Abaqus/CalculiX deck).
 //!
 //! Verified (tests): Yeoh uniaxial and equibiaxial stress against method.md §5; stress,
 //! tangent, pressure force and load stiffness against finite differences; the uniaxial
@@ -24,6 +25,7 @@ pub mod actuator;
 pub mod analytic;
 pub mod contact;
 pub mod hex;
+pub mod inp;
 pub mod layer;
 pub mod material;
 pub mod membrane;
