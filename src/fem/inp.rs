@@ -177,7 +177,12 @@ pub fn inp_from_config(cfg: &ActuatorConfig) -> Result<(String, InpSummary), Fem
         for (e, face) in &loads {
             let _ = writeln!(s, "{}, P{face}, {:.9e}", e + 1, p * 1e-3);
         }
-        s.push_str("*NODE PRINT, NSET=MARKERS\nU\n*NODE PRINT, NSET=TIP\nU\n*END STEP\n");
+        // FREQUENCY beyond any increment count: printed at the step's end only.
+        let every = MAX_INCREMENTS + 1;
+        let _ = writeln!(
+            s,
+            "*NODE PRINT, NSET=MARKERS, FREQUENCY={every}\nU\n*NODE PRINT, NSET=TIP, FREQUENCY={every}\nU\n*END STEP"
+        );
         steps += 1;
     }
     let summary = InpSummary {
