@@ -19,7 +19,8 @@
 //! block exactly; the plane-strain thick cylinder against the analytic inflation
 //! pressure; Cook's membrane against its reference tip displacement; the membrane
 //! element's patch test and the composite beam with a sheet or strip; the contact
-//! tangent against finite differences and the pressed-blocks patch test.
+//! tangent against finite differences and the pressed-blocks patch test; the exported
+//! deck ([`inp`]) run by CalculiX against bendscope's markers (tests/simulate.rs).
 
 pub mod actuator;
 pub mod analytic;
