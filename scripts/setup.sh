@@ -13,6 +13,7 @@ PKGS=(
   socat
   chromium
   python3-venv python3-pip
+  calculix-ccx
 )
 
 missing=()

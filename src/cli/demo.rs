@@ -58,6 +58,7 @@ pub fn run(args: &DemoArgs) -> Result<u8> {
             sweep: None,
             no_vtu: false,
             model: simulate::Model::Fem,
+            export_inp: None,
             print_config: false,
         })?,
     )?;

@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{anyhow, Context, Result};
 use bendscope::fem::actuator::{parse_range, ActuatorConfig};
 use bendscope::fem::analytic::analytic_to;
+use bendscope::fem::inp::write_inp;
 use bendscope::fem::material::MaterialPreset;
 use bendscope::fem::output::{simulate_to, sweep_to, SimulateOptions, BOTTOM_ELONGATION_LIMIT_PCT};
 use bendscope::fem::FemError;
@@ -71,6 +72,9 @@ pub struct SimulateArgs {
     /// Print the resolved actuator config (TOML) and exit.
     #[arg(long)]
     pub print_config: bool,
+    /// Also write the model as an Abaqus/CalculiX deck (C3D8I, Yeoh, one step per pressure).
+    #[arg(long, value_name = "FILE")]
+    pub export_inp: Option<PathBuf>,
 }
 
 /// The model `simulate` runs.
@@ -121,10 +125,7 @@ fn resolve(args: &SimulateArgs) -> Result<ActuatorConfig> {
 pub fn run(args: &SimulateArgs) -> Result<u8> {
     let cfg = match resolve(args) {
         Ok(c) => c,
-        Err(e) => {
-            eprintln!("error: {e:#}");
-            return Ok(EXIT_BAD_INPUT);
-        }
+        Err(e) => return bad(format!("{e:#}")),
     };
     for w in cfg.material.warnings() {
         eprintln!("warning: {w}");
@@ -138,6 +139,13 @@ pub fn run(args: &SimulateArgs) -> Result<u8> {
     }
     if let Some(sweep) = &args.sweep {
         return run_sweep(&cfg, sweep, &args.output);
+    }
+    if let Some(path) = &args.export_inp {
+        match write_inp(path, &cfg) {
+            Ok(deck) => eprintln!("note: {deck} -> {}", path.display()),
+            Err(e @ (FemError::Parameter { .. } | FemError::Model { .. })) => return bad(e),
+            Err(e) => return Err(e.into()),
+        }
     }
     let out = &args.output;
     let total = cfg.pressures_kpa()?.len() as u64;
@@ -209,15 +217,18 @@ pub fn run(args: &SimulateArgs) -> Result<u8> {
     })
 }
 
+/// Bad input: its one line on stderr, exit 2.
+fn bad(e: impl std::fmt::Display) -> Result<u8> {
+    eprintln!("error: {e}");
+    Ok(EXIT_BAD_INPUT)
+}
+
 /// `--model analytic`: the chamber model over the ramp, timed.
 fn run_analytic(cfg: &ActuatorConfig, out: &Path) -> Result<u8> {
     let started = std::time::Instant::now();
     let steps = match analytic_to(out, cfg) {
         Ok(s) => s,
-        Err(e @ (FemError::Parameter { .. } | FemError::Model { .. })) => {
-            eprintln!("error: {e}");
-            return Ok(EXIT_BAD_INPUT);
-        }
+        Err(e @ (FemError::Parameter { .. } | FemError::Model { .. })) => return bad(e),
         Err(e) => return Err(e.into()),
     };
     let ms = 1e3 * started.elapsed().as_secs_f64();
@@ -239,16 +250,14 @@ fn run_analytic(cfg: &ActuatorConfig, out: &Path) -> Result<u8> {
 /// `--sweep NAME=RANGE`: one design per value, results at the top pressure.
 fn run_sweep(base: &ActuatorConfig, spec: &str, out: &Path) -> Result<u8> {
     let Some((name, range)) = spec.split_once('=') else {
-        eprintln!("error: --sweep '{spec}': expected NAME=start:stop:step, e.g. f=2:8:1");
-        return Ok(EXIT_BAD_INPUT);
+        return bad(format!(
+            "--sweep '{spec}': expected NAME=start:stop:step, e.g. f=2:8:1"
+        ));
     };
     let name = name.trim();
     let values = match parse_range(range, name) {
         Ok(v) => v,
-        Err(e) => {
-            eprintln!("error: --sweep: {e}");
-            return Ok(EXIT_BAD_INPUT);
-        }
+        Err(e) => return bad(format!("--sweep: {e}")),
     };
     let bar = super::progress_bar(values.len() as u64, &format!("sweep {name}"));
     let result = sweep_to(out, base, name, &values, &mut |v| {
@@ -259,8 +268,7 @@ fn run_sweep(base: &ActuatorConfig, spec: &str, out: &Path) -> Result<u8> {
     let sweep = match result {
         Ok(s) => s,
         Err(e @ (FemError::Parameter { .. } | FemError::Model { .. })) => {
-            eprintln!("error: --sweep {name}: {e}");
-            return Ok(EXIT_BAD_INPUT);
+            return bad(format!("--sweep {name}: {e}"))
         }
         Err(e) => return Err(e.into()),
     };

@@ -11,19 +11,22 @@
 //! penalty contact between the facing chamber walls, optional) -> [`solve`] (Newton on
 //! the three-field form, adaptive load steps) -> [`actuator`] (the parametric PneuNets geometry and its half
 //! mesh) -> [`simulate`] (the pressure ramp and the quantities read off each step),
-//! [`vtu`] (ParaView files) and [`output`] (every result file of a run or a sweep).
+//! [`vtu`] (ParaView files), [`output`] (every result file of a run or a sweep) and
+//! [`inp`] (the model as an Abaqus/CalculiX deck).
 //!
 //! Verified (tests): Yeoh uniaxial and equibiaxial stress against method.md §5; stress,
 //! tangent, pressure force and load stiffness against finite differences; the uniaxial
 //! block exactly; the plane-strain thick cylinder against the analytic inflation
 //! pressure; Cook's membrane against its reference tip displacement; the membrane
 //! element's patch test and the composite beam with a sheet or strip; the contact
-//! tangent against finite differences and the pressed-blocks patch test.
+//! tangent against finite differences and the pressed-blocks patch test; the exported
+//! deck ([`inp`]) run by CalculiX against bendscope's markers (tests/simulate.rs).
 
 pub mod actuator;
 pub mod analytic;
 pub mod contact;
 pub mod hex;
+pub mod inp;
 pub mod layer;
 pub mod material;
 pub mod membrane;
