@@ -979,6 +979,7 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
             element_material,
             extra_materials: cfg.layer.iter().map(LayerConfig::material).collect(),
             membranes,
+            trusses: Vec::new(),
             contact: cfg.contact.as_ref().filter(|c| c.enabled).map(|c| Contact {
                 pairs: wall_pairs.clone(),
                 penalty_mpa_per_mm: c.penalty_for(&material, h),

@@ -646,6 +646,7 @@ mod tests {
             element_material: Vec::new(),
             extra_materials: Vec::new(),
             membranes: Vec::new(),
+            trusses: Vec::new(),
             contact: Some(Contact {
                 pairs: pairs.clone(),
                 penalty_mpa_per_mm: penalty,

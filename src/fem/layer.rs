@@ -335,6 +335,7 @@ mod tests {
             element_material,
             extra_materials: vec![layer.material()],
             membranes,
+            trusses: Vec::new(),
             contact: None,
         };
         let r = solve_static(&model, &NewtonSettings::default()).unwrap();

@@ -359,6 +359,7 @@ mod tests {
             element_material: Vec::new(),
             extra_materials: Vec::new(),
             membranes,
+            trusses: Vec::new(),
             contact: None,
         };
         let r = solve_static(&model, &NewtonSettings::default()).unwrap();

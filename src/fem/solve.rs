@@ -41,6 +41,7 @@ use super::membrane::{
     membrane_response, MembraneElement, MembraneGeometry, MembraneMatrix, MembraneVector,
 };
 use super::pressure::{face_volume, FaceMatrix, FaceVector};
+use super::truss::{truss_response, TrussElement, TrussMatrix, TrussVector, TRUSS_DOFS};
 use super::FemError;
 
 /// A hexahedral model: mesh, material, supports, dead loads and pressurized faces.
@@ -70,6 +71,8 @@ pub struct Model {
     pub extra_materials: Vec<Yeoh>,
     /// Membrane elements (thin stiff sheets bonded to the solid, [`super::membrane`]).
     pub membranes: Vec<MembraneElement>,
+    /// Fibre segments embedded in the hexahedra ([`super::truss`]).
+    pub trusses: Vec<TrussElement>,
     /// Frictionless contact between surfaces ([`super::contact`]); `None`: no contact.
     pub contact: Option<Contact>,
 }
@@ -212,6 +215,8 @@ struct Pattern {
     face_slots: Vec<[u32; 144]>,
     /// `membrane_slots[m][a + 12 b]`: value index of entry (a, b) of membrane m, or SKIP.
     membrane_slots: Vec<[u32; 144]>,
+    /// `truss_slots[t][a + 48 b]`: value index of entry (a, b) of fibre segment t, or SKIP.
+    truss_slots: Vec<Box<[u32; TRUSS_DOFS * TRUSS_DOFS]>>,
 }
 
 impl Pattern {
@@ -244,6 +249,9 @@ impl Pattern {
         }
         for m in &model.membranes {
             add(&dofs(&m.nodes));
+        }
+        for t in &model.trusses {
+            add(&dofs(&t.nodes()));
         }
         // Contact: the node pairs contact has coupled so far (`extra`, found during the
         // solve); the master faces' own couplings are those of their elements.
@@ -319,6 +327,15 @@ impl Pattern {
                 s
             })
             .collect();
+        let truss_slots = model
+            .trusses
+            .iter()
+            .map(|t| {
+                let mut s = Box::new([SKIP; TRUSS_DOFS * TRUSS_DOFS]);
+                slots(&dofs(&t.nodes()), &mut s[..]);
+                s
+            })
+            .collect();
         let symbolic = SymbolicSparseColMat::new_checked(n_eq, n_eq, col_ptr, None, row_idx);
         Ok(Self {
             symbolic,
@@ -326,6 +343,7 @@ impl Pattern {
             active,
             face_slots,
             membrane_slots,
+            truss_slots,
         })
     }
 
@@ -481,6 +499,7 @@ impl<'m> Solver<'m> {
             .flatten()
             .chain(model.pressure_faces.iter().flatten())
             .chain(model.membranes.iter().flat_map(|m| &m.nodes))
+            .chain(model.trusses.iter().flat_map(|t| t.ends.iter().flat_map(|e| &e.nodes)))
             .chain(model.contact.iter().flat_map(|c| {
                 c.pairs
                     .iter()
@@ -599,6 +618,13 @@ impl<'m> Solver<'m> {
             let (_, fm, _) = membrane_response(g, &m.section, &gather(&self.u, &m.nodes));
             for a in 0..12 {
                 f[3 * m.nodes[a / 3] + a % 3] += fm[a];
+            }
+        }
+        for t in &self.model.trusses {
+            let (_, ft, _) = truss_response(t, &self.model.nodes, &self.u);
+            let nodes = t.nodes();
+            for a in 0..TRUSS_DOFS {
+                f[3 * nodes[a / 3] + a % 3] += ft[a];
             }
         }
         let p = self.load.pressure_mpa;
@@ -863,6 +889,11 @@ impl<'m> Solver<'m> {
             .zip(&self.membrane_geom)
             .map(|(m, g)| membrane_response(g, &m.section, &gather(u, &m.nodes)))
             .collect();
+        let trusses: Vec<(f64, TrussVector, TrussMatrix)> = model
+            .trusses
+            .par_iter()
+            .map(|t| truss_response(t, &model.nodes, u))
+            .collect();
         let eq = &self.eq;
         let mut r = vec![0.0; self.n_eq]; // equilibrium residual R_u
         let mut shift = vec![0.0; self.n_eq]; // G (U'' R_p + R_θ) / V
@@ -898,6 +929,24 @@ impl<'m> Solver<'m> {
         {
             for a in 0..12 {
                 if let Some(i) = eq[3 * m.nodes[a / 3] + a % 3] {
+                    r[i] += f[a];
+                }
+            }
+            for (s, v) in slots.iter().zip(k.as_slice()) {
+                if *s != SKIP {
+                    values[*s as usize] += v;
+                }
+            }
+        }
+        for ((t, (_, f, k)), slots) in model
+            .trusses
+            .iter()
+            .zip(&trusses)
+            .zip(&self.pattern.truss_slots)
+        {
+            let nodes = t.nodes();
+            for a in 0..TRUSS_DOFS {
+                if let Some(i) = eq[3 * nodes[a / 3] + a % 3] {
                     r[i] += f[a];
                 }
             }
@@ -1240,6 +1289,7 @@ pub(crate) mod tests {
             element_material: Vec::new(),
             extra_materials: Vec::new(),
             membranes: Vec::new(),
+            trusses: Vec::new(),
             contact: None,
         };
         let r = solve_static(&model, &NewtonSettings::default()).unwrap();
@@ -1324,6 +1374,7 @@ pub(crate) mod tests {
             element_material: Vec::new(),
             extra_materials: Vec::new(),
             membranes: Vec::new(),
+            trusses: Vec::new(),
             contact: None,
         };
         let r = solve_static(&model, &NewtonSettings::default()).unwrap();
@@ -1423,6 +1474,7 @@ pub(crate) mod tests {
             element_material: Vec::new(),
             extra_materials: Vec::new(),
             membranes: Vec::new(),
+            trusses: Vec::new(),
             contact: None,
         };
         let mut solver = Solver::new(&model).unwrap();
