@@ -66,6 +66,13 @@ fn surrogates_of_radius_and_angle_explain_99_percent_and_interpolate() {
             let ev = m["validation"][cv]["explained_variance"].as_f64().unwrap();
             assert!(ev >= 0.99, "{output} {cv} explained variance {ev}");
         }
+        // An honest std (issue 21): every held-out design's FEM value within 3 std of the
+        // model fitted without it, and the coverage said on stdout.
+        eprintln!("{output}: {}", run.stdout.lines().nth(3).unwrap_or(""));
+        let c = &m["validation"]["loo_coverage"];
+        assert_eq!(c["points"], 16);
+        assert!(c["within_3std"].as_u64().unwrap() >= 15, "{output} {c}");
+        assert!(run.stdout.contains("within 3 std at"), "{run}");
     }
     // At a design point the model gives back the FEM value (Kriging interpolates) with a
     // near-zero std; between points the std is larger.

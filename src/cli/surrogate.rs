@@ -146,6 +146,15 @@ fn fit(a: &FitArgs) -> Result<u8> {
     );
     super::out!("{}", line("leave-one-out", &v.loo));
     super::out!("{}", line(&format!("{}-fold", v.folds), &v.kfold));
+    let c = &v.loo_coverage;
+    super::out!(
+        "leave-one-out std: truth within 2 std at {} and within 3 std at {} of {} points, z rms {:.2} (nugget {:.0e})",
+        c.within_2std,
+        c.within_3std,
+        c.points,
+        c.z_rms,
+        model.nugget
+    );
     super::out!("-> {}", a.model.display());
     Ok(EXIT_OK)
 }

@@ -17,6 +17,15 @@ use super::{Prediction, SurrogateError};
 /// Multistarts of egobox's likelihood maximization (its default).
 pub const N_START: usize = egobox_gp::GP_OPTIM_N_START;
 
+/// egobox's nugget (100 ε, relative to the process variance on the correlation
+/// matrix's diagonal): numerical regularization only, the model interpolates.
+pub const DEFAULT_NUGGET: f64 = 100.0 * f64::EPSILON;
+
+/// Nuggets a fit chooses from by leave-one-out predictive density
+/// ([`super::validation::Coverage::nlpd`]): from interpolation to a noise variance of 1%
+/// of the process variance (FEM outputs carry mesh and convergence noise of that order).
+pub const NUGGETS: [f64; 5] = [DEFAULT_NUGGET, 1e-8, 1e-6, 1e-4, 1e-2];
+
 /// Trend of a Kriging model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -167,14 +176,21 @@ fn matrix(x: &[Vec<f64>]) -> Array2<f64> {
     Array2::from_shape_fn((x.len(), cols), |(i, j)| x[i][j])
 }
 
-/// Fits a Gaussian process of `kind` to `x` (rows of inputs) and `y`; θ by maximum
-/// likelihood.
-pub fn fit(kind: GpKind, x: &[Vec<f64>], y: &[f64], output: &str) -> Result<Gp, SurrogateError> {
+/// Fits a Gaussian process of `kind` with `nugget` ([`DEFAULT_NUGGET`], [`NUGGETS`]) to
+/// `x` (rows of inputs) and `y`; θ by maximum likelihood.
+pub fn fit(
+    kind: GpKind,
+    nugget: f64,
+    x: &[Vec<f64>],
+    y: &[f64],
+    output: &str,
+) -> Result<Gp, SurrogateError> {
     let data = Dataset::new(matrix(x), Array1::from(y.to_vec()));
     macro_rules! fit_as {
         ($variant:ident, $mean:expr, $corr:expr) => {
             GpParams::new($mean, $corr)
                 .n_start(N_START)
+                .nugget(nugget)
                 .fit(&data)
                 .map(Gp::$variant)
                 .map_err(|e| gp_error(output, e))

@@ -4,15 +4,19 @@
 //!
 //! Data flows: [`designs`] (the table: rows with status `ok`, the named columns) ->
 //! [`gp`] (the candidate Kriging models: trend × correlation, fitted by egobox-gp) ->
-//! [`validation`] (leave-one-out and k-fold scores: R², explained variance, max error)
-//! -> [`SurrogateModel`] (the chosen model, its scores and what `predict` needs, saved
+//! [`validation`] (leave-one-out and k-fold scores: R², explained variance, max error;
+//! the coverage of the predictive std) -> [`SurrogateModel`] (the chosen model, its scores and what `predict` needs, saved
 //! as JSON).
 //!
 //! The Gaussian process is egobox-gp's (a port of SMT's Kriging, pure-Rust linear
 //! algebra through linfa-linalg): it standardizes the inputs and the output (mean 0,
 //! standard deviation 1 per column) and fits the correlation lengths θ by maximum
 //! likelihood (multistart COBYLA). Written here: only the choice of the trend and the
-//! kernel by leave-one-out, the cross-validation report (egobox's `q2_score` gives R²
+//! kernel by leave-one-out R², then of the nugget (the noise variance the model allows
+//! for, [`gp::NUGGETS`]) by leave-one-out predictive density, so that the std is honest
+//! about held-out errors (FEM outputs carry mesh and Newton-tolerance noise an
+//! interpolating model takes for signal: its std at a held-out design was far too small);
+//! the coverage (truths within 2 and 3 std held out) is reported; the cross-validation report (egobox's `q2_score` gives R²
 //! alone and panics on a failed fold) and the file format.
 
 pub mod designs;
@@ -153,12 +157,19 @@ pub struct SurrogateModel {
     pub kind: GpKind,
     /// Fitted correlation parameters θ (one per input, on standardized inputs).
     pub theta: Vec<f64>,
+    /// The nugget chosen ([`gp::NUGGETS`]; model files before it: [`gp::DEFAULT_NUGGET`]).
+    #[serde(default = "default_nugget")]
+    pub nugget: f64,
     /// Cross-validation of the chosen model.
     pub validation: Validation,
     /// Leave-one-out scores of every candidate tried.
     pub candidates: Vec<Candidate>,
     /// The fitted Gaussian process (egobox-gp's serialized form).
     pub gp: gp::Gp,
+}
+
+fn default_nugget() -> f64 {
+    gp::DEFAULT_NUGGET
 }
 
 /// A prediction: the Gaussian process mean and standard deviation.
@@ -194,30 +205,51 @@ pub fn fit_surrogate(
     };
     let mut candidates = Vec::new();
     for kind in kinds {
-        let pred = validation::cross_predictions(kind, &x, &y, y.len(), output)?;
+        let pred =
+            validation::cross_predictions(kind, gp::DEFAULT_NUGGET, &x, &y, y.len(), output)?;
         candidates.push(Candidate {
             kind,
-            loo: Scores::of(&y, &pred),
+            loo: Scores::of(&y, &validation::means(&pred)),
         });
     }
     // The best leave-one-out R²; ties go to the simpler model (listed first).
-    let best = candidates
+    let kind = candidates
         .iter()
         .fold(None::<&Candidate>, |best, c| match best {
             Some(b) if b.loo.r2 >= c.loo.r2 || !c.loo.r2.is_finite() => Some(b),
             _ => Some(c),
         })
-        .map(|c| (c.kind, c.loo))
+        .map(|c| c.kind)
         .ok_or_else(|| SurrogateError::Data {
             why: "no candidate model".into(),
         })?;
-    let (kind, loo) = best;
+    // Then the nugget (the noise the model allows for) with the best leave-one-out
+    // predictive density: the one whose std is honest about the held-out errors.
+    let mut best: Option<(f64, Vec<Prediction>, validation::Coverage)> = None;
+    for nugget in gp::NUGGETS {
+        let pred = match validation::cross_predictions(kind, nugget, &x, &y, y.len(), output) {
+            Ok(p) => p,
+            // A nugget egobox cannot fit with is not a candidate (the default always is).
+            Err(_) if nugget != gp::DEFAULT_NUGGET => continue,
+            Err(e) => return Err(e),
+        };
+        let c = validation::Coverage::of(&y, &pred);
+        if c.nlpd.is_finite() && best.as_ref().is_none_or(|b| c.nlpd < b.2.nlpd) {
+            best = Some((nugget, pred, c));
+        }
+    }
+    let (nugget, pred, loo_coverage) = best.ok_or_else(|| SurrogateError::Data {
+        why: "no nugget gave finite held-out predictions".into(),
+    })?;
+    let loo = Scores::of(&y, &validation::means(&pred));
     let folds = settings.folds.clamp(2, y.len());
     let kfold = Scores::of(
         &y,
-        &validation::cross_predictions(kind, &x, &y, folds, output)?,
+        &validation::means(&validation::cross_predictions(
+            kind, nugget, &x, &y, folds, output,
+        )?),
     );
-    let gp = gp::fit(kind, &x, &y, output)?;
+    let gp = gp::fit(kind, nugget, &x, &y, output)?;
     let inputs = designs
         .inputs
         .iter()
@@ -237,7 +269,13 @@ pub fn fit_surrogate(
         skipped,
         kind,
         theta: gp.theta(),
-        validation: Validation { loo, kfold, folds },
+        nugget,
+        validation: Validation {
+            loo,
+            kfold,
+            folds,
+            loo_coverage,
+        },
         candidates,
         gp,
     })
