@@ -184,10 +184,12 @@ mod tests {
                 assert_eq!(out.get_pixel(x, y)[0], 2500, "({x}, {y})");
             }
         }
-        // The depth camera's left edge projects to colour x = cx + f (X0 - b) / z.
-        let x_edge = 40.2 + 62.0 * ((-0.5 - 31.5) / 50.0 * 0.25 - 0.015) / 0.25;
-        assert_eq!(out.get_pixel(x_edge.floor() as u32 - 1, 30)[0], 0);
-        assert_eq!(out.get_pixel(x_edge.ceil() as u32 + 1, 30)[0], 2500);
+        // The depth camera's right edge projects to colour x = cx + f (X1 + t) / z:
+        // colour pixels right of it get no depth.
+        let x_edge: f64 = 40.2 + 62.0 * ((63.5 - 31.5) / 50.0 * 0.25 - 0.015) / 0.25;
+        assert_eq!(x_edge.floor(), 76.0);
+        assert_eq!(out.get_pixel(75, 30)[0], 2500);
+        assert_eq!(out.get_pixel(77, 30)[0], 0);
     }
 
     #[test]

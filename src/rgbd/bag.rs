@@ -681,9 +681,11 @@ pub fn rgb_from_image(m: &super::rosmsg::ImageMsg<'_>) -> Result<image::RgbImage
         "bgr8" => ([2, 1, 0], 3),
         "rgba8" => ([0, 1, 2], 4),
         "bgra8" => ([2, 1, 0], 4),
-        other => return Err(format!(
+        other => {
+            return Err(format!(
             "encoding `{other}` is not read (rgb8, bgr8, rgba8, bgra8 are): record colour as RGB8"
-        )),
+        ))
+        }
     };
     let (w, h, step) = (m.width as usize, m.height as usize, m.step as usize);
     if step < w * bpp {
