@@ -82,9 +82,106 @@ impl StreamCamera {
     }
 }
 
-/// Depth (`depth_raw`, row-major `depth_cam.width x depth_cam.height`, units of
-/// `unit_m`) aligned to the colour camera: a colour-sized depth image in the same
-/// units, 0 where no depth pixel lands (see the module doc).
+/// Depth-to-colour alignment for one pair of cameras: the depth camera's viewing rays
+/// (pixel centres and corners, at unit depth) turned into the colour frame once, so a
+/// frame costs a scale, an add and two projections per depth pixel (deprojection is
+/// linear in depth: `p(u, v, z) = z p(u, v, 1)`).
+#[derive(Debug, Clone)]
+pub struct DepthAligner {
+    depth_cam: StreamCamera,
+    color_cam: StreamCamera,
+    translation_m: Vector3<f64>,
+    /// R * ray of each depth pixel centre, row-major.
+    centres: Vec<Vector3<f64>>,
+    /// R * ray of each pixel corner (u - 0.5, v - 0.5), (width + 1) x (height + 1).
+    corners: Vec<Vector3<f64>>,
+}
+
+impl DepthAligner {
+    /// Precomputes the rays of `depth_cam` in `color_cam`'s frame.
+    pub fn new(
+        depth_cam: &StreamCamera,
+        color_cam: &StreamCamera,
+        depth_to_color: &RigidTransform,
+    ) -> Self {
+        let r = depth_to_color.rotation;
+        let (w, h) = (depth_cam.width as usize, depth_cam.height as usize);
+        let ray = |x: f64, y: f64| r * depth_cam.deproject(Point2::new(x, y), 1.0);
+        let centres = (0..h)
+            .flat_map(|v| (0..w).map(move |u| (u as f64, v as f64)))
+            .map(|(u, v)| ray(u, v))
+            .collect();
+        let corners = (0..=h)
+            .flat_map(|v| (0..=w).map(move |u| (u as f64 - 0.5, v as f64 - 0.5)))
+            .map(|(u, v)| ray(u, v))
+            .collect();
+        Self {
+            depth_cam: depth_cam.clone(),
+            color_cam: color_cam.clone(),
+            translation_m: depth_to_color.translation_m,
+            centres,
+            corners,
+        }
+    }
+
+    /// Depth (`depth_raw`, row-major `depth_cam.width x depth_cam.height`, units of
+    /// `unit_m`) aligned to the colour camera: a colour-sized depth image in the same
+    /// units, 0 where no depth pixel lands (see the module doc).
+    pub fn align(&self, depth_raw: &[u16], unit_m: f64) -> DepthImage {
+        let color_cam = &self.color_cam;
+        let (cw, ch) = (color_cam.width, color_cam.height);
+        let mut out = DepthImage::new(cw, ch);
+        let (dw, dh) = (
+            self.depth_cam.width as usize,
+            self.depth_cam.height as usize,
+        );
+        let t = self.translation_m;
+        // First pixel centre at or after `a`, and the last before `b`, clamped to `n`.
+        let span = |a: f64, b: f64, n: u32| -> Option<(u32, u32)> {
+            let (lo, hi) = (a.min(b), a.max(b));
+            let first = lo.ceil().max(0.0);
+            let last = (hi.ceil() - 1.0).min(n as f64 - 1.0);
+            (first.is_finite() && last.is_finite() && first <= last)
+                .then_some((first as u32, last as u32))
+        };
+        for v in 0..dh.min(depth_raw.len() / dw.max(1)) {
+            for u in 0..dw {
+                let d = depth_raw[v * dw + u];
+                if d == 0 {
+                    continue;
+                }
+                let z = d as f64 * unit_m;
+                let centre = self.centres[v * dw + u] * z + t;
+                let a = self.corners[v * (dw + 1) + u] * z + t;
+                let b = self.corners[(v + 1) * (dw + 1) + u + 1] * z + t;
+                if centre.z <= 0.0 || a.z <= 0.0 || b.z <= 0.0 {
+                    continue;
+                }
+                let (pa, pb) = (color_cam.project(&a), color_cam.project(&b));
+                let (Some((x0, x1)), Some((y0, y1))) = (span(pa.x, pb.x, cw), span(pa.y, pb.y, ch))
+                else {
+                    continue;
+                };
+                let value = (centre.z / unit_m).round();
+                if !(value >= 1.0 && value <= u16::MAX as f64) {
+                    continue;
+                }
+                let value = value as u16;
+                for y in y0..=y1 {
+                    for x in x0..=x1 {
+                        let px = &mut out.get_pixel_mut(x, y)[0];
+                        if *px == 0 || value < *px {
+                            *px = value;
+                        }
+                    }
+                }
+            }
+        }
+        out
+    }
+}
+
+/// [`DepthAligner::align`] for one frame (the rays computed for it alone).
 pub fn align_depth_to_color(
     depth_raw: &[u16],
     depth_cam: &StreamCamera,
@@ -92,53 +189,7 @@ pub fn align_depth_to_color(
     depth_to_color: &RigidTransform,
     unit_m: f64,
 ) -> DepthImage {
-    let (cw, ch) = (color_cam.width, color_cam.height);
-    let mut out = DepthImage::new(cw, ch);
-    let (dw, dh) = (depth_cam.width as usize, depth_cam.height as usize);
-    let to_color = |q: Vector3<f64>| depth_to_color.rotation * q + depth_to_color.translation_m;
-    // First pixel centre at or after `a`, and the last before `b`, clamped to `n`.
-    let span = |a: f64, b: f64, n: u32| -> Option<(u32, u32)> {
-        let (lo, hi) = (a.min(b), a.max(b));
-        let first = lo.ceil().max(0.0);
-        let last = (hi.ceil() - 1.0).min(n as f64 - 1.0);
-        (first.is_finite() && last.is_finite() && first <= last)
-            .then_some((first as u32, last as u32))
-    };
-    for v in 0..dh.min(depth_raw.len() / dw.max(1)) {
-        for u in 0..dw {
-            let d = depth_raw[v * dw + u];
-            if d == 0 {
-                continue;
-            }
-            let z = d as f64 * unit_m;
-            let (uf, vf) = (u as f64, v as f64);
-            let centre = to_color(depth_cam.deproject(Point2::new(uf, vf), z));
-            let a = to_color(depth_cam.deproject(Point2::new(uf - 0.5, vf - 0.5), z));
-            let b = to_color(depth_cam.deproject(Point2::new(uf + 0.5, vf + 0.5), z));
-            if centre.z <= 0.0 || a.z <= 0.0 || b.z <= 0.0 {
-                continue;
-            }
-            let (pa, pb) = (color_cam.project(&a), color_cam.project(&b));
-            let (Some((x0, x1)), Some((y0, y1))) = (span(pa.x, pb.x, cw), span(pa.y, pb.y, ch))
-            else {
-                continue;
-            };
-            let value = (centre.z / unit_m).round();
-            if !(value >= 1.0 && value <= u16::MAX as f64) {
-                continue;
-            }
-            let value = value as u16;
-            for y in y0..=y1 {
-                for x in x0..=x1 {
-                    let px = &mut out.get_pixel_mut(x, y)[0];
-                    if *px == 0 || value < *px {
-                        *px = value;
-                    }
-                }
-            }
-        }
-    }
-    out
+    DepthAligner::new(depth_cam, color_cam, depth_to_color).align(depth_raw, unit_m)
 }
 
 #[cfg(test)]

@@ -50,7 +50,7 @@ use std::path::{Path, PathBuf};
 
 use rosbag::{ChunkRecord, IndexRecord, MessageRecord, RosBag};
 
-use super::align::{align_depth_to_color, StreamCamera};
+use super::align::{DepthAligner, StreamCamera};
 use super::rosmsg::{
     camera_info_from_bytes, float32_from_bytes, image_from_bytes, image_header_from_bytes,
     transform_from_bytes, CameraInfoMsg, RigidTransform,
@@ -124,6 +124,7 @@ pub struct BagRecording {
     pub timing: String,
     /// What was assumed (no depth unit, no extrinsics), for the log.
     pub notes: Vec<String>,
+    aligner: DepthAligner,
     cache: VecDeque<(u64, Vec<Vec<u8>>)>,
 }
 
@@ -501,6 +502,7 @@ impl BagRecording {
             },
         };
         Ok(Self {
+            aligner: DepthAligner::new(&depth_camera, &color_camera, &depth_to_color),
             path: path.to_path_buf(),
             bag,
             intrinsics,
@@ -603,13 +605,7 @@ impl BagRecording {
             }
             depth_from_image(&m).map_err(|e| what("depth", e))?
         };
-        let aligned = align_depth_to_color(
-            &raw,
-            &depth_cam,
-            &color_cam,
-            &self.depth_to_color,
-            self.depth_unit_m,
-        );
+        let aligned = self.aligner.align(&raw, self.depth_unit_m);
         if aligned.as_raw().iter().all(|&d| d == 0) {
             return Err(what(
                 "depth",
