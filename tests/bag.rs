@@ -155,8 +155,21 @@ fn a_truncated_bag_is_refused_in_one_line() {
     common::copy_dir(&bags("lz4"), &s);
     let bag = s.join("recording.bag");
     let bytes = fs::read(&bag).unwrap();
-    // Half the file: inside a chunk (each holds about one colour and one depth frame).
-    fs::write(&bag, &bytes[..bytes.len() / 2]).unwrap();
+    // Cut halfway between the starts of two middle chunks (each holds about one colour
+    // and one depth frame): inside a chunk.
+    let mut chunks: Vec<u64> = rosbag::RosBag::new(&bag)
+        .unwrap()
+        .index_records()
+        .filter_map(|r| match r.unwrap() {
+            rosbag::IndexRecord::ChunkInfo(c) => Some(c.chunk_pos),
+            _ => None,
+        })
+        .collect();
+    chunks.sort_unstable();
+    assert!(chunks.len() >= 4, "{chunks:?}");
+    let k = chunks.len() / 2;
+    let cut = ((chunks[k] + chunks[k + 1]) / 2) as usize;
+    fs::write(&bag, &bytes[..cut]).unwrap();
     Run::new(dir.path(), &["process", "cut"]).assert_bad_input(&[
         "recording.bag",
         "truncated",
