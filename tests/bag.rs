@@ -198,7 +198,7 @@ fn a_bag_without_depth_is_refused_in_one_line() {
 }
 
 #[test]
-fn a_folder_with_two_recordings_or_a_recording_and_png_frames_is_refused() {
+fn a_folder_with_two_recordings_or_a_recording_beside_another_session_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let s = dir.path().join("two");
     common::copy_dir(&bags("nodepth"), &s);
@@ -206,6 +206,17 @@ fn a_folder_with_two_recordings_or_a_recording_and_png_frames_is_refused() {
     Run::new(dir.path(), &["process", "two"])
         .assert_bad_input(&["recording.bag, second.bag", "keep one per session folder"]);
     fs::remove_file(s.join("second.bag")).unwrap();
+    fs::write(
+        s.join("pressures.csv"),
+        "file,pressure_kpa\nGX010001.MP4,20\n",
+    )
+    .unwrap();
+    Run::new(dir.path(), &["process", "two"]).assert_bad_input(&[
+        "recording.bag",
+        "pressures.csv (step protocol)",
+        "keep the one",
+    ]);
+    fs::remove_file(s.join("pressures.csv")).unwrap();
     fs::create_dir_all(s.join("color")).unwrap();
     fs::create_dir_all(s.join("depth")).unwrap();
     Run::new(dir.path(), &["process", "two"]).assert_bad_input(&[

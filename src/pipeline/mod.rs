@@ -240,6 +240,19 @@ fn read_layout(session: &Path) -> Result<Layout, PipelineError> {
     let manifest = session.join(MANIFEST);
     let log = session.join(PRESSURE_LOG);
     if let Some(frames) = rgbd_frames(session)? {
+        if let RgbdFrames::Bag(bag) = &frames {
+            let videos = session_videos(session);
+            if manifest.exists() || !videos.is_empty() {
+                return Err(PipelineError::Layout {
+                    path: session.to_path_buf(),
+                    why: format!(
+                        "both a RealSense recording ({}) and {}: keep the one that describes this session",
+                        bag.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
+                        if manifest.exists() { format!("{MANIFEST} (step protocol)") } else { format!("videos ({})", videos.join(", ")) }
+                    ),
+                });
+            }
+        }
         if !log.is_file() {
             return Err(PipelineError::Layout {
                 path: log,
