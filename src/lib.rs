@@ -8,8 +8,8 @@
 //! (circle, plane, bending angle, power law) -> [`pipeline`] (a session measured:
 //! sources, `measure_frame`, statistics, records, cache, outputs) -> [`report`] (plots,
 //! overlays, the HTML page). [`session`] (manifest, pressure log, settings), [`table`]
-//! (the one CSV layer), [`rgbd`] (colour + depth) and [`io`] (atomic writes, content
-//! keys) serve them. Beside them: [`fem`] (the actuator model and its solver),
+//! (the one CSV layer), [`rgbd`] (colour + depth: PNG folders, RealSense bags) and
+//! [`io`] (atomic writes, content keys) serve them. Beside them: [`fem`] (the actuator model and its solver),
 //! [`render`] (synthetic camera images with known ground truth), [`compare`],
 //! [`material_fit`] (hyperelastic models from tensile tests), [`fit_model`] (model
 //! parameters fitted to a measurement) and [`control`] (a PID closing the loop on the

@@ -16,14 +16,15 @@ use super::{EXIT_BAD_INPUT, EXIT_NOTHING, EXIT_NO_SPACE, EXIT_OK, EXIT_PARTIAL};
 one video per pressure (GoPro chapters GX02.. continue GX01..), scale.jpg (a board in the actuator plane), \
 calib/ (checkerboard photos) and an optional bendscope.toml.
 Ramp protocol: pressure_log.csv (time_s,pressure_<unit>) and one video instead of pressures.csv.
-RGB-D: color/, depth/ (16-bit PNG aligned to colour), intrinsics.json, pressure_log.csv and optionally frames.csv (frame,time_s).
+RGB-D: color/, depth/ (16-bit PNG aligned to colour), intrinsics.json, pressure_log.csv and optionally frames.csv (frame,time_s); \
+or one RealSense recording (*.bag from the RealSense Viewer / rs-record: colour + depth, aligned here) and pressure_log.csv (time 0 = the first colour frame).
 Outputs in OUT: per_frame.csv, per_video.csv, fit.json, session.json (version, settings, calibration, scale, cache use), plots/, overlays/, report.html, cache/.
 Settings: scale = \"FILE\" in bendscope.toml takes a scale saved by `bendscope scale --save` instead of the scale photo.
 One run at a time per OUT (OUT/.bendscope.lock); a killed run (Ctrl-C, kill) is simply run again.
 Exit codes: 0 all measured, 1 some videos or sessions failed (the others' results are written), 2 bad input (or OUT in use), 3 nothing measured, 4 no space left on OUT's disk (free space and rerun)."
 )]
 pub struct ProcessArgs {
-    /// Session folders (pressures.csv, videos, scale photo, calib/).
+    /// Session folders (pressures.csv, videos, scale photo, calib/; or RGB-D frames or a .bag).
     #[arg(required = true, value_name = "SESSION")]
     pub sessions: Vec<PathBuf>,
     /// Output folder [default: SESSION/bendscope-out; with several sessions OUT/<session>,

@@ -44,7 +44,8 @@ use crate::calib::{
 };
 use crate::detect::ChainStart;
 use crate::io::{content_key, hash_parts, write_atomic};
-use crate::rgbd::{is_rgbd_session, list_frames, RgbdError};
+use crate::rgbd::bag::BagRecording;
+use crate::rgbd::{list_frames, rgbd_frames, RgbdError, RgbdFrames};
 use crate::scale::{read_scale_file, scale_from_board_photo, ScaleBoard, ScaleError};
 use crate::session::{
     find_scale_image, implausible_pressures, read_manifest, read_pressure_log, session_videos,
@@ -59,7 +60,7 @@ use provenance::{
     CalibrationSource, CalibrationUsed, Provenance, ScaleSource, ScaleUsed, VideoUsed,
 };
 use records::{FrameRecord, FrameStatus, VideoRecord, VideoStatus};
-use source::{FrameSource, Next, RgbdSource};
+use source::{BagSource, FrameSource, Next, RgbdSource};
 
 /// Errors that stop a whole session (the other sessions of a run go on).
 #[derive(Debug, thiserror::Error)]
@@ -221,8 +222,8 @@ enum Layout {
     Step(Manifest),
     /// pressure_log.csv and one video.
     Ramp(PressureLog, String),
-    /// color/ + depth/ + intrinsics.json + pressure_log.csv.
-    Rgbd(PressureLog),
+    /// color/ + depth/ + intrinsics.json (or a .bag recording) + pressure_log.csv.
+    Rgbd(PressureLog, RgbdFrames),
 }
 
 fn read_layout(session: &Path) -> Result<Layout, PipelineError> {
@@ -238,14 +239,27 @@ fn read_layout(session: &Path) -> Result<Layout, PipelineError> {
     }
     let manifest = session.join(MANIFEST);
     let log = session.join(PRESSURE_LOG);
-    if is_rgbd_session(session) {
+    if let Some(frames) = rgbd_frames(session)? {
+        if let RgbdFrames::Bag(bag) = &frames {
+            let videos = session_videos(session);
+            if manifest.exists() || !videos.is_empty() {
+                return Err(PipelineError::Layout {
+                    path: session.to_path_buf(),
+                    why: format!(
+                        "both a RealSense recording ({}) and {}: keep the one that describes this session",
+                        bag.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
+                        if manifest.exists() { format!("{MANIFEST} (step protocol)") } else { format!("videos ({})", videos.join(", ")) }
+                    ),
+                });
+            }
+        }
         if !log.is_file() {
             return Err(PipelineError::Layout {
                 path: log,
                 why: "an RGB-D session needs a pressure log: time_s,pressure_<unit> from the regulator".into(),
             });
         }
-        return Ok(Layout::Rgbd(read_pressure_log(&log)?));
+        return Ok(Layout::Rgbd(read_pressure_log(&log)?, frames));
     }
     match (manifest.exists(), log.is_file()) {
         (true, true) => Err(PipelineError::Layout {
@@ -374,9 +388,12 @@ fn measure_session_into(
     let cache = Cache::new(out);
     let mut items: Vec<ItemResult> = Vec::new();
     let (unit, skipped, binned) = match &layout {
-        Layout::Rgbd(log) => {
-            provenance.rgbd_intrinsics = Some(session.join(crate::rgbd::INTRINSICS));
-            items.push(measure_rgbd(session, &config, log, &mut notes)?);
+        Layout::Rgbd(log, frames) => {
+            provenance.rgbd_intrinsics = Some(match frames {
+                RgbdFrames::PngFolders => session.join(crate::rgbd::INTRINSICS),
+                RgbdFrames::Bag(bag) => bag.clone(),
+            });
+            items.push(measure_rgbd(session, frames, &config, log, &mut notes)?);
             (log.unit, vec![], Some(config.ramp_bin_kpa))
         }
         Layout::Step(m) => {
@@ -413,7 +430,7 @@ fn measure_session_into(
         .collect();
     // Ramps (video or RGB-D) filtered as labs do: the marker tracks, then the circle.
     let smoothed = match (config.smooth_s, &layout) {
-        (Some(s), Layout::Ramp(..) | Layout::Rgbd(_)) => {
+        (Some(s), Layout::Ramp(..) | Layout::Rgbd(..)) => {
             for item in &mut items {
                 smooth::smooth_recording(&mut item.frames, s);
             }
@@ -481,7 +498,7 @@ fn measure_session_into(
         .and_then(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
         .unwrap_or_else(|| session.display().to_string());
     let rms = match layout {
-        Layout::Rgbd(_) => output::RmsUnit::Mm,
+        Layout::Rgbd(..) => output::RmsUnit::Mm,
         _ => output::RmsUnit::Px,
     };
     let fits = output::write_session(
@@ -1227,32 +1244,79 @@ impl VideoRun<'_> {
     }
 }
 
-/// Measures the frames of an RGB-D session (one item named `color`).
+/// An RGB-D session's frames as a source: the PNG folders or the bag recording.
+struct RgbdInput {
+    /// Item name (`color`, or the bag's file name).
+    item: String,
+    intrinsics: crate::rgbd::RgbdIntrinsics,
+    total: usize,
+    timing: String,
+    source: Box<dyn FrameSource>,
+}
+
+fn open_rgbd(
+    session: &Path,
+    frames: &RgbdFrames,
+    notes: &mut Notes,
+) -> Result<RgbdInput, PipelineError> {
+    Ok(match frames {
+        RgbdFrames::PngFolders => {
+            let listing = list_frames(session)?;
+            for d in &listing.orphan_depth {
+                notes.push(format!(
+                    "warning: {d}: no colour frame of the same name: ignored"
+                ));
+            }
+            let intr = listing.intrinsics;
+            RgbdInput {
+                item: "color".into(),
+                total: listing.frames.len(),
+                timing: listing.timing,
+                source: Box::new(RgbdSource::new(listing.frames, (intr.width, intr.height))),
+                intrinsics: intr,
+            }
+        }
+        RgbdFrames::Bag(path) => {
+            let rec = BagRecording::open(path)?;
+            for n in &rec.notes {
+                notes.push(format!("warning: {n}"));
+            }
+            RgbdInput {
+                item: rec.name(),
+                intrinsics: rec.intrinsics.clone(),
+                total: rec.frames.len(),
+                timing: rec.timing.clone(),
+                source: Box::new(BagSource::new(rec)),
+            }
+        }
+    })
+}
+
+/// Measures the frames of an RGB-D session (one item named `color`, or after the bag).
 fn measure_rgbd(
     session: &Path,
+    frames: &RgbdFrames,
     config: &SessionConfig,
     log: &PressureLog,
     notes: &mut Notes,
 ) -> Result<ItemResult, PipelineError> {
-    let listing = list_frames(session)?;
-    let intr = &listing.intrinsics;
+    let RgbdInput {
+        item,
+        intrinsics,
+        total,
+        timing,
+        mut source,
+    } = open_rgbd(session, frames, notes)?;
+    let intr = &intrinsics;
     let undistorter = crate::rgbd::undistorter(intr)?;
-    for d in &listing.orphan_depth {
-        notes.push(format!(
-            "warning: {d}: no colour frame of the same name: ignored"
-        ));
-    }
     let geometry = Geometry::Depth {
         undistorter: &undistorter,
         intrinsics: intr,
     };
     let mut tracker = Tracker::new(ChainStart::Side(config.detect.clamp_side));
     let segments = config.segment_plan();
-    let total = listing.frames.len();
-    let mut source: Box<dyn FrameSource> =
-        Box::new(RgbdSource::new(listing.frames, (intr.width, intr.height)));
     let mut result = ItemResult {
-        file: "color".into(),
+        file: item.clone(),
         pressure_kpa: f64::NAN,
         pressure: f64::NAN,
         frames: Vec::with_capacity(total),
@@ -1275,9 +1339,8 @@ fn measure_rgbd(
         let pressure_kpa = log
             .pressure_at(time_s + config.ramp_time_offset_s)
             .unwrap_or(f64::NAN);
-        let record = |status: FrameStatus| {
-            FrameRecord::rejected("color", index, time_s, pressure_kpa, status)
-        };
+        let record =
+            |status: FrameStatus| FrameRecord::rejected(&item, index, time_s, pressure_kpa, status);
         let row = match next {
             Next::Bad { why, .. } => {
                 bad.push(why.clone());
@@ -1296,7 +1359,7 @@ fn measure_rgbd(
                     &segments,
                     &mut tracker,
                 );
-                frame_record("color", index, time_s, pressure_kpa, m)
+                frame_record(&item, index, time_s, pressure_kpa, m)
             }
             Next::End => break,
         };
@@ -1313,7 +1376,7 @@ fn measure_rgbd(
     if outside_log > 0 {
         result.problems.push(format!(
             "{outside_log} of {total} frames fall outside the pressure log's time span ({}): check that the log covers the recording and ramp_time_offset_s",
-            listing.timing
+            timing
         ));
     }
     Ok(result)

@@ -1,11 +1,14 @@
 //! Frame sources behind one trait: a video file (decoded on its own thread, streamed
-//! through a bounded channel, buffers recycled) and an RGB-D folder (colour + aligned
-//! depth frames, timed by their names or `frames.csv`).
+//! through a bounded channel, buffers recycled), an RGB-D folder (colour + aligned
+//! depth frames, timed by their names or `frames.csv`) and a RealSense `.bag`
+//! recording (colour + depth aligned here, timed by the header stamps): both RGB-D
+//! sources yield the same (colour, aligned depth, time) frames.
 
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
 use std::thread::JoinHandle;
 
+use crate::rgbd::bag::BagRecording;
 use crate::rgbd::RgbdFrame;
 use crate::video::{DecodeStats, Pixels, VideoInfo, VideoReader};
 
@@ -333,6 +336,51 @@ impl FrameSource for RgbdSource {
                 time_s: f.time_s,
                 why,
             },
+        }
+    }
+
+    fn finish(self: Box<Self>) -> Vec<String> {
+        vec![]
+    }
+}
+
+/// The frames of a RealSense `.bag` recording, read one at a time (colour decoded,
+/// depth aligned to colour, see [`crate::rgbd::bag`]).
+pub struct BagSource {
+    recording: BagRecording,
+    next: usize,
+}
+
+impl BagSource {
+    /// Reads `recording`'s frames in time order.
+    pub fn new(recording: BagRecording) -> Self {
+        Self { recording, next: 0 }
+    }
+}
+
+impl FrameSource for BagSource {
+    fn size(&self) -> (u32, u32) {
+        (
+            self.recording.intrinsics.width,
+            self.recording.intrinsics.height,
+        )
+    }
+
+    fn next(&mut self) -> Next {
+        let k = self.next;
+        let Some((index, time_s)) = self.recording.frames.get(k).map(|f| (f.index, f.time_s))
+        else {
+            return Next::End;
+        };
+        self.next += 1;
+        match self.recording.read_frame(k) {
+            Ok((rgb, depth)) => Next::Frame(SourceFrame {
+                index,
+                time_s,
+                pixels: Pixels::Rgb(rgb),
+                depth: Some(depth),
+            }),
+            Err(why) => Next::Bad { index, time_s, why },
         }
     }
 

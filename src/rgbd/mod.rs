@@ -2,20 +2,34 @@
 //! the radius comes out in mm with no scale photo (circle fitted in the best-fit plane
 //! of the 3D markers, [`crate::fit::fit_circle_3d`]).
 //!
+//! Two layouts, both with `pressure_log.csv` (`time_s, pressure_<unit>`):
+//!
 //! ```text
-//! SESSION/
+//! SESSION/                 PNG frames
 //!   color/             colour frames (PNG/JPG), sorted by name
 //!   depth/             16-bit PNG depth frames aligned to the colour frames, same names
 //!   intrinsics.json    {"width", "height", "fx", "fy", "cx", "cy", "depth_scale_m",
 //!                       "fps", "distortion": [k1, k2, p1, p2, k3] (optional)}
 //!   pressure_log.csv   time_s, pressure_<unit>
 //!   frames.csv         optional: frame,time_s (else times from the frame names)
+//!
+//! SESSION/                 a RealSense recording
+//!   recording.bag      any one *.bag: ROS1 bag v2.0 from the RealSense Viewer or
+//!                      rs-record, colour + depth streams ([`bag`])
+//!   pressure_log.csv   time_s, pressure_<unit>; time 0 = the first colour frame
 //! ```
 //!
 //! `depth_scale_m` is metres per depth unit (RealSense convention: 0.001 by default,
-//! 0.0001 in high-accuracy presets). Depth is assumed aligned to the colour image
-//! (RealSense `align` to colour): the depth of a marker is the median of the valid depth
-//! pixels around its raw centroid.
+//! 0.0001 in high-accuracy presets; a bag records it as the Depth Units option). PNG
+//! depth is assumed aligned to the colour image (RealSense `align` to colour); a bag's
+//! raw depth is aligned here from its recorded intrinsics and extrinsics ([`align`]).
+//! Both yield the same (colour, aligned depth, time) frames to the same measuring code
+//! (`pipeline::source::{RgbdSource, BagSource}`): the actuator's side face is a plane
+//! fitted to the depth pixels along the marker chain ([`markers_on_depth_plane`]).
+
+pub mod align;
+pub mod bag;
+pub mod rosmsg;
 
 use std::path::{Path, PathBuf};
 
@@ -152,9 +166,72 @@ pub struct RgbdListing {
     pub timing: String,
 }
 
-/// True when `session` has `color/` and `depth/` folders.
+/// True when `session` has `color/` and `depth/` folders, or a `.bag` recording.
 pub fn is_rgbd_session(session: &Path) -> bool {
+    has_png_frames(session) || !bag_files(session).is_empty()
+}
+
+fn has_png_frames(session: &Path) -> bool {
     session.join("color").is_dir() && session.join("depth").is_dir()
+}
+
+/// The `*.bag` files of `session` (not hidden), sorted.
+fn bag_files(session: &Path) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(session)
+        .map(|rd| {
+            rd.flatten()
+                .map(|e| e.path())
+                .filter(|p| {
+                    p.is_file()
+                        && !is_hidden(p)
+                        && p.extension().is_some_and(|e| e.eq_ignore_ascii_case("bag"))
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    v.sort();
+    v
+}
+
+/// Where an RGB-D session's frames are.
+#[derive(Debug, Clone, PartialEq)]
+pub enum RgbdFrames {
+    /// `color/` + `depth/` PNG frames and `intrinsics.json`.
+    PngFolders,
+    /// A RealSense `.bag` recording.
+    Bag(PathBuf),
+}
+
+/// Which RGB-D layout `session` has (None: neither); two at once, or two bags, are
+/// refused (which one was meant is not known).
+pub fn rgbd_frames(session: &Path) -> Result<Option<RgbdFrames>, RgbdError> {
+    let bags = bag_files(session);
+    let names = |v: &[PathBuf]| {
+        v.iter()
+            .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    match (has_png_frames(session), bags.as_slice()) {
+        (false, []) => Ok(None),
+        (true, []) => Ok(Some(RgbdFrames::PngFolders)),
+        (false, [bag]) => Ok(Some(RgbdFrames::Bag(bag.clone()))),
+        (true, _) => Err(RgbdError::Layout {
+            path: session.to_path_buf(),
+            why: format!(
+                "both color/ + depth/ frames and a recording ({}): keep one of them in this session folder",
+                names(&bags)
+            ),
+        }),
+        (false, _) => Err(RgbdError::Layout {
+            path: session.to_path_buf(),
+            why: format!(
+                "{} .bag recordings ({}): keep one per session folder",
+                bags.len(),
+                names(&bags)
+            ),
+        }),
+    }
 }
 
 /// Name of the optional frame time table of an RGB-D session (`frame,time_s`).
