@@ -29,7 +29,7 @@ pub type ElementVector = SVector<f64, 24>;
 const GP: f64 = 0.577_350_269_189_625_8; // 1/sqrt(3)
 
 /// Local node order: (-1,-1,-1), (1,-1,-1), (1,1,-1), (-1,1,-1), then the same at +1.
-const CORNERS: [[f64; 3]; 8] = [
+pub(crate) const CORNERS: [[f64; 3]; 8] = [
     [-1.0, -1.0, -1.0],
     [1.0, -1.0, -1.0],
     [1.0, 1.0, -1.0],

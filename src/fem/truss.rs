@@ -18,6 +18,8 @@
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 use serde::Serialize;
 
+use super::hex::CORNERS;
+
 /// Nodes each segment end is interpolated from (the 8 of its host hexahedron).
 pub const END_NODES: usize = 8;
 /// Degrees of freedom of a segment: 2 ends x 8 host nodes x 3.
@@ -165,16 +167,6 @@ pub fn truss_response(
 /// Trilinear shape functions of the hexahedron at local coordinates ξ (local node order
 /// of [`super::hex`]).
 pub fn hex_shape(xi: [f64; 3]) -> [f64; 8] {
-    const CORNERS: [[f64; 3]; 8] = [
-        [-1.0, -1.0, -1.0],
-        [1.0, -1.0, -1.0],
-        [1.0, 1.0, -1.0],
-        [-1.0, 1.0, -1.0],
-        [-1.0, -1.0, 1.0],
-        [1.0, -1.0, 1.0],
-        [1.0, 1.0, 1.0],
-        [-1.0, 1.0, 1.0],
-    ];
     std::array::from_fn(|a| {
         let n = CORNERS[a];
         0.125 * (1.0 + n[0] * xi[0]) * (1.0 + n[1] * xi[1]) * (1.0 + n[2] * xi[2])
