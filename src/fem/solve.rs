@@ -499,7 +499,12 @@ impl<'m> Solver<'m> {
             .flatten()
             .chain(model.pressure_faces.iter().flatten())
             .chain(model.membranes.iter().flat_map(|m| &m.nodes))
-            .chain(model.trusses.iter().flat_map(|t| t.ends.iter().flat_map(|e| &e.nodes)))
+            .chain(
+                model
+                    .trusses
+                    .iter()
+                    .flat_map(|t| t.ends.iter().flat_map(|e| &e.nodes)),
+            )
             .chain(model.contact.iter().flat_map(|c| {
                 c.pairs
                     .iter()

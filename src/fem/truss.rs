@@ -92,18 +92,18 @@ impl TrussElement {
     }
 }
 
-/// The reference length of a segment, mm.
-pub fn reference_length(t: &TrussElement, nodes: &[Vector3<f64>]) -> f64 {
-    (t.ends[1].position(|a| nodes[a]) - t.ends[0].position(|a| nodes[a])).norm()
-}
-
 /// Axial strain state of a segment: Green strain and second Piola-Kirchhoff stress (MPa).
 pub fn truss_strain_stress(t: &TrussElement, nodes: &[Vector3<f64>], u: &[f64]) -> (f64, f64) {
-    let (_, strain, stress) = kinematics(t, nodes, u);
+    let (_, _, strain, stress) = kinematics(t, nodes, u);
     (strain, stress)
 }
 
-fn kinematics(t: &TrussElement, nodes: &[Vector3<f64>], u: &[f64]) -> (Vector3<f64>, f64, f64) {
+/// Current end-to-end vector, reference length (mm), Green strain and stress (MPa).
+fn kinematics(
+    t: &TrussElement,
+    nodes: &[Vector3<f64>],
+    u: &[f64],
+) -> (Vector3<f64>, f64, f64, f64) {
     let current = |a: usize| nodes[a] + Vector3::new(u[3 * a], u[3 * a + 1], u[3 * a + 2]);
     let d0 = t.ends[1].position(|a| nodes[a]) - t.ends[0].position(|a| nodes[a]);
     let d = t.ends[1].position(current) - t.ends[0].position(current);
@@ -114,7 +114,7 @@ fn kinematics(t: &TrussElement, nodes: &[Vector3<f64>], u: &[f64]) -> (Vector3<f
     } else {
         t.section.youngs_modulus_mpa * strain
     };
-    (d, strain, stress)
+    (d, l0sq.sqrt(), strain, stress)
 }
 
 /// Energy (N mm), force (N) and tangent (N/mm) of a segment at displacement `u` (3 per
@@ -124,8 +124,7 @@ pub fn truss_response(
     nodes: &[Vector3<f64>],
     u: &[f64],
 ) -> (f64, TrussVector, TrussMatrix) {
-    let (d, strain, stress) = kinematics(t, nodes, u);
-    let l0 = reference_length(t, nodes);
+    let (d, l0, strain, stress) = kinematics(t, nodes, u);
     let a = t.section.area_mm2;
     let slack = t.section.tension_only && strain < 0.0;
     let energy = if slack {
@@ -138,7 +137,8 @@ pub fn truss_response(
     let k_end = if slack {
         Matrix3::zeros()
     } else {
-        (Matrix3::identity() * stress + d * d.transpose() * (t.section.youngs_modulus_mpa / (l0 * l0)))
+        (Matrix3::identity() * stress
+            + d * d.transpose() * (t.section.youngs_modulus_mpa / (l0 * l0)))
             * (a / l0)
     };
     let mut f = TrussVector::zeros();
@@ -214,7 +214,10 @@ pub fn embed_point(
     for el in elements {
         let x: [Vector3<f64>; 8] = std::array::from_fn(|a| nodes[el[a]]);
         let (lo, hi) = x.iter().fold(
-            (Vector3::repeat(f64::INFINITY), Vector3::repeat(f64::NEG_INFINITY)),
+            (
+                Vector3::repeat(f64::INFINITY),
+                Vector3::repeat(f64::NEG_INFINITY),
+            ),
             |(lo, hi), v| (lo.inf(v), hi.sup(v)),
         );
         let pad = 1e-9 * (hi - lo).norm();
@@ -279,7 +282,10 @@ mod tests {
             [2.0, 1.5, 1.0],
             [0.0, 1.5, 1.0],
         ];
-        (c.iter().map(|v| Vector3::new(v[0], v[1], v[2])).collect(), std::array::from_fn(|a| a))
+        (
+            c.iter().map(|v| Vector3::new(v[0], v[1], v[2])).collect(),
+            std::array::from_fn(|a| a),
+        )
     }
 
     fn segment(nodes: &[Vector3<f64>], el: [usize; 8], tension_only: bool) -> TrussElement {
@@ -315,7 +321,9 @@ mod tests {
         let t = segment(&nodes, el, false);
         // A stretch with a rotation: every node moved.
         let u: Vec<f64> = (0..24)
-            .map(|k| 0.05 * ((k as f64) * 0.7).sin() + if k % 3 == 0 { 0.01 * k as f64 } else { 0.0 })
+            .map(|k| {
+                0.05 * ((k as f64) * 0.7).sin() + if k % 3 == 0 { 0.01 * k as f64 } else { 0.0 }
+            })
             .collect();
         let (_, f, k) = truss_response(&t, &nodes, &u);
         let dofs = t.nodes();
@@ -348,7 +356,11 @@ mod tests {
         }
         let scale = f.amax().max(1e-12);
         assert!(worst_f < 1e-6 * scale, "force {worst_f} vs {scale}");
-        assert!(worst_k < 1e-5 * k.amax(), "tangent {worst_k} vs {}", k.amax());
+        assert!(
+            worst_k < 1e-5 * k.amax(),
+            "tangent {worst_k} vs {}",
+            k.amax()
+        );
     }
 
     #[test]

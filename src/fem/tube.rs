@@ -46,7 +46,7 @@ pub struct TubeMesh {
     pub model: Model,
     /// The spec it was built from.
     pub spec: TubeSpec,
-    /// Node index of (radial i, around j, axial k).
+    /// Node index strides: around (nodes per radial line) and axial (nodes per ring).
     pub stride: (usize, usize),
 }
 
@@ -79,7 +79,11 @@ pub fn tube_mesh(spec: TubeSpec, material: Yeoh) -> Result<TubeMesh, FemError> {
             let t = std::f64::consts::TAU * j as f64 / nt as f64;
             for i in 0..=nr {
                 let r = ri + (ro - ri) * i as f64 / nr as f64;
-                nodes.push(Vector3::new(r * t.cos(), r * t.sin(), l * k as f64 / nz as f64));
+                nodes.push(Vector3::new(
+                    r * t.cos(),
+                    r * t.sin(),
+                    l * k as f64 / nz as f64,
+                ));
             }
         }
     }
@@ -101,7 +105,12 @@ pub fn tube_mesh(spec: TubeSpec, material: Yeoh) -> Result<TubeMesh, FemError> {
                 ]);
             }
             // Normal +e_r (out of the cavity): e_θ x e_z.
-            pressure_faces.push([id(0, j, k), id(0, j + 1, k), id(0, j + 1, k + 1), id(0, j, k + 1)]);
+            pressure_faces.push([
+                id(0, j, k),
+                id(0, j + 1, k),
+                id(0, j + 1, k + 1),
+                id(0, j, k + 1),
+            ]);
         }
     }
     let mut fixed = vec![false; 3 * nodes.len()];
@@ -159,7 +168,11 @@ pub fn helix(
 ) -> Vec<Vector3<f64>> {
     let turns = length_mm / pitch_mm;
     let n = (turns * per_turn as f64).ceil().max(1.0) as usize;
-    let sign = if handedness == Handedness::Right { 1.0 } else { -1.0 };
+    let sign = if handedness == Handedness::Right {
+        1.0
+    } else {
+        -1.0
+    };
     (0..=n)
         .map(|k| {
             let s = k as f64 / n as f64;
@@ -221,7 +234,10 @@ mod tests {
                 let lt = r / big_r;
                 let lr = 1.0 / (lt * lambda);
                 let i1 = lr * lr + lt * lt + lambda * lambda;
-                e += 0.5 * (ro - ri) / n as f64 * w_incompressible(m, i1) * std::f64::consts::TAU * big_r;
+                e += 0.5 * (ro - ri) / n as f64
+                    * w_incompressible(m, i1)
+                    * std::f64::consts::TAU
+                    * big_r;
             }
         }
         e - p * std::f64::consts::PI * a * a * lambda
@@ -327,7 +343,10 @@ mod tests {
             "plain tube at 10 kPa: stretch {:.4} (analytic {lambda:.4}), inner {:.4} ({a:.4}), outer {:.4} ({b:.4}) mm",
             got.stretch, got.inner, got.outer
         );
-        assert!((got.stretch - lambda).abs() < 0.02 * (lambda - 1.0), "stretch");
+        assert!(
+            (got.stretch - lambda).abs() < 0.02 * (lambda - 1.0),
+            "stretch"
+        );
         assert!((got.inner / a - 1.0).abs() < 0.005, "inner radius");
         assert!((got.outer / b - 1.0).abs() < 0.005, "outer radius");
     }
@@ -346,7 +365,9 @@ mod tests {
         let mut mesh = tube_mesh(SPEC, silicone()).unwrap();
         // A hoop ring through the outer nodes of every node ring.
         for k in 0..=SPEC.axial {
-            let ring: Vec<usize> = (0..=SPEC.around).map(|j| mesh.node(SPEC.radial, j, k)).collect();
+            let ring: Vec<usize> = (0..=SPEC.around)
+                .map(|j| mesh.node(SPEC.radial, j, k))
+                .collect();
             for w in ring.windows(2) {
                 mesh.model.trusses.push(TrussElement {
                     ends: [EmbeddedPoint::at_node(w[0]), EmbeddedPoint::at_node(w[1])],
@@ -368,9 +389,20 @@ mod tests {
         // extension λ − 1 (the rings hold the radius at the nodes only; between them the
         // wall bulges by a little).
         assert!((got.outer / 6.0 - 1.0).abs() < 0.002, "outer {}", got.outer);
-        assert!(free_outer / 6.0 - 1.0 > 0.02, "unreinforced outer {free_outer}");
-        assert!((got.stretch - lambda).abs() < 0.03 * (lambda - 1.0), "stretch {} vs {lambda}", got.stretch);
-        assert!((got.inner / a - 1.0).abs() < 0.005, "inner {} vs {a}", got.inner);
+        assert!(
+            free_outer / 6.0 - 1.0 > 0.02,
+            "unreinforced outer {free_outer}"
+        );
+        assert!(
+            (got.stretch - lambda).abs() < 0.03 * (lambda - 1.0),
+            "stretch {} vs {lambda}",
+            got.stretch
+        );
+        assert!(
+            (got.inner / a - 1.0).abs() < 0.005,
+            "inner {} vs {a}",
+            got.inner
+        );
         assert!(got.twist_deg.abs() < 1e-6, "twist {}", got.twist_deg);
     }
 
@@ -389,11 +421,25 @@ mod tests {
         // 4 kPa: two threads 12 mm a turn leave the wall between them free to bulge; at
         // 10 kPa Newton stalls at 86% of the load (the hoop-wound tube converges there).
         let p = 0.004;
-        let right = wound(&[(Handedness::Right, 0.0), (Handedness::Right, std::f64::consts::PI)]);
-        let left = wound(&[(Handedness::Left, 0.0), (Handedness::Left, std::f64::consts::PI)]);
+        let right = wound(&[
+            (Handedness::Right, 0.0),
+            (Handedness::Right, std::f64::consts::PI),
+        ]);
+        let left = wound(&[
+            (Handedness::Left, 0.0),
+            (Handedness::Left, std::f64::consts::PI),
+        ]);
         let both = wound(&[(Handedness::Right, 0.0), (Handedness::Left, 0.0)]);
-        let (sr, sl, sb) = (solve(&right.model, p), solve(&left.model, p), solve(&both.model, p));
-        let (mr, ml, mb) = (measure(&right, &sr), measure(&left, &sl), measure(&both, &sb));
+        let (sr, sl, sb) = (
+            solve(&right.model, p),
+            solve(&left.model, p),
+            solve(&both.model, p),
+        );
+        let (mr, ml, mb) = (
+            measure(&right, &sr),
+            measure(&left, &sl),
+            measure(&both, &sb),
+        );
         eprintln!(
             "one-way right: twist {:.3} deg over half the tube, stretch {:.4}; left: twist {:.3}; both ways: twist {:.2e}, stretch {:.4}",
             mr.twist_deg, mr.stretch, ml.twist_deg, mb.twist_deg, mb.stretch
@@ -401,8 +447,17 @@ mod tests {
         // A right-handed thread of fixed length unwinds as the tube grows: the far ring
         // turns against the winding. Mirror images twist by opposite angles.
         assert!(mr.twist_deg < -1.0, "{}", mr.twist_deg);
-        assert!((mr.twist_deg + ml.twist_deg).abs() < 1e-6 * mr.twist_deg.abs(), "{} vs {}", mr.twist_deg, ml.twist_deg);
-        assert!(mb.twist_deg.abs() < 0.02 * mr.twist_deg.abs(), "{}", mb.twist_deg);
+        assert!(
+            (mr.twist_deg + ml.twist_deg).abs() < 1e-6 * mr.twist_deg.abs(),
+            "{} vs {}",
+            mr.twist_deg,
+            ml.twist_deg
+        );
+        assert!(
+            mb.twist_deg.abs() < 0.02 * mr.twist_deg.abs(),
+            "{}",
+            mb.twist_deg
+        );
         let worst = right
             .model
             .trusses

@@ -216,20 +216,28 @@ mod tests {
         let mut noise = || {
             // Box-Muller on a 64-bit LCG.
             let mut u = || {
-                state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
                 ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
             };
             let (a, b) = (u(), u());
             (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
         };
-        let y: Vec<f64> = x.iter().map(|p| p[0] * p[0] + p[1].sin() + 0.05 * noise()).collect();
+        let y: Vec<f64> = x
+            .iter()
+            .map(|p| p[0] * p[0] + p[1].sin() + 0.05 * noise())
+            .collect();
         let kind = GpKind {
             mean: super::super::MeanKind::Quadratic,
             corr: super::super::CorrKind::SquaredExponential,
         };
         let n = y.len();
         let coverage = |nugget: f64| {
-            Coverage::of(&y, &cross_predictions(kind, nugget, &x, &y, n, "y").unwrap())
+            Coverage::of(
+                &y,
+                &cross_predictions(kind, nugget, &x, &y, n, "y").unwrap(),
+            )
         };
         let plain = coverage(DEFAULT_NUGGET);
         let best = NUGGETS
