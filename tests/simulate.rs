@@ -191,10 +191,69 @@ fn nonsense_parameters_get_one_line_naming_them() {
     std::fs::write(dir.path().join("typo.toml"), "[geometry]\nwidht = 15.0\n").unwrap();
     Run::new(dir.path(), &["simulate", "--config", "typo.toml"])
         .assert_bad_input(&["typo.toml", "widht"]);
+    std::fs::write(
+        dir.path().join("bellows.toml"),
+        "[geometry]\nfamily = \"bellows\"\n",
+    )
+    .unwrap();
+    Run::new(dir.path(), &["simulate", "--config", "bellows.toml"])
+        .assert_bad_input(&["bellows", "`glove`"]);
+    std::fs::write(
+        dir.path().join("glove.toml"),
+        "layer = []\n[geometry]\nfamily = \"glove\"\n",
+    )
+    .unwrap();
+    Run::new(dir.path(), &["simulate", "--config", "glove.toml"])
+        .assert_bad_input(&["layer", "--family glove --print-config"]);
+    Run::new(
+        dir.path(),
+        &["simulate", "--config", "wide.toml", "--family", "strap"],
+    )
+    .assert_bad_input(&["--family strap contradicts", "pneunets"]);
     assert!(
         !dir.path().join("fem-out").exists(),
         "nothing written on bad input"
     );
+}
+
+/// `--family NAME --print-config` prints the family's whole config, which reads back as
+/// itself; a file naming only the family and one value gets the family's other values.
+#[test]
+fn a_familys_config_is_printed_whole_and_reads_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let printed = Run::new(
+        dir.path(),
+        &["simulate", "--family", "strap", "--print-config"],
+    );
+    assert_eq!(printed.code, 0, "{printed}");
+    let text = printed.stdout.clone();
+    for needle in [
+        "family = \"strap\"",
+        "preset = \"ecoflex0030\"",
+        "gravity_direction = [\n    1.0,\n    0.0,\n    0.0,\n]",
+        "[[layer]]",
+        "name = \"pla\"",
+        "strips = 2",
+        "name = \"fabric\"",
+    ] {
+        assert!(text.contains(needle), "{needle}: {text}");
+    }
+    std::fs::write(dir.path().join("strap.toml"), &text).unwrap();
+    let again = Run::new(
+        dir.path(),
+        &["simulate", "--config", "strap.toml", "--print-config"],
+    );
+    assert_eq!(again.stdout, text);
+    std::fs::write(
+        dir.path().join("short.toml"),
+        "[geometry]\nfamily = \"strap\"\nchambers = 10\n",
+    )
+    .unwrap();
+    let short = Run::new(
+        dir.path(),
+        &["simulate", "--config", "short.toml", "--print-config"],
+    );
+    assert_eq!(short.stdout, text.replace("chambers = 11", "chambers = 10"));
 }
 
 #[test]

@@ -303,15 +303,14 @@ def default_config(family: str = "pneunets") -> dict:
     method.md section 4 names), material, mesh, load (pressures_kpa, gravity), solver.
 
     Args:
-        family: the actuator family; this version has "pneunets" (the PneuNets
-            bending actuator).
+        family: the actuator family: "pneunets" (the reference PneuNets actuator),
+            "glove" (Ecoflex 00-50 with a paper layer) or "strap" (Ecoflex 00-30 with
+            PLA strips and a fabric sheet, hanging).
 
     Raises:
         Error: an unknown family.
     """
-    if family != "pneunets":
-        raise Error(f"unknown actuator family `{family}`: this version has pneunets")
-    return json.loads(_native.default_config())
+    return json.loads(_native.default_config(family))
 
 
 @dataclass

@@ -333,11 +333,12 @@ fn simulate(
     finish(callback, text)
 }
 
-/// The default actuator config (what `bendscope simulate --print-config` prints) as
-/// JSON text.
+/// A family's default actuator config (what `bendscope simulate --family NAME
+/// --print-config` prints) as JSON text.
 #[pyfunction]
-fn default_config() -> PyResult<String> {
-    serde_json::to_string(&ActuatorConfig::default()).map_err(error)
+fn default_config(family: &str) -> PyResult<String> {
+    let family: bendscope::fem::family::Family = family.parse().map_err(error)?;
+    serde_json::to_string(&ActuatorConfig::for_family(family)).map_err(error)
 }
 
 /// Compares a process output folder with a simulate output folder (`bendscope

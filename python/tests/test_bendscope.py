@@ -132,8 +132,12 @@ def test_default_config_round_trips_through_simulate(tmp_path):
     cfg["mesh"]["size_mm"] = 4.0
     sim = bendscope.simulate(config=cfg, out=tmp_path / "fem", vtu=False)
     assert list(sim.steps["pressure_kpa"]) == [30.0]
-    with pytest.raises(bendscope.Error):
+    with pytest.raises(bendscope.Error, match="unknown actuator family 'no-such-family'"):
         bendscope.default_config("no-such-family")
+    glove = bendscope.default_config("glove")
+    assert glove["geometry"]["family"] == "glove"
+    assert [layer["name"] for layer in glove["layer"]] == ["paper"]
+    assert glove["layer"][0]["youngs_modulus_mpa"] == 3000.0
 
 
 def test_calibrate_matches_the_cli_and_the_camera(tmp_path):

@@ -47,6 +47,7 @@ pub fn run(args: &DemoArgs) -> Result<u8> {
     stage(
         "simulate",
         simulate::run(&simulate::SimulateArgs {
+            family: None,
             config: None,
             output: dir.join("fem"),
             mesh_size: Some(3.0),

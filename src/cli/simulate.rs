@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{anyhow, Context, Result};
 use bendscope::fem::actuator::{parse_range, ActuatorConfig};
 use bendscope::fem::analytic::analytic_to;
+use bendscope::fem::family::Family;
 use bendscope::fem::inp::write_inp;
 use bendscope::fem::material::MaterialPreset;
 use bendscope::fem::output::{simulate_to, sweep_to, SimulateOptions, BOTTOM_ELONGATION_LIMIT_PCT};
@@ -21,17 +22,25 @@ side_face.json (the filmed face per step, input of bendscope render), vtu/ + act
 actuator), summary.json; with --blocked force.csv; with --sweep sweep.csv.
 Config sections: [geometry] chambers b i f m p r c g d e l n top_wall roof (mm, method.md §4 names); \
 [material] preset c1 c2 c3 bulk_modulus_mpa density_g_cm3 tensile_strength_mpa scale; [mesh] size_mm; \
-[load] pressures_kpa gravity; [solver] max_iterations tolerance; [layer] thickness_mm youngs_modulus_mpa poisson_ratio height_mm \
-element (membrane or solid). Print the defaults with --print-config."
+[load] pressures_kpa gravity gravity_direction; [solver] max_iterations tolerance; [layer] (or several [[layer]]) name thickness_mm \
+youngs_modulus_mpa poisson_ratio height_mm element (membrane or solid) width_mm strips spacing_mm tensile_strength_mpa; [contact]. \
+[geometry] family = pneunets, glove or strap picks the published design whose values fill what the file leaves out. \
+Print a family's whole config with --family NAME --print-config."
 )]
 pub struct SimulateArgs {
-    /// Actuator file (TOML) [default: the reference actuator, Dragon Skin 30].
+    /// Actuator file (TOML) [default: the family's published design; without --family the
+    /// reference PneuNets actuator, Dragon Skin 30]. Its [geometry] family picks the
+    /// defaults for what it leaves out.
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
+    /// Actuator family: pneunets, glove, strap (the published designs, README
+    /// "Actuator families"); with --print-config prints the family's whole config.
+    #[arg(long, value_name = "NAME")]
+    pub family: Option<Family>,
     /// Output folder.
     #[arg(short, long, value_name = "OUT", default_value = "fem-out")]
     pub output: PathBuf,
-    /// Largest element edge, mm [default: 1.5].
+    /// Largest element edge, mm [default: the config's; 1.5 for every family].
     #[arg(
         long,
         value_name = "MM",
@@ -39,7 +48,7 @@ pub struct SimulateArgs {
         allow_hyphen_values = true
     )]
     pub mesh_size: Option<f64>,
-    /// Pressure steps, kPa: start:stop:step or a,b,c [default: 10:115:5].
+    /// Pressure steps, kPa: start:stop:step or a,b,c [default: the family's; pneunets 10:115:5].
     #[arg(
         long,
         value_name = "KPA",
@@ -100,8 +109,16 @@ fn resolve(args: &SimulateArgs) -> Result<ActuatorConfig> {
                 )
             })?
         }
-        None => ActuatorConfig::default(),
+        None => ActuatorConfig::for_family(args.family.unwrap_or_default()),
     };
+    if let Some(f) = args.family {
+        if f != cfg.geometry.family {
+            return Err(anyhow!(
+                "--family {f} contradicts the config's [geometry] family = \"{}\": leave out --family or change the config",
+                cfg.geometry.family
+            ));
+        }
+    }
     if let Some(h) = args.mesh_size {
         cfg.mesh.size_mm = h;
     }

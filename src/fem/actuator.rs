@@ -24,6 +24,7 @@ use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
 use super::contact::{Contact, ContactConfig, ContactPair};
+use super::family::{self, Family};
 use super::hex::{nodal_volumes, HexGeometry};
 use super::layer::{LayerConfig, LayerElement};
 use super::material::{MaterialPreset, Yeoh, DEFAULT_BULK_TO_SHEAR};
@@ -39,6 +40,8 @@ pub const GRAVITY_M_S2: f64 = 9.806_65;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Geometry {
+    /// The actuator family ([`super::family`]): its defaults fill what a config leaves out.
+    pub family: Family,
     /// Number of chambers (blocks along x).
     pub chambers: usize,
     /// Length (x).
@@ -74,6 +77,7 @@ pub struct Geometry {
 impl Default for Geometry {
     fn default() -> Self {
         Self {
+            family: Family::Pneunets,
             chambers: 9,
             b: 116.0,
             i: 15.0,
@@ -402,7 +406,12 @@ impl SolverConfig {
 }
 
 /// Everything that defines a simulated actuator.
+///
+/// Read from TOML or JSON over its family's defaults ([`super::family::defaults`] of
+/// `geometry.family`): tables merge key by key, other values replace; a single
+/// `[layer]` table updates the family's only layer.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(remote = "Self")]
 #[serde(default, deny_unknown_fields)]
 pub struct ActuatorConfig {
     /// Geometry, mm.
@@ -415,11 +424,81 @@ pub struct ActuatorConfig {
     pub load: LoadConfig,
     /// Newton settings.
     pub solver: SolverConfig,
-    /// An optional strain-limiting layer in the base (`[layer]`; none by default).
-    pub layer: Option<LayerConfig>,
+    /// Strain-limiting layers in the base (`[layer]` for one, `[[layer]]` for several;
+    /// none in the reference actuator).
+    #[serde(
+        deserialize_with = "one_or_many",
+        skip_serializing_if = "Vec::is_empty"
+    )]
+    pub layer: Vec<LayerConfig>,
     /// Frictionless contact between the facing walls of neighbouring chambers
     /// (`[contact]`; off by default).
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub contact: Option<ContactConfig>,
+}
+
+impl Serialize for ActuatorConfig {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        ActuatorConfig::serialize(self, s)
+    }
+}
+
+impl<'de> Deserialize<'de> for ActuatorConfig {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error;
+        let user = serde_json::Value::deserialize(d)?;
+        let family = match user.get("geometry").and_then(|g| g.get("family")) {
+            None => Family::default(),
+            Some(v) => Family::deserialize(v).map_err(D::Error::custom)?,
+        };
+        let mut doc = serde_json::to_value(Self::for_family(family)).map_err(D::Error::custom)?;
+        merge_over(&mut doc, user);
+        strip_nulls(&mut doc);
+        ActuatorConfig::deserialize(doc).map_err(D::Error::custom)
+    }
+}
+
+/// Merges `user` over `base`: objects key by key, anything else replaces; an object
+/// over an array of one object merges into that object (`[layer]` over one layer).
+fn merge_over(base: &mut serde_json::Value, user: serde_json::Value) {
+    use serde_json::Value;
+    match (base, user) {
+        (Value::Object(b), Value::Object(u)) => {
+            for (k, v) in u {
+                match b.get_mut(&k) {
+                    Some(slot) => merge_over(slot, v),
+                    None => {
+                        b.insert(k, v);
+                    }
+                }
+            }
+        }
+        (Value::Array(b), u @ Value::Object(_)) if b.len() == 1 && b[0].is_object() => {
+            merge_over(&mut b[0], u)
+        }
+        (slot, u) => *slot = u,
+    }
+}
+
+/// Removes null members (JSON's "not given", e.g. an unset `c1`).
+fn strip_nulls(v: &mut serde_json::Value) {
+    match v {
+        serde_json::Value::Object(m) => {
+            m.retain(|_, x| !x.is_null());
+            m.values_mut().for_each(strip_nulls);
+        }
+        serde_json::Value::Array(a) => a.iter_mut().for_each(strip_nulls),
+        _ => {}
+    }
+}
+
+/// `[layer]` (one table) or `[[layer]]` (an array of tables).
+fn one_or_many<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<LayerConfig>, D::Error> {
+    use serde::de::Error;
+    match serde_json::Value::deserialize(d)? {
+        v @ serde_json::Value::Array(_) => serde_json::from_value(v).map_err(D::Error::custom),
+        v => Ok(vec![serde_json::from_value(v).map_err(D::Error::custom)?]),
+    }
 }
 
 /// Loads of a simulation.
@@ -428,8 +507,12 @@ pub struct ActuatorConfig {
 pub struct LoadConfig {
     /// Pressure steps, kPa: "start:stop:step" or a comma-separated list.
     pub pressures_kpa: String,
-    /// Gravity along -z.
+    /// Gravity on.
     pub gravity: bool,
+    /// Direction of gravity in the actuator's frame (x from the clamp to the tip, z up
+    /// from the bottom face); [0, 0, -1]: lying bottom down; [1, 0, 0]: hanging from the
+    /// clamp.
+    pub gravity_direction: [f64; 3],
 }
 
 impl Default for LoadConfig {
@@ -437,6 +520,7 @@ impl Default for LoadConfig {
         Self {
             pressures_kpa: "10:115:5".into(),
             gravity: true,
+            gravity_direction: [0.0, 0.0, -1.0],
         }
     }
 }
@@ -514,8 +598,22 @@ impl ActuatorConfig {
         self.geometry.validate()?;
         self.material.yeoh()?;
         self.pressures_kpa()?;
-        if let Some(layer) = &self.layer {
-            layer.validate(self.geometry.f)?;
+        self.validate_layers()?;
+        let d = self.load.gravity_direction;
+        if !(d.iter().all(|v| v.is_finite()) && d.iter().map(|v| v * v).sum::<f64>() > 1e-12) {
+            return Err(bad(
+                "gravity_direction",
+                format!("{d:?}: give a non-zero direction, e.g. [0, 0, -1] (lying) or [1, 0, 0] (hanging)"),
+            ));
+        }
+        if matches!(self.geometry.family, Family::Glove | Family::Strap) && self.layer.is_empty() {
+            return Err(bad(
+                "layer",
+                format!(
+                    "the {} family is a PneuNets with strain-limiting layers, and this config has none: add a [[layer]] (see bendscope simulate --family {} --print-config) or use family = \"pneunets\"",
+                    self.geometry.family, self.geometry.family
+                ),
+            ));
         }
         if let Some(contact) = &self.contact {
             contact.validate()?;
@@ -533,6 +631,59 @@ impl ActuatorConfig {
                 "tolerance",
                 format!("{t}: use a relative tolerance in (0, 1e-3]"),
             ));
+        }
+        Ok(())
+    }
+
+    /// The family's whole default configuration ([`super::family::defaults`]).
+    pub fn for_family(family: Family) -> Self {
+        family::defaults(family)
+    }
+
+    /// Checks every layer against the base and the others: each fits in the base and the
+    /// width; solid layers do not overlap.
+    fn validate_layers(&self) -> Result<(), FemError> {
+        let g = &self.geometry;
+        for (k, layer) in self.layer.iter().enumerate() {
+            layer
+                .validate(g.f)
+                .and_then(|_| layer.validate_width(g.i))
+                .map_err(|e| match e {
+                    FemError::Parameter { name, why } if self.layer.len() > 1 => {
+                        FemError::Parameter {
+                            name: format!("{name} (layer {}, '{}')", k + 1, layer.name),
+                            why,
+                        }
+                    }
+                    e => e,
+                })?;
+        }
+        let solid: Vec<(usize, &LayerConfig)> = self
+            .layer
+            .iter()
+            .enumerate()
+            .filter(|(_, l)| l.element == LayerElement::Solid)
+            .collect();
+        for (a, (ka, la)) in solid.iter().enumerate() {
+            for (kb, lb) in &solid[a + 1..] {
+                let z = la.height_mm < lb.height_mm + lb.thickness_mm
+                    && lb.height_mm < la.height_mm + la.thickness_mm;
+                let y = la.half_y_ranges(g.i).iter().any(|(a0, a1)| {
+                    lb.half_y_ranges(g.i)
+                        .iter()
+                        .any(|(b0, b1)| a0 < b1 && b0 < a1)
+                });
+                if z && y {
+                    return Err(bad(
+                        "layer",
+                        format!(
+                            "solid layers {} and {} overlap: give them different height_mm",
+                            ka + 1,
+                            kb + 1
+                        ),
+                    ));
+                }
+            }
         }
         Ok(())
     }
@@ -603,6 +754,30 @@ pub struct ActuatorMesh {
     /// half the node areas, [`super::contact`]): where `min_wall_gap_mm` is measured,
     /// and the contact pairs when `[contact]` is on.
     pub wall_pairs: Vec<ContactPair>,
+    /// The parts whose stress is reported, the main silicone first.
+    pub parts: Vec<Part>,
+    /// Two nodes of the free end's face, the first below the second on the actuator's
+    /// axis plane: the tip face's twist about the axis is read off them.
+    pub twist_pair: (usize, usize),
+    /// The bottom wall of the first free chamber: the bottom-face nodes (y = 0) under its
+    /// ends and its centre (ends, then centre); its inflation is the centre's distance
+    /// from the ends' chord.
+    pub bottom_wall: Option<[usize; 3]>,
+}
+
+/// A part of the model (a silicone, a layer, a fibre set) and the elements it is made of.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Part {
+    /// Name (silicone, a layer's name, fibre): the stress columns' suffix.
+    pub name: String,
+    /// Tensile strength, MPa, for its safety factor (None: not reported).
+    pub tensile_strength_mpa: Option<f64>,
+    /// Solid elements of this material id ([`Model::element_material`]), if any.
+    pub solid_material: Option<u8>,
+    /// Membrane elements (indices into [`Model::membranes`]).
+    pub membranes: Vec<usize>,
+    /// Fibre segments (indices into [`Model::trusses`]).
+    pub trusses: Vec<usize>,
 }
 
 /// Least number of elements through every wall (side walls beside the chambers and the
@@ -676,26 +851,22 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
         .flat_map(|((b0, b1), (c0, c1))| [(*b0, *c0), (*c1, *b1)])
         .collect();
     let xs = coordinate_lines(fx, h, &x_walls);
-    let ys = coordinate_lines(
-        vec![0.0, 0.5 * g.p, 0.5 * g.l, 0.5 * g.i],
-        h,
-        &[(0.5 * g.l, 0.5 * g.i), (0.5 * g.p, 0.5 * g.i)],
-    );
-    let layer_z = cfg
-        .layer
-        .as_ref()
-        .filter(|l| l.element == LayerElement::Solid)
-        .map(|l| (l.height_mm, l.height_mm + l.thickness_mm));
-    let membrane_z = cfg
-        .layer
-        .as_ref()
-        .filter(|l| l.element == LayerElement::Membrane)
-        .map(LayerConfig::membrane_height_mm);
-    let mut fz = vec![0.0, z_channel, z_cavity, z_gap, g.marker_z(), z_top, a];
-    if let Some((z0, z1)) = layer_z {
-        fz.extend([z0, z1]);
+    let mut fy = vec![0.0, 0.5 * g.p, 0.5 * g.l, 0.5 * g.i];
+    for layer in &cfg.layer {
+        for (y0, y1) in layer.half_y_ranges(g.i) {
+            fy.extend([y0, y1]);
+        }
     }
-    fz.extend(membrane_z);
+    let ys = coordinate_lines(fy, h, &[(0.5 * g.l, 0.5 * g.i), (0.5 * g.p, 0.5 * g.i)]);
+    let mut fz = vec![0.0, z_channel, z_cavity, z_gap, g.marker_z(), z_top, a];
+    for layer in &cfg.layer {
+        match layer.element {
+            LayerElement::Solid => {
+                fz.extend([layer.height_mm, layer.height_mm + layer.thickness_mm])
+            }
+            LayerElement::Membrane => fz.push(layer.membrane_height_mm()),
+        }
+    }
     let zs = coordinate_lines(fz, h, &[(0.0, z_channel), (z_top, a)]);
     let (nx, ny, nz) = (xs.len() - 1, ys.len() - 1, zs.len() - 1);
     if nx * ny * nz > MAX_ELEMENTS {
@@ -752,9 +923,24 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
     };
     let mut elements = Vec::new();
     let mut element_material = Vec::new();
-    let in_layer = |k: usize| {
-        let zc = 0.5 * (zs[k] + zs[k + 1]);
-        layer_z.is_some_and(|(z0, z1)| zc > z0 && zc < z1)
+    // Material of a cell: 0 silicone, k the k-th solid layer (extra_materials[k - 1]).
+    let solid_layers: Vec<&LayerConfig> = cfg
+        .layer
+        .iter()
+        .filter(|l| l.element == LayerElement::Solid)
+        .collect();
+    let in_layer = |j: usize, k: usize| -> u8 {
+        let (yc, zc) = (0.5 * (ys[j] + ys[j + 1]), 0.5 * (zs[k] + zs[k + 1]));
+        solid_layers
+            .iter()
+            .position(|l| {
+                zc > l.height_mm
+                    && zc < l.height_mm + l.thickness_mm
+                    && l.half_y_ranges(g.i)
+                        .iter()
+                        .any(|(y0, y1)| yc > *y0 && yc < *y1)
+            })
+            .map_or(0, |k| (k + 1) as u8)
     };
     for k in 0..nz {
         for j in 0..ny {
@@ -762,7 +948,7 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
                 if cells[cell_id(i, j, k)] != Cell::Solid {
                     continue;
                 }
-                element_material.push(u8::from(in_layer(k)));
+                element_material.push(in_layer(j, k));
                 let corners = [
                     (i, j, k),
                     (i + 1, j, k),
@@ -778,18 +964,30 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
         }
     }
 
-    // Membrane layer: a quad on the plane z = membrane_z under every solid cell above
-    // it (the base is solid through its whole length and width there).
+    // Membrane layers: a quad on the layer's plane under (or over) every solid cell
+    // within its y ranges (the base is solid through its whole length there).
     let mut membranes = Vec::new();
-    if let (Some(zm), Some(layer)) = (membrane_z, cfg.layer.as_ref()) {
-        let km = index_of(&zs, zm);
+    let mut membrane_parts = Vec::new();
+    for layer in cfg
+        .layer
+        .iter()
+        .filter(|l| l.element == LayerElement::Membrane)
+    {
+        let km = index_of(&zs, layer.membrane_height_mm());
         let section = layer.section();
+        let ranges = layer.half_y_ranges(g.i);
+        let mut part = Vec::new();
         for j in 0..ny {
+            let yc = 0.5 * (ys[j] + ys[j + 1]);
+            if !ranges.iter().any(|(y0, y1)| yc > *y0 && yc < *y1) {
+                continue;
+            }
             for i in 0..nx {
                 let above = km < nz && cells[cell_id(i, j, km)] == Cell::Solid;
                 let below = km > 0 && cells[cell_id(i, j, km - 1)] == Cell::Solid;
                 if above || below {
                     let corners = [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)];
+                    part.push(membranes.len());
                     membranes.push(MembraneElement {
                         nodes: corners.map(|(a, b)| node_of[grid_id(a, b, km)]),
                         section,
@@ -797,6 +995,7 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
                 }
             }
         }
+        membrane_parts.push(part);
     }
 
     // Cavity faces: between a cavity cell and a solid neighbour, normal into the solid.
@@ -920,6 +1119,7 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
 
     // Gravity: ρ g ∫ N_a dV along -z (N per mm³ = g/cm³ · 1e-6 kg/mm³ · g).
     let weight_per_mm3 = cfg.material.density_g_cm3 * 1e-6 * GRAVITY_M_S2;
+    let down = Vector3::from(cfg.load.gravity_direction).normalize();
     let mut loads = vec![0.0; 3 * n_nodes];
     if cfg.load.gravity {
         for el in &elements {
@@ -928,7 +1128,9 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
                 why: "degenerate element (mesh bug)".into(),
             })?;
             for (a, v) in nodal_volumes(&geom).iter().enumerate() {
-                loads[3 * el[a] + 2] -= weight_per_mm3 * v;
+                for d in 0..3 {
+                    loads[3 * el[a] + d] += weight_per_mm3 * v * down[d];
+                }
             }
         }
     }
@@ -955,9 +1157,45 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
         .filter(|i| xs[*i] >= g.c - 1e-9)
         .map(|i| node_of[grid_id(i, 0, 0)])
         .collect();
+    let mut parts = vec![Part {
+        name: "silicone".into(),
+        tensile_strength_mpa: Some(cfg.material.tensile_strength_mpa),
+        solid_material: Some(0),
+        membranes: Vec::new(),
+        trusses: Vec::new(),
+    }];
+    let mut membrane_parts = membrane_parts.into_iter();
+    let mut solid_id = 0u8;
+    for layer in &cfg.layer {
+        let (solid_material, membranes) = match layer.element {
+            LayerElement::Solid => {
+                solid_id += 1;
+                (Some(solid_id), Vec::new())
+            }
+            LayerElement::Membrane => (None, membrane_parts.next().unwrap_or_default()),
+        };
+        parts.push(Part {
+            name: layer.name.clone(),
+            tensile_strength_mpa: layer.tensile_strength_mpa,
+            solid_material,
+            membranes,
+            trusses: Vec::new(),
+        });
+    }
+    let twist_pair = (tip, at(g.b, 0.0, a));
+    let bottom_wall = {
+        let (x0, x1) = blocks[1];
+        [
+            at(x0, 0.0, 0.0),
+            at(x1, 0.0, 0.0),
+            at(0.5 * (x0 + x1), 0.0, 0.0),
+        ]
+    };
     if markers
         .iter()
         .chain(&tip_support)
+        .chain(&bottom_wall)
+        .chain(&[twist_pair.1])
         .chain(&bottom_line)
         .chain(std::iter::once(&tip))
         .chain(side_face.iter().flatten())
@@ -977,7 +1215,7 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
             pressure_faces,
             volume_weights: CLOSED,
             element_material,
-            extra_materials: cfg.layer.iter().map(LayerConfig::material).collect(),
+            extra_materials: solid_layers.iter().map(|l| l.material()).collect(),
             membranes,
             trusses: Vec::new(),
             contact: cfg.contact.as_ref().filter(|c| c.enabled).map(|c| Contact {
@@ -993,6 +1231,9 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
         side_face,
         clamp_mm: g.c,
         wall_pairs,
+        parts,
+        twist_pair,
+        bottom_wall: Some(bottom_wall),
     })
 }
 
@@ -1110,6 +1351,7 @@ mod tests {
             load: LoadConfig {
                 pressures_kpa: "-5,10".into(),
                 gravity: true,
+                ..LoadConfig::default()
             },
             ..Default::default()
         };

@@ -93,7 +93,7 @@ pub fn pressure_face_loads(mesh: &ActuatorMesh) -> Result<Vec<(usize, usize)>, F
 
 /// The deck of the model `cfg` describes (see the module doc), and what it holds.
 pub fn inp_from_config(cfg: &ActuatorConfig) -> Result<(String, InpSummary), FemError> {
-    if cfg.layer.is_some() {
+    if !cfg.layer.is_empty() {
         return Err(FemError::Parameter {
             name: "layer".into(),
             why: "--export-inp does not export a [layer] yet: remove the [layer] section or leave out --export-inp".into(),
@@ -232,6 +232,7 @@ mod tests {
             load: LoadConfig {
                 pressures_kpa: "5,10".into(),
                 gravity: false,
+                ..LoadConfig::default()
             },
             ..Default::default()
         }

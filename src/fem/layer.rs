@@ -37,10 +37,13 @@ pub enum LayerElement {
     Solid,
 }
 
-/// An optional strain-limiting layer in the base (`[layer]` in the config).
+/// A strain-limiting layer in the base (`[layer]` in the config, or several as
+/// `[[layer]]`): a sheet across the whole width, or one or two strips along the length.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct LayerConfig {
+    /// What the layer is (paper, fabric, PLA strips...): names its stress columns.
+    pub name: String,
     /// Thickness, mm.
     pub thickness_mm: f64,
     /// Young's modulus, MPa.
@@ -51,6 +54,16 @@ pub struct LayerConfig {
     pub height_mm: f64,
     /// How the layer is meshed: `"membrane"` (default) or `"solid"`.
     pub element: LayerElement,
+    /// Width of each strip, mm; absent: a sheet across the whole width.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub width_mm: Option<f64>,
+    /// Strips (with `width_mm`): 1, centred, or 2, symmetric about the centre line.
+    pub strips: usize,
+    /// Centre-to-centre distance of two strips, mm.
+    pub spacing_mm: f64,
+    /// Tensile strength, MPa (its safety factor; absent: none reported).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tensile_strength_mpa: Option<f64>,
 }
 
 /// Default layer: a fabric-like sheet, 0.2 mm, E = 200 MPa, ν = 0.3, 1 mm above the
@@ -58,11 +71,16 @@ pub struct LayerConfig {
 impl Default for LayerConfig {
     fn default() -> Self {
         Self {
+            name: "layer".into(),
             thickness_mm: 0.2,
             youngs_modulus_mpa: 200.0,
             poisson_ratio: 0.3,
             height_mm: 1.0,
             element: LayerElement::Membrane,
+            width_mm: None,
+            strips: 1,
+            spacing_mm: 0.0,
+            tensile_strength_mpa: None,
         }
     }
 }
@@ -75,8 +93,66 @@ fn bad(name: &str, why: String) -> FemError {
 }
 
 impl LayerConfig {
+    /// The y ranges the layer covers in the half model (y >= 0) of an actuator of width
+    /// `width_mm`.
+    pub fn half_y_ranges(&self, width_mm: f64) -> Vec<(f64, f64)> {
+        match (self.width_mm, self.strips) {
+            (None, _) => vec![(0.0, 0.5 * width_mm)],
+            (Some(w), 1) => vec![(0.0, 0.5 * w)],
+            (Some(w), _) => vec![(0.5 * (self.spacing_mm - w), 0.5 * (self.spacing_mm + w))],
+        }
+    }
+
+    /// Checks the strips' layout against an actuator of width `width_mm`.
+    pub fn validate_width(&self, width_mm: f64) -> Result<(), FemError> {
+        let Some(w) = self.width_mm else {
+            if self.strips != 1 {
+                return Err(bad(
+                    "strips",
+                    format!("{} strips need a width_mm (without it the layer is one sheet across the whole width)", self.strips),
+                ));
+            }
+            return Ok(());
+        };
+        if !(w.is_finite() && w > 0.0) {
+            return Err(bad("width_mm", format!("{w}: must be positive")));
+        }
+        match self.strips {
+            1 if w > width_mm + 1e-9 => Err(bad(
+                "width_mm",
+                format!("a {w} mm strip is wider than the actuator (i = {width_mm} mm): narrow it or leave width_mm out for a sheet"),
+            )),
+            1 => Ok(()),
+            2 => {
+                let s = self.spacing_mm;
+                if !(s.is_finite() && s >= w) {
+                    Err(bad(
+                        "spacing_mm",
+                        format!("{s}: two {w} mm strips need a centre-to-centre spacing of at least their width"),
+                    ))
+                } else if s + w > width_mm + 1e-9 {
+                    Err(bad(
+                        "spacing_mm",
+                        format!("two {w} mm strips {s} mm apart span {} mm, more than the width i = {width_mm} mm", s + w),
+                    ))
+                } else {
+                    Ok(())
+                }
+            }
+            n => Err(bad("strips", format!("{n}: use 1 (centred) or 2 (symmetric)"))),
+        }
+    }
+
     /// Checks the numbers against a base of thickness `f_mm`.
     pub fn validate(&self, f_mm: f64) -> Result<(), FemError> {
+        if let Some(v) = self.tensile_strength_mpa {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(bad(
+                    "tensile_strength_mpa",
+                    format!("{v}: must be positive"),
+                ));
+            }
+        }
         for (name, v) in [
             ("thickness_mm", self.thickness_mm),
             ("youngs_modulus_mpa", self.youngs_modulus_mpa),
@@ -362,6 +438,7 @@ mod tests {
             poisson_ratio: 0.3,
             height_mm: 0.0,
             element,
+            ..LayerConfig::default()
         }
     }
 
@@ -421,6 +498,7 @@ mod tests {
             poisson_ratio: 0.35,
             height_mm: 0.0,
             element: LayerElement::Solid,
+            ..LayerConfig::default()
         };
         let no_poisson = LayerConfig {
             poisson_ratio: 0.0,

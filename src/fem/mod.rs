@@ -30,6 +30,7 @@
 pub mod actuator;
 pub mod analytic;
 pub mod contact;
+pub mod family;
 pub mod hex;
 pub mod inp;
 pub mod layer;

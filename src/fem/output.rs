@@ -133,6 +133,39 @@ fn col(name: &str, decimals: usize, steps: &[StepResult], f: fn(&StepResult) -> 
     Column::num(name, decimals, steps.iter().map(f))
 }
 
+/// `stress_mpa_<part>` and `safety_factor_<part>` for every part beside the main
+/// silicone (layers, fibres, a second silicone), the part's name in snake case.
+fn part_columns(steps: &[StepResult]) -> Vec<Column> {
+    let Some(first) = steps.first() else {
+        return Vec::new();
+    };
+    let mut cols = Vec::new();
+    for (k, part) in first.parts.iter().enumerate().skip(1) {
+        let name: String = part
+            .name
+            .to_ascii_lowercase()
+            .chars()
+            .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+            .collect();
+        let get = |f: fn(&super::simulate::PartStress) -> f64| {
+            steps
+                .iter()
+                .map(move |s| s.parts.get(k).map_or(f64::NAN, f))
+        };
+        cols.push(Column::num(
+            format!("stress_mpa_{name}"),
+            4,
+            get(|p| p.max_principal_stress_mpa),
+        ));
+        cols.push(Column::num(
+            format!("safety_factor_{name}"),
+            4,
+            get(|p| p.safety_factor),
+        ));
+    }
+    cols
+}
+
 /// Writes `steps.csv` and `markers.csv`.
 pub fn write_steps(out: &Path, steps: &[StepResult]) -> Result<(), FemError> {
     write_csv(
@@ -151,13 +184,19 @@ pub fn write_steps(out: &Path, steps: &[StepResult]) -> Result<(), FemError> {
             col("bottom_elongation_pct", 4, steps, |s| {
                 s.bottom_elongation_pct
             }),
+            col("twist_angle_deg", 4, steps, |s| s.twist_angle_deg),
+            col("extension_pct", 4, steps, |s| s.extension_pct),
+            col("bottom_inflation_mm", 5, steps, |s| s.bottom_inflation_mm),
             col("cavity_volume_mm3", 4, steps, |s| s.cavity_volume_mm3),
             col("min_wall_gap_mm", 5, steps, |s| s.min_wall_gap_mm),
             Column::int(
                 "newton_iterations",
                 steps.iter().map(|s| s.newton_iterations as u64),
             ),
-        ],
+        ]
+        .into_iter()
+        .chain(part_columns(steps))
+        .collect::<Vec<_>>(),
     )
     .map_err(output)?;
     let n_markers = steps.first().map(|s| s.markers_mm.len()).unwrap_or(0);
@@ -266,6 +305,8 @@ pub struct SimulateOptions {
 /// `summary.json` and what `simulate` prints.
 #[derive(Debug, Clone, Serialize)]
 pub struct SimulationSummary {
+    /// The actuator family ([`super::family`]).
+    pub family: String,
     /// Nodes of the half model.
     pub nodes_half_model: usize,
     /// Hexahedra of the half model.
@@ -294,6 +335,9 @@ pub struct SimulationSummary {
     pub min_wall_gap_mm: Option<f64>,
     /// Contact penalty stiffness, MPa/mm, when contact between the walls is on.
     pub contact_penalty_mpa_per_mm: Option<f64>,
+    /// The last converged step's results (every column of steps.csv, the markers and
+    /// the stress and safety factor of each part).
+    pub last_step: Option<StepResult>,
 }
 
 /// A simulation's results.
@@ -354,6 +398,8 @@ pub fn simulate_to(
     }
     plot_steps(out, &ramp.steps, &force_steps)?;
     let summary = SimulationSummary {
+        family: cfg.geometry.family.to_string(),
+        last_step: ramp.steps.last().cloned(),
         nodes_half_model: mesh.model.nodes.len(),
         elements_half_model: mesh.model.elements.len(),
         free_dofs: ramp.free_dofs,

@@ -12,7 +12,9 @@ use serde::{Deserialize, Serialize};
 
 use super::actuator::ActuatorMesh;
 use super::contact::{min_gap_mm, ContactConfig};
+use super::membrane::{membrane_stress, MembraneGeometry};
 use super::solve::{LoadState, NewtonSettings, Solver};
+use super::truss::truss_strain_stress;
 use super::FemError;
 use crate::fit::{bending_angle_along_markers_deg, fit_circle_pratt};
 
@@ -38,6 +40,17 @@ pub struct StepResult {
     /// Elongation of the bottom face's centre line beyond the clamp, % (negative: the
     /// bottom is on the inside of the bend and usually shortens).
     pub bottom_elongation_pct: f64,
+    /// Rotation of the free end's face about the actuator's axis, degrees, right-handed
+    /// about +x (0 by symmetry on a half model).
+    pub twist_angle_deg: f64,
+    /// Length change of the polyline through the markers, % (axial extension).
+    pub extension_pct: f64,
+    /// Inflation of the first free chamber's bottom wall, mm: its centre's distance from
+    /// the chord of its ends, positive outward (NaN when the model has no such wall).
+    pub bottom_inflation_mm: f64,
+    /// Largest first principal stress and safety factor of every part (silicone first,
+    /// then each layer and fibre set).
+    pub parts: Vec<PartStress>,
     /// Volume of the cavities (chambers + channel), mm³.
     pub cavity_volume_mm3: f64,
     /// Smallest signed gap between the facing walls of neighbouring chambers, mm
@@ -49,6 +62,18 @@ pub struct StepResult {
     pub blocked_force_n: Option<f64>,
     /// Marker positions (x, z), mm, from the clamp to the tip.
     pub markers_mm: Vec<(f64, f64)>,
+}
+
+/// The stress of one part of the model at a step.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PartStress {
+    /// The part ([`super::actuator::Part`]).
+    pub name: String,
+    /// Largest first principal stress, MPa (Cauchy for solids; the membranes' and
+    /// fibres' second Piola-Kirchhoff stress, equal at their small strains).
+    pub max_principal_stress_mpa: f64,
+    /// Tensile strength / that stress (NaN without a strength).
+    pub safety_factor: f64,
 }
 
 /// `side_face.json`: the filmed side face (y = i/2) of the actuator at every converged
@@ -289,6 +314,20 @@ fn step_result(
     };
     let l0 = length(&mut mesh.bottom_line.iter().map(|n| mesh.model.nodes[*n]));
     let l1 = length(&mut mesh.bottom_line.iter().map(|n| solver.position(*n)));
+    let parts = part_stresses(mesh, solver, stresses);
+    let chain = |pts: &[Vector3<f64>]| pts.windows(2).map(|w| (w[1] - w[0]).norm()).sum::<f64>();
+    let m0: Vec<Vector3<f64>> = mesh.markers.iter().map(|n| mesh.model.nodes[*n]).collect();
+    let m1: Vec<Vector3<f64>> = mesh.markers.iter().map(|n| solver.position(*n)).collect();
+    let v = solver.position(mesh.twist_pair.1) - solver.position(mesh.twist_pair.0);
+    let twist_angle_deg = (-v.y).atan2(v.x.hypot(v.z)).to_degrees();
+    let bottom_inflation_mm = mesh.bottom_wall.map_or(f64::NAN, |[a, b, c]| {
+        let (a, b, c) = (solver.position(a), solver.position(b), solver.position(c));
+        let d = (b - a).normalize();
+        let w = (c - a) - (c - a).dot(&d) * d;
+        // Outward: the chord's normal in the bending plane, -z when straight.
+        let out = Vector3::new(d.z, 0.0, -d.x);
+        w.norm() * w.dot(&out).signum()
+    });
     let blocked_force_n = blocked.then(|| {
         let r = solver.reactions();
         // Support force on the half actuator (+z), doubled: the tip's push on the support.
@@ -304,12 +343,65 @@ fn step_result(
         max_principal_stress_mpa: max_principal_stress,
         safety_factor: mesh.tensile_strength_mpa / max_principal_stress.max(1e-300),
         bottom_elongation_pct: 100.0 * (l1 / l0 - 1.0),
+        twist_angle_deg,
+        extension_pct: 100.0 * (chain(&m1) / chain(&m0) - 1.0),
+        bottom_inflation_mm,
+        parts,
         cavity_volume_mm3: 2.0 * solver.cavity_volume(),
         min_wall_gap_mm: min_gap_mm(&mesh.wall_pairs, &|a| solver.position(a)).unwrap_or(f64::NAN),
         newton_iterations,
         blocked_force_n,
         markers_mm: markers.iter().map(|p| (p.x, p.y)).collect(),
     })
+}
+
+/// The largest first principal stress of every part of `mesh` and its safety factor.
+pub fn part_stresses(
+    mesh: &ActuatorMesh,
+    solver: &Solver,
+    stresses: &[Matrix3<f64>],
+) -> Vec<PartStress> {
+    let model = &mesh.model;
+    let u = solver.displacement();
+    let at = |n: usize| Vector3::new(u[3 * n], u[3 * n + 1], u[3 * n + 2]);
+    mesh.parts
+        .iter()
+        .map(|part| {
+            let mut max = f64::NEG_INFINITY;
+            if let Some(id) = part.solid_material {
+                for (e, s) in stresses.iter().enumerate() {
+                    if model.element_material.get(e).copied().unwrap_or(0) == id {
+                        max = max.max(max_principal(s));
+                    }
+                }
+            }
+            for &k in &part.membranes {
+                let el = &model.membranes[k];
+                let x = el.nodes.map(|n| model.nodes[n]);
+                if let Some(geom) = MembraneGeometry::new(&x) {
+                    let s = membrane_stress(&geom, &el.section, &el.nodes.map(at));
+                    // Largest eigenvalue of [[s11, s12], [s12, s22]].
+                    let (m, r) = (
+                        0.5 * (s[0] + s[1]),
+                        (0.25 * (s[0] - s[1]).powi(2) + s[2] * s[2]).sqrt(),
+                    );
+                    max = max.max(m + r);
+                }
+            }
+            for &k in &part.trusses {
+                let (_, stress) = truss_strain_stress(&model.trusses[k], &model.nodes, u);
+                max = max.max(stress);
+            }
+            let max = if max.is_finite() { max } else { f64::NAN };
+            PartStress {
+                name: part.name.clone(),
+                max_principal_stress_mpa: max,
+                safety_factor: part
+                    .tensile_strength_mpa
+                    .map_or(f64::NAN, |t| t / max.max(1e-300)),
+            }
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -397,12 +489,12 @@ mod layer_tests {
                 gravity: true,
                 ..Default::default()
             },
-            layer: Some(LayerConfig {
+            layer: vec![LayerConfig {
                 thickness_mm: 0.1,
                 youngs_modulus_mpa: 3000.0,
                 element,
                 ..Default::default()
-            }),
+            }],
             ..Default::default()
         };
         let mesh = build_mesh(&cfg).unwrap();
@@ -457,6 +549,7 @@ mod contact_tests {
             load: LoadConfig {
                 pressures_kpa: "10,25,40".into(),
                 gravity: true,
+                ..LoadConfig::default()
             },
             contact,
             ..Default::default()
@@ -626,6 +719,19 @@ pub fn ramp_warnings(steps: &[StepResult], contact: Option<&ContactConfig>) -> V
             s.safety_factor, s.pressure_kpa, s.max_principal_stress_mpa
         ));
     }
+    let parts = steps.first().map_or(0, |s| s.parts.len());
+    for k in 1..parts {
+        if let Some(s) = steps
+            .iter()
+            .find(|s| s.parts.get(k).is_some_and(|p| p.safety_factor < 1.0))
+        {
+            let p = &s.parts[k];
+            w.push(format!(
+                "{}: safety factor {:.2} < 1 from {} kPa (stress {:.1} MPa beyond its tensile strength): it would tear there",
+                p.name, p.safety_factor, s.pressure_kpa, p.max_principal_stress_mpa
+            ));
+        }
+    }
     if let Some(s) = steps
         .iter()
         .find(|s| marker_turning_deg(&s.markers_mm) > 360.0)
@@ -678,6 +784,10 @@ mod warning_tests {
             max_principal_stress_mpa: 3.447 / sf,
             safety_factor: sf,
             bottom_elongation_pct: 0.0,
+            twist_angle_deg: 0.0,
+            extension_pct: 0.0,
+            bottom_inflation_mm: 0.0,
+            parts: Vec::new(),
             cavity_volume_mm3: 0.0,
             min_wall_gap_mm: 1.0 - p / 250.0,
             newton_iterations: 3,
