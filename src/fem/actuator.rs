@@ -525,6 +525,47 @@ impl Default for LoadConfig {
     }
 }
 
+/// The table at `path` in a config document: sections by name; in an array of tables
+/// (`[[layer]]`) an element by its number from 1 or its `name` (`layer.2`,
+/// `layer.fabric`). For sweeps and fits naming `section.field` or `layer.NAME.field`.
+pub fn config_table_at<'a>(
+    doc: &'a mut toml::Table,
+    path: &[&str],
+) -> Result<&'a mut toml::Table, String> {
+    let mut table = doc;
+    for (k, s) in path.iter().enumerate() {
+        let here = path[..=k].join(".");
+        table = match table.get_mut(*s) {
+            Some(toml::Value::Table(t)) => t,
+            Some(toml::Value::Array(items)) => {
+                let Some(next) = path.get(k + 1) else {
+                    return Err(format!("'{here}' is a list: name one of its entries, e.g. {here}.1"));
+                };
+                let count = items.len();
+                let hit = match next.parse::<usize>() {
+                    Ok(n) => n.checked_sub(1).and_then(|i| items.get_mut(i)),
+                    Err(_) => items
+                        .iter_mut()
+                        .find(|v| v.get("name").and_then(|n| n.as_str()) == Some(*next)),
+                };
+                let Some(toml::Value::Table(t)) = hit else {
+                    return Err(format!(
+                        "no entry '{next}' in '{here}' ({count} there: number them from 1 or use their name)"
+                    ));
+                };
+                // The entry's name or number is consumed with it.
+                return config_table_at(t, &path[k + 2..]);
+            }
+            _ => {
+                return Err(format!(
+                    "no section '{here}' (sections: geometry, material, mesh, load, solver, layer, contact)"
+                ))
+            }
+        };
+    }
+    Ok(table)
+}
+
 /// Parses "start:stop:step" (inclusive) or "a,b,c" into values; `what` names the
 /// quantity in messages.
 pub fn parse_range(text: &str, what: &str) -> Result<Vec<f64>, FemError> {

@@ -44,7 +44,7 @@ fn config_table(cfg: &ActuatorConfig) -> Result<toml::Table, FitModelError> {
 /// found in exactly one section (`f`, `scale`); bounds default to the initial value / and
 /// x [`DEFAULT_BOUND_FACTOR`].
 pub fn parse_free(spec: &str, cfg: &ActuatorConfig) -> Result<Vec<FreeParameter>, FitModelError> {
-    let doc = config_table(cfg)?;
+    let mut doc = config_table(cfg)?;
     let material = cfg
         .material
         .yeoh()
@@ -55,7 +55,7 @@ pub fn parse_free(spec: &str, cfg: &ActuatorConfig) -> Result<Vec<FreeParameter>
             Some((n, b)) => (n.trim(), Some(b.trim())),
             None => (item, None),
         };
-        let (section, field) = match name.split_once('.') {
+        let (section, field) = match name.rsplit_once('.') {
             Some((s, f)) => (s.to_string(), f.to_string()),
             None => {
                 let hits: Vec<&String> = doc
@@ -74,10 +74,9 @@ pub fn parse_free(spec: &str, cfg: &ActuatorConfig) -> Result<Vec<FreeParameter>
             }
         };
         let full = format!("{section}.{field}");
-        let table = doc
-            .get(&section)
-            .and_then(|t| t.as_table())
-            .ok_or_else(|| bad(&full, format!("no section [{section}] in the config")))?;
+        let path: Vec<&str> = section.split('.').collect();
+        let table =
+            crate::fem::actuator::config_table_at(&mut doc, &path).map_err(|e| bad(&full, e))?;
         // Unscaled coefficients: `scale` multiplies them in the material.
         let s = cfg.material.scale;
         let initial = match table.get(&field) {
@@ -165,10 +164,9 @@ pub fn with_values(
 ) -> Result<ActuatorConfig, FitModelError> {
     let mut doc = config_table(base)?;
     for (p, v) in params.iter().zip(values) {
-        let table = doc
-            .get_mut(&p.section)
-            .and_then(|t| t.as_table_mut())
-            .ok_or_else(|| bad(&p.name, "no such section"))?;
+        let path: Vec<&str> = p.section.split('.').collect();
+        let table =
+            crate::fem::actuator::config_table_at(&mut doc, &path).map_err(|e| bad(&p.name, e))?;
         table.insert(p.field.clone(), toml::Value::Float(*v));
     }
     let cfg: ActuatorConfig = doc

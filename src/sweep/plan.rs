@@ -158,17 +158,8 @@ pub fn config_with(
             "'{name}': name a config field as section.field (geometry.f, material.c1, load.gravity, mesh.size_mm ...)"
         ));
     };
-    let mut table = &mut doc;
-    for s in sections {
-        table = table
-            .get_mut(*s)
-            .and_then(|t| t.as_table_mut())
-            .ok_or_else(|| {
-                format!(
-                    "'{name}': no section '{s}' (sections: geometry, material, mesh, load, solver)"
-                )
-            })?;
-    }
+    let table = crate::fem::actuator::config_table_at(&mut doc, sections)
+        .map_err(|e| format!("'{name}': {e}"))?;
     let new = match (table.get(*field), value) {
         (Some(toml::Value::Integer(_)), toml::Value::Float(f)) => {
             if f.fract() != 0.0 {
@@ -448,6 +439,41 @@ levels = [8, 9]
         assert!(!gravity.load.gravity);
         let c1 = config_with(&cfg, "material.c1", &toml::Value::Float(0.2)).unwrap();
         assert_eq!(c1.material.c1, Some(0.2));
+    }
+
+    /// A family's layers are factors too: by name or number from 1.
+    #[test]
+    fn a_layer_of_a_family_is_named_by_its_name_or_number() {
+        use crate::fem::family::{defaults, Family};
+        let strap = defaults(Family::Strap);
+        let t = config_with(
+            &strap,
+            "layer.fabric.thickness_mm",
+            &toml::Value::Float(0.2),
+        )
+        .unwrap();
+        assert_eq!(
+            (t.layer[0].thickness_mm, t.layer[1].thickness_mm),
+            (0.5, 0.2)
+        );
+        let e = config_with(
+            &strap,
+            "layer.1.youngs_modulus_mpa",
+            &toml::Value::Float(3500.0),
+        )
+        .unwrap();
+        assert_eq!(e.layer[0].youngs_modulus_mpa, 3500.0);
+        let bad =
+            config_with(&strap, "layer.3.thickness_mm", &toml::Value::Float(0.2)).unwrap_err();
+        assert!(bad.contains("no entry '3' in 'layer' (2 there"), "{bad}");
+        let bad = config_with(&strap, "layer.thickness_mm", &toml::Value::Float(0.2)).unwrap_err();
+        assert!(bad.contains("'layer' is a list"), "{bad}");
+        let fit =
+            crate::fit_model::params::parse_free("layer.pla.youngs_modulus_mpa=2000:6000", &strap)
+                .unwrap();
+        assert_eq!((fit[0].initial, fit[0].lower), (4000.0, 2000.0));
+        let c = crate::fit_model::params::with_values(&strap, &fit, &[3000.0]).unwrap();
+        assert_eq!(c.layer[0].youngs_modulus_mpa, 3000.0);
     }
 
     #[test]
