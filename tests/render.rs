@@ -268,3 +268,63 @@ fn render_refuses_a_folder_that_holds_a_session_unless_forced() {
     let manifest = std::fs::read_to_string(d.join("recorded/pressures.csv")).unwrap();
     assert_eq!(manifest, "file,pressure_kpa\nGX010101.MP4,20\n");
 }
+
+/// A family renders like the reference: the glove (Ecoflex 00-50, paper layer) filmed
+/// through the pinhole camera and measured by the image chain gives the FEM's radius.
+#[test]
+fn a_family_renders_and_measures_like_the_reference() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let sim = Run::new(
+        d,
+        &[
+            "simulate",
+            "--family",
+            "glove",
+            "--mesh-size",
+            "3",
+            "--pressures",
+            "2,3",
+            "--no-vtu",
+            "-o",
+            "fem",
+        ],
+    );
+    assert_eq!(sim.code, 0, "{sim}");
+    let cam = camera();
+    let render = Run::new(
+        d,
+        &[
+            "render",
+            "--fem",
+            "fem",
+            "--calibration",
+            &cam,
+            "--distance-mm",
+            "200",
+            "--frames",
+            "3",
+            "-o",
+            "session",
+        ],
+    );
+    assert_eq!(render.code, 0, "{render}");
+    let process = Run::new(d, &["process", "session", "-o", "measured"]);
+    assert_eq!(process.code, 0, "{process}");
+    let truth: SessionTruth =
+        serde_json::from_str(&std::fs::read_to_string(d.join("session/truth.json")).unwrap())
+            .unwrap();
+    let cols = read_columns(&d.join("measured/per_video.csv"), &["radius_mm"]).unwrap();
+    assert_eq!((truth.videos.len(), cols[0].len()), (2, 2));
+    for (k, v) in truth.videos.iter().enumerate() {
+        let err = cols[0][k] / v.radius_mm - 1.0;
+        eprintln!(
+            "glove {} kPa: radius {:.2} vs {:.2} mm ({:+.3}%)",
+            v.pressure_kpa,
+            cols[0][k],
+            v.radius_mm,
+            100.0 * err
+        );
+        assert!(err.abs() < 0.005, "radius at {} kPa: {err}", v.pressure_kpa);
+    }
+}

@@ -40,7 +40,7 @@ pub struct SimulateArgs {
     /// Output folder.
     #[arg(short, long, value_name = "OUT", default_value = "fem-out")]
     pub output: PathBuf,
-    /// Largest element edge, mm [default: the config's; 1.5 for every family].
+    /// Largest element edge, mm [default: 1.5] (every family's).
     #[arg(
         long,
         value_name = "MM",
