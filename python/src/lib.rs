@@ -148,7 +148,7 @@ fn process(
         total: 0,
     };
     let result = py.detach(|| measure_session(&session, &out, &settings, &mut stages));
-    let outcome = result.map_err(|e| error(format!("{}: {e}", session.display())))?;
+    let outcome = result.map_err(|e| error(e.for_session(&session)))?;
     let text = json!({
         "out": outcome.out,
         "measured": outcome.measured,

@@ -91,6 +91,8 @@ def test_bad_session_raises_the_cli_message(tmp_path):
     assert str(e.value) == line[len("error: "):]
     assert isinstance(e.value, ValueError)
     assert "no such session folder" in str(e.value)
+    # The session's path once, not twice.
+    assert str(e.value).count(str(missing)) == 1
 
 
 def test_bad_simulate_config_raises_the_cli_message(tmp_path):

@@ -103,7 +103,7 @@ pub fn run(args: &ProcessArgs) -> Result<u8> {
                 );
             }
             Err(e) => {
-                eprintln!("error: {}: {e}", session.display());
+                eprintln!("error: {}", e.for_session(session));
                 if e.is_no_space() {
                     no_space += 1;
                 } else {

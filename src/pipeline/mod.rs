@@ -116,6 +116,18 @@ pub enum PipelineError {
 }
 
 impl PipelineError {
+    /// The one-line message for a session that failed with this error: the session's
+    /// path first, once (most errors already start with it or a file inside it).
+    pub fn for_session(&self, session: &Path) -> String {
+        let msg = self.to_string();
+        let path = session.display().to_string();
+        if msg.starts_with(&path) {
+            msg
+        } else {
+            format!("{path}: {msg}")
+        }
+    }
+
     /// True for [`PipelineError::NoSpace`]: the run stopped because the disk is full (the
     /// binary gives it its own exit code).
     pub fn is_no_space(&self) -> bool {
