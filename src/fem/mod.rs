@@ -11,7 +11,7 @@
 //! optionally tension-only) and [`contact`] (frictionless node-to-surface
 //! penalty contact between the facing chamber walls, optional) -> [`solve`] (Newton on
 //! the three-field form, adaptive load steps) -> [`actuator`] (the parametric PneuNets geometry and its half
-//! mesh; [`tube`]: the fibre-wound circular tube) -> [`simulate`] (the pressure ramp and the quantities read off each step),
+//! mesh, with the published designs as [`family`] defaults; [`tube`]: the fibre-wound circular tube) -> [`simulate`] (the pressure ramp and the quantities read off each step),
 //! [`vtu`] (ParaView files), [`output`] (every result file of a run or a sweep) and
 //! [`inp`] (the model as an Abaqus/CalculiX deck).
 //!
