@@ -390,6 +390,21 @@ fn a_long_run_streams_with_bounded_memory_and_a_too_long_one_is_refused_at_once(
     ]);
     assert!(t.elapsed() < std::time::Duration::from_secs(5));
     assert!(!dir.path().join("out").exists());
+    // The line's delay is held sample by sample: a dead time past a minute, or one of
+    // more samples than a run may have, is refused at once too.
+    let with = |extra: &[&'static str]| {
+        let mut a = args("2");
+        a.extend_from_slice(extra);
+        a
+    };
+    Run::new(dir.path(), &with(&["--dead-time-s", "1e9"]))
+        .assert_bad_input(&["--dead-time-s", "between 0 and 60 s"]);
+    Run::new(
+        dir.path(),
+        &with(&["--dead-time-s", "50", "--sample-time-s", "1e-6"]),
+    )
+    .assert_bad_input(&["--sample-time-s", "50000000 delayed samples"]);
+    assert!(!dir.path().join("out").exists());
     // 10,000 s at 100 Hz (1,000,001 samples, ~60 MB of CSV): memory stays bounded.
     let (code, peak_kb) = run_with_peak_rss_kb(dir.path(), &args("10000"));
     assert_eq!(code, 0);

@@ -85,7 +85,7 @@ pub struct ControlArgs {
     /// Valve conductance, L/min (normal) per kPa, for the lag from the cavity volume.
     #[arg(long, value_name = "L_MIN_KPA", default_value_t = DEFAULT_VALVE_CONDUCTANCE_L_MIN_KPA, conflicts_with = "tau_s")]
     pub valve_conductance: f64,
-    /// Dead time of the line, s.
+    /// Dead time of the line, s (0 to 60).
     #[arg(long, value_name = "S", default_value_t = DEFAULT_DEAD_TIME_S)]
     pub dead_time_s: f64,
     /// Regulator range MIN:MAX, kPa [default: the simulated pressures].

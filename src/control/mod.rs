@@ -328,6 +328,17 @@ pub fn control_to(
             why: format!("{} s: give a sample time > 0", settings.sample_s),
         });
     }
+    // The line's delay holds one command per sample of its dead time.
+    let delay_samples = line.dead_time_s / settings.sample_s;
+    if delay_samples > MAX_SAMPLES as f64 {
+        return Err(ControlError::Setting {
+            name: "sample-time-s".into(),
+            why: format!(
+                "{} s with a {} s dead time is {delay_samples:.0} delayed samples to hold, more than {MAX_SAMPLES}: lengthen --sample-time-s",
+                settings.sample_s, line.dead_time_s
+            ),
+        });
+    }
     let duration_s = settings
         .duration_s
         .unwrap_or_else(|| settings.reference.default_duration_s());

@@ -36,6 +36,10 @@ pub const DEFAULT_VALVE_CONDUCTANCE_L_MIN_KPA: f64 = 0.1;
 /// Default dead time of the line, s (valve response plus a metre of 4 mm tubing).
 pub const DEFAULT_DEAD_TIME_S: f64 = 0.03;
 
+/// Longest dead time accepted, s: a line's transport delay is milliseconds (sound
+/// crosses 10 m of tubing in 30 ms); the delay line holds one command per sample of it.
+pub const MAX_DEAD_TIME_S: f64 = 60.0;
+
 /// Default regulator resolution, kPa (a 12-bit command over 0..~400 kPa).
 pub const DEFAULT_RESOLUTION_KPA: f64 = 0.1;
 
@@ -361,10 +365,16 @@ impl PneumaticSettings {
             }
             _ => {}
         }
-        if !(self.dead_time_s.is_finite() && self.dead_time_s >= 0.0) {
+        if !(self.dead_time_s.is_finite()
+            && self.dead_time_s >= 0.0
+            && self.dead_time_s <= MAX_DEAD_TIME_S)
+        {
             return bad(
                 "dead-time-s",
-                format!("{} s: give a dead time >= 0", self.dead_time_s),
+                format!(
+                    "{} s: give a dead time between 0 and {MAX_DEAD_TIME_S} s (a pneumatic line's is tens of milliseconds)",
+                    self.dead_time_s
+                ),
             );
         }
         if !(self.min_kpa.is_finite() && self.max_kpa.is_finite() && self.min_kpa < self.max_kpa) {
