@@ -785,8 +785,6 @@ pub struct ActuatorMesh {
     pub tip_support: Vec<usize>,
     /// Bottom centre line (y = 0, z = 0) beyond the clamp (x >= c), ordered by x.
     pub bottom_line: Vec<usize>,
-    /// Tensile strength, MPa.
-    pub tensile_strength_mpa: f64,
     /// The side face y = i/2 (the filmed face): quads of nodes, counter-clockwise in x-z.
     pub side_face: Vec<[usize; 4]>,
     /// Clamped length (first chamber), mm.
@@ -965,21 +963,20 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
     let mut elements = Vec::new();
     let mut element_material = Vec::new();
     // Material of a cell: 0 silicone, k the k-th solid layer (extra_materials[k - 1]).
-    let solid_layers: Vec<&LayerConfig> = cfg
+    let solid_layers: Vec<(&LayerConfig, Vec<(f64, f64)>)> = cfg
         .layer
         .iter()
         .filter(|l| l.element == LayerElement::Solid)
+        .map(|l| (l, l.half_y_ranges(g.i)))
         .collect();
     let in_layer = |j: usize, k: usize| -> u8 {
         let (yc, zc) = (0.5 * (ys[j] + ys[j + 1]), 0.5 * (zs[k] + zs[k + 1]));
         solid_layers
             .iter()
-            .position(|l| {
+            .position(|(l, ranges)| {
                 zc > l.height_mm
                     && zc < l.height_mm + l.thickness_mm
-                    && l.half_y_ranges(g.i)
-                        .iter()
-                        .any(|(y0, y1)| yc > *y0 && yc < *y1)
+                    && ranges.iter().any(|(y0, y1)| yc > *y0 && yc < *y1)
             })
             .map_or(0, |k| (k + 1) as u8)
     };
@@ -1008,12 +1005,13 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
     // Membrane layers: a quad on the layer's plane under (or over) every solid cell
     // within its y ranges (the base is solid through its whole length there).
     let mut membranes = Vec::new();
-    let mut membrane_parts = Vec::new();
-    for layer in cfg
-        .layer
-        .iter()
-        .filter(|l| l.element == LayerElement::Membrane)
-    {
+    // Each layer's membranes (none for a solid layer), in the config's order.
+    let mut layer_membranes: Vec<Vec<usize>> = Vec::new();
+    for layer in &cfg.layer {
+        if layer.element != LayerElement::Membrane {
+            layer_membranes.push(Vec::new());
+            continue;
+        }
         let km = index_of(&zs, layer.membrane_height_mm());
         let section = layer.section();
         let ranges = layer.half_y_ranges(g.i);
@@ -1036,7 +1034,7 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
                 }
             }
         }
-        membrane_parts.push(part);
+        layer_membranes.push(part);
     }
 
     // Cavity faces: between a cavity cell and a solid neighbour, normal into the solid.
@@ -1205,16 +1203,12 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
         membranes: Vec::new(),
         trusses: Vec::new(),
     }];
-    let mut membrane_parts = membrane_parts.into_iter();
     let mut solid_id = 0u8;
-    for layer in &cfg.layer {
-        let (solid_material, membranes) = match layer.element {
-            LayerElement::Solid => {
-                solid_id += 1;
-                (Some(solid_id), Vec::new())
-            }
-            LayerElement::Membrane => (None, membrane_parts.next().unwrap_or_default()),
-        };
+    for (layer, membranes) in cfg.layer.iter().zip(layer_membranes) {
+        let solid_material = (layer.element == LayerElement::Solid).then(|| {
+            solid_id += 1;
+            solid_id
+        });
         parts.push(Part {
             name: layer.name.clone(),
             tensile_strength_mpa: layer.tensile_strength_mpa,
@@ -1256,7 +1250,7 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
             pressure_faces,
             volume_weights: CLOSED,
             element_material,
-            extra_materials: solid_layers.iter().map(|l| l.material()).collect(),
+            extra_materials: solid_layers.iter().map(|(l, _)| l.material()).collect(),
             membranes,
             trusses: Vec::new(),
             contact: cfg.contact.as_ref().filter(|c| c.enabled).map(|c| Contact {
@@ -1268,7 +1262,6 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
         tip,
         tip_support,
         bottom_line,
-        tensile_strength_mpa: cfg.material.tensile_strength_mpa,
         side_face,
         clamp_mm: g.c,
         wall_pairs,

@@ -300,24 +300,18 @@ fn step_result(
         0.0
     };
     let tip = solver.position(mesh.tip);
-    // Over the silicone only (a strain-limiting layer is far stiffer and stronger).
-    let max_principal_stress = stresses
-        .iter()
-        .enumerate()
-        .filter(|(e, _)| mesh.model.element_material.get(*e).copied().unwrap_or(0) == 0)
-        .map(|(_, s)| max_principal(s))
-        .filter(|v| v.is_finite())
-        .fold(f64::NEG_INFINITY, f64::max);
     let length = |pts: &mut dyn Iterator<Item = Vector3<f64>>| {
         let v: Vec<Vector3<f64>> = pts.collect();
         v.windows(2).map(|w| (w[1] - w[0]).norm()).sum::<f64>()
     };
     let l0 = length(&mut mesh.bottom_line.iter().map(|n| mesh.model.nodes[*n]));
     let l1 = length(&mut mesh.bottom_line.iter().map(|n| solver.position(*n)));
+    let m0 = length(&mut mesh.markers.iter().map(|n| mesh.model.nodes[*n]));
+    let m1 = length(&mut mesh.markers.iter().map(|n| solver.position(*n)));
     let parts = part_stresses(mesh, solver, stresses);
-    let chain = |pts: &[Vector3<f64>]| pts.windows(2).map(|w| (w[1] - w[0]).norm()).sum::<f64>();
-    let m0: Vec<Vector3<f64>> = mesh.markers.iter().map(|n| mesh.model.nodes[*n]).collect();
-    let m1: Vec<Vector3<f64>> = mesh.markers.iter().map(|n| solver.position(*n)).collect();
+    // The main silicone is the mesh's first part (a strain-limiting layer is far stiffer
+    // and stronger: reported as its own part).
+    let silicone = &parts[0];
     let v = solver.position(mesh.twist_pair.1) - solver.position(mesh.twist_pair.0);
     let twist_angle_deg = (-v.y).atan2(v.x.hypot(v.z)).to_degrees();
     let bottom_inflation_mm = mesh.bottom_wall.map_or(f64::NAN, |[a, b, c]| {
@@ -340,11 +334,11 @@ fn step_result(
         bending_angle_deg: angle,
         tip_x_mm: tip.x,
         tip_z_mm: tip.z,
-        max_principal_stress_mpa: max_principal_stress,
-        safety_factor: mesh.tensile_strength_mpa / max_principal_stress.max(1e-300),
+        max_principal_stress_mpa: silicone.max_principal_stress_mpa,
+        safety_factor: silicone.safety_factor,
         bottom_elongation_pct: 100.0 * (l1 / l0 - 1.0),
         twist_angle_deg,
-        extension_pct: 100.0 * (chain(&m1) / chain(&m0) - 1.0),
+        extension_pct: 100.0 * (m1 / m0 - 1.0),
         bottom_inflation_mm,
         parts,
         cavity_volume_mm3: 2.0 * solver.cavity_volume(),
@@ -370,8 +364,9 @@ pub fn part_stresses(
             let mut max = f64::NEG_INFINITY;
             if let Some(id) = part.solid_material {
                 for (e, s) in stresses.iter().enumerate() {
-                    if model.element_material.get(e).copied().unwrap_or(0) == id {
-                        max = max.max(max_principal(s));
+                    let v = max_principal(s);
+                    if model.element_material.get(e).copied().unwrap_or(0) == id && v.is_finite() {
+                        max = max.max(v);
                     }
                 }
             }
