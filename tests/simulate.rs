@@ -49,11 +49,19 @@ fn coarse_ramp_writes_steps_markers_fields_force_and_plots() {
         "max_principal_stress_mpa",
         "safety_factor",
         "bottom_elongation_pct",
+        "twist_angle_deg",
+        "extension_pct",
+        "bottom_inflation_mm",
         "cavity_volume_mm3",
         "min_wall_gap_mm",
         "newton_iterations",
     ] {
         col(&h, name);
+    }
+    // The half model does not twist; the inflating chambers stretch the marker line.
+    for row in &rows {
+        assert!(row[col(&h, "twist_angle_deg")].abs() < 1e-6);
+        assert!(row[col(&h, "extension_pct")] > 0.0);
     }
     // The chambers bulge into the 1 mm gaps between them: the smallest gap shrinks.
     let gap: Vec<f64> = rows.iter().map(|r| r[col(&h, "min_wall_gap_mm")]).collect();
