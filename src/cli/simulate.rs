@@ -24,7 +24,7 @@ Config sections: [geometry] chambers b i f m p r c g d e l n top_wall roof (mm, 
 [material] preset c1 c2 c3 bulk_modulus_mpa density_g_cm3 tensile_strength_mpa scale; [mesh] size_mm; \
 [load] pressures_kpa gravity gravity_direction; [solver] max_iterations tolerance; [layer] (or several [[layer]]) name thickness_mm \
 youngs_modulus_mpa poisson_ratio height_mm element (membrane or solid) width_mm strips spacing_mm tensile_strength_mpa; [contact]. \
-[geometry] family = pneunets, glove or strap picks the published design whose values fill what the file leaves out. \
+[geometry] family = pneunets, glove, strap or fibre-reinforced picks the published design whose values fill what the file leaves out. \
 Print a family's whole config with --family NAME --print-config."
 )]
 pub struct SimulateArgs {
@@ -33,7 +33,7 @@ pub struct SimulateArgs {
     /// defaults for what it leaves out.
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
-    /// Actuator family: pneunets, glove, strap (the published designs, README
+    /// Actuator family: pneunets, glove, strap, fibre-reinforced (the published designs, README
     /// "Actuator families"); with --print-config prints the family's whole config.
     #[arg(long, value_name = "NAME")]
     pub family: Option<Family>,

@@ -25,6 +25,7 @@ use serde::{Deserialize, Serialize};
 
 use super::contact::{Contact, ContactConfig, ContactPair};
 use super::family::{self, Family};
+use super::fibre::TubeConfig;
 use super::hex::{nodal_volumes, HexGeometry};
 use super::layer::{LayerConfig, LayerElement};
 use super::material::{MaterialPreset, Yeoh, DEFAULT_BULK_TO_SHEAR};
@@ -435,6 +436,9 @@ pub struct ActuatorConfig {
     /// (`[contact]`; off by default).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub contact: Option<ContactConfig>,
+    /// The fibre-reinforced tube (`[tube]`; family `fibre-reinforced` only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tube: Option<TubeConfig>,
 }
 
 impl Serialize for ActuatorConfig {
@@ -452,6 +456,16 @@ impl<'de> Deserialize<'de> for ActuatorConfig {
             Some(v) => Family::deserialize(v).map_err(D::Error::custom)?,
         };
         let mut doc = serde_json::to_value(Self::for_family(family)).map_err(D::Error::custom)?;
+        // `bottom_strip = false` without layers of the file's own: the family's strip goes.
+        let no_strip = user
+            .get("tube")
+            .and_then(|t| t.get("bottom_strip"))
+            .is_some_and(|v| v == &serde_json::Value::Bool(false));
+        if no_strip && user.get("layer").is_none() {
+            if let Some(o) = doc.as_object_mut() {
+                o.remove("layer");
+            }
+        }
         merge_over(&mut doc, user);
         strip_nulls(&mut doc);
         ActuatorConfig::deserialize(doc).map_err(D::Error::custom)
@@ -647,6 +661,31 @@ impl ActuatorConfig {
                 format!("{d:?}: give a non-zero direction, e.g. [0, 0, -1] (lying) or [1, 0, 0] (hanging)"),
             ));
         }
+        match (&self.tube, self.geometry.family) {
+            (Some(t), Family::FibreReinforced) => {
+                t.validate()?;
+                super::fibre::validate_strips(self, t)?;
+                if !t.bottom_strip && !self.layer.is_empty() {
+                    return Err(bad(
+                        "tube.bottom_strip",
+                        "false, but the config has [[layer]]s (the strip): remove them or set bottom_strip = true".into(),
+                    ));
+                }
+            }
+            (None, Family::FibreReinforced) => {
+                return Err(bad(
+                    "tube",
+                    "the fibre-reinforced family needs a [tube] section (see bendscope simulate --family fibre-reinforced --print-config)".into(),
+                ))
+            }
+            (Some(_), f) => {
+                return Err(bad(
+                    "tube",
+                    format!("[tube] describes the fibre-reinforced family, and this config is family = \"{f}\": remove [tube] or set family = \"fibre-reinforced\""),
+                ))
+            }
+            (None, _) => {}
+        }
         if matches!(self.geometry.family, Family::Glove | Family::Strap) && self.layer.is_empty() {
             return Err(bad(
                 "layer",
@@ -684,6 +723,10 @@ impl ActuatorConfig {
     /// Checks every layer against the base and the others: each fits in the base and the
     /// width; solid layers do not overlap.
     fn validate_layers(&self) -> Result<(), FemError> {
+        if self.geometry.family == Family::FibreReinforced {
+            // The strip is checked against the tube ([`super::fibre::validate_strips`]).
+            return Ok(());
+        }
         let g = &self.geometry;
         for (k, layer) in self.layer.iter().enumerate() {
             layer
@@ -798,6 +841,9 @@ pub struct ActuatorMesh {
     /// Two nodes of the free end's face, the first below the second on the actuator's
     /// axis plane: the tip face's twist about the axis is read off them.
     pub twist_pair: (usize, usize),
+    /// The model is the half y >= 0 of a mirror-symmetric actuator (forces and volumes
+    /// of the whole are twice the model's).
+    pub half_model: bool,
     /// The bottom wall of the first free chamber: the bottom-face nodes (y = 0) under its
     /// ends and its centre (ends, then centre); its inflation is the centre's distance
     /// from the ends' chord.
@@ -828,7 +874,7 @@ pub const MIN_WALL_ELEMENTS: usize = 2;
 /// Coordinate lines through `features` (sorted, deduplicated), each interval cut into
 /// equal parts no longer than `h`; an interval that is one of `walls` (lo, hi) gets at
 /// least `MIN_WALL_ELEMENTS` parts.
-fn coordinate_lines(mut features: Vec<f64>, h: f64, walls: &[(f64, f64)]) -> Vec<f64> {
+pub(crate) fn coordinate_lines(mut features: Vec<f64>, h: f64, walls: &[(f64, f64)]) -> Vec<f64> {
     features.sort_by(f64::total_cmp);
     features.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
     let is_wall = |a: f64, b: f64| {
@@ -868,6 +914,9 @@ enum Cell {
 /// Meshes the half actuator (y ≥ 0) described by `cfg`.
 pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
     cfg.validate()?;
+    if cfg.geometry.family == Family::FibreReinforced {
+        return super::fibre::build_mesh(cfg);
+    }
     let g = &cfg.geometry;
     let h = cfg.mesh.size_mm;
     let material = cfg.material.yeoh()?;
@@ -1268,6 +1317,7 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
         parts,
         twist_pair,
         bottom_wall: Some(bottom_wall),
+        half_model: true,
     })
 }
 

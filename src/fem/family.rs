@@ -14,11 +14,15 @@
 //! - `strap` (strap study): PneuNets chambers in Ecoflex 00-30 on a base holding two PLA
 //!   strips (4 GPa) under a 0.1 mm polyester fabric sheet (2.5 GPa), hanging from its
 //!   clamp (gravity along the actuator, +x), 0-15 kPa.
+//! - `fibre-reinforced` (DOE study): a D-section tube, Dragon Skin 20 inside Dragon Skin
+//!   10, a Kevlar thread wound both ways or one way, a strip in the flat bottom as a
+//!   `[[layer]]` with `[tube] bottom_strip = true` ([`super::fibre`]).
 
 use serde::{Deserialize, Serialize};
 
 use super::actuator::{ActuatorConfig, Geometry, LoadConfig, MaterialConfig};
 use super::contact::ContactConfig;
+use super::fibre::TubeConfig;
 use super::layer::{LayerConfig, LayerElement};
 use super::material::MaterialPreset;
 
@@ -33,11 +37,18 @@ pub enum Family {
     Glove,
     /// The soft strap: Ecoflex 00-30 chambers, PLA strips and a fabric sheet, hanging.
     Strap,
+    /// The fibre-reinforced tube: D-section, two silicones, wound thread ([`super::fibre`]).
+    FibreReinforced,
 }
 
 impl Family {
     /// Every family, in the order of the docs.
-    pub const ALL: [Family; 3] = [Family::Pneunets, Family::Glove, Family::Strap];
+    pub const ALL: [Family; 4] = [
+        Family::Pneunets,
+        Family::Glove,
+        Family::Strap,
+        Family::FibreReinforced,
+    ];
 
     /// The name in configs and on the command line.
     pub fn name(self) -> &'static str {
@@ -45,6 +56,7 @@ impl Family {
             Family::Pneunets => "pneunets",
             Family::Glove => "glove",
             Family::Strap => "strap",
+            Family::FibreReinforced => "fibre-reinforced",
         }
     }
 }
@@ -155,8 +167,30 @@ pub fn defaults(family: Family) -> ActuatorConfig {
             ],
             ..reference
         },
+        Family::FibreReinforced => ActuatorConfig {
+            geometry: Geometry {
+                family,
+                ..Geometry::default()
+            },
+            material: MaterialConfig {
+                preset: MaterialPreset::DragonSkin20,
+                // Smooth-On Dragon Skin 20: specific gravity 1.08, tensile strength 550 psi.
+                density_g_cm3: 1.08,
+                tensile_strength_mpa: 3.79,
+                ..MaterialConfig::default()
+            },
+            load: LoadConfig {
+                pressures_kpa: FIBRE_PRESSURES.into(),
+                ..LoadConfig::default()
+            },
+            tube: Some(TubeConfig::default()),
+            ..reference
+        },
     }
 }
+
+/// The fibre-reinforced family's default ramp, kPa.
+pub const FIBRE_PRESSURES: &str = "10:60:10";
 
 /// The strap's chambers: a longer, wider, thinner-walled PneuNets than the reference
 /// (the strap study gives no drawing; values stated in the README).

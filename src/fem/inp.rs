@@ -99,6 +99,12 @@ pub fn inp_from_config(cfg: &ActuatorConfig) -> Result<(String, InpSummary), Fem
             why: "--export-inp does not export a [layer] yet: remove the [layer] section or leave out --export-inp".into(),
         });
     }
+    if cfg.geometry.family == super::family::Family::FibreReinforced {
+        return Err(FemError::Parameter {
+            name: "family".into(),
+            why: "--export-inp does not export the fibre-reinforced tube's threads yet: leave out --export-inp".into(),
+        });
+    }
     if cfg.contact.as_ref().is_some_and(|c| c.enabled) {
         return Err(FemError::Parameter {
             name: "contact".into(),

@@ -31,6 +31,7 @@ pub mod actuator;
 pub mod analytic;
 pub mod contact;
 pub mod family;
+pub mod fibre;
 pub mod hex;
 pub mod inp;
 pub mod layer;

@@ -300,6 +300,7 @@ fn step_result(
         0.0
     };
     let tip = solver.position(mesh.tip);
+    let whole = if mesh.half_model { 2.0 } else { 1.0 };
     let length = |pts: &mut dyn Iterator<Item = Vector3<f64>>| {
         let v: Vec<Vector3<f64>> = pts.collect();
         v.windows(2).map(|w| (w[1] - w[0]).norm()).sum::<f64>()
@@ -324,8 +325,8 @@ fn step_result(
     });
     let blocked_force_n = blocked.then(|| {
         let r = solver.reactions();
-        // Support force on the half actuator (+z), doubled: the tip's push on the support.
-        2.0 * mesh.tip_support.iter().map(|n| r[3 * n + 2]).sum::<f64>()
+        // Support force on the model (+z), doubled on a half model: the tip's push.
+        whole * mesh.tip_support.iter().map(|n| r[3 * n + 2]).sum::<f64>()
     });
     Ok(StepResult {
         pressure_kpa,
@@ -341,7 +342,7 @@ fn step_result(
         extension_pct: 100.0 * (m1 / m0 - 1.0),
         bottom_inflation_mm,
         parts,
-        cavity_volume_mm3: 2.0 * solver.cavity_volume(),
+        cavity_volume_mm3: whole * solver.cavity_volume(),
         min_wall_gap_mm: min_gap_mm(&mesh.wall_pairs, &|a| solver.position(a)).unwrap_or(f64::NAN),
         newton_iterations,
         blocked_force_n,
@@ -646,7 +647,11 @@ pub fn thinnest_wall_mm(g: &super::actuator::Geometry) -> (f64, &'static str) {
 /// [`super::actuator::MIN_WALL_ELEMENTS`] through, but the elements are then much longer
 /// than thick).
 pub fn mesh_notes(cfg: &super::actuator::ActuatorConfig) -> Vec<String> {
-    let (t, name) = thinnest_wall_mm(&cfg.geometry);
+    let (t, name) = match &cfg.tube {
+        // The tube's layers are meshed by thickness (one element through at least).
+        Some(_) => return vec![],
+        None => thinnest_wall_mm(&cfg.geometry),
+    };
     let h = cfg.mesh.size_mm;
     if h > t + 1e-9 {
         vec![format!(

@@ -1,0 +1,854 @@
+//! The fibre-reinforced actuator (`family = "fibre-reinforced"`, DOE study; the models of
+//! Polygerinos et al. 2015): a tube of semicircular (D) cross-section, an inner silicone
+//! layer (Dragon Skin 20) inside an outer one (Dragon Skin 10), a thread wound as a helix
+//! on the interface between them, both ways or one way, and optionally a strain-limiting
+//! strip ([`super::layer`], membranes) in the flat bottom. Both ways with the strip it
+//! bends, one way it twists, both ways without the strip it extends.
+//!
+//! Written by hand: no meshing crate builds a structured hexahedral D-section. The cross
+//! section (y across, z up, flat bottom on z = 0) is three blocks of quads: the cavity, a
+//! half disc of radius `a` above z = z0 (the elliptic square-to-disc map of a half square,
+//! so every node lies on a circle arc at the rim); the arc wall, radial lines from the
+//! cavity rim through the interface radius R1 to the outer radius R2; the bottom wall,
+//! the rectangle |y| <= R2, 0 <= z <= z0 under both. The section is extruded along x;
+//! cavity cells at the two ends (`end_cap_mm`) are solid caps, so the cavity is closed and
+//! its pressure faces are the faces between cavity cells and solid elements. The whole
+//! section is meshed (not a half model): a one-way winding is not mirror-symmetric.
+//! Supports: every node with x <= `clamp_mm` is held.
+//!
+//! Threads ([`super::truss`], embedded in the hexahedra) follow the interface loop
+//! (radius R1 over the arc, down its sides, along z = outer wall thickness under the
+//! cavity), advancing one pitch along x per loop, from the top (y = 0), right-handed, and
+//! for `winding = "both"` also left-handed (then the model is mirror-symmetric about
+//! y = 0). Markers: evenly spaced on the side face's edge y = R2, z = z0 (the line a
+//! camera beside the actuator sees at the widest point), from the clamp to the tip.
+
+use nalgebra::{Vector2, Vector3};
+use serde::{Deserialize, Serialize};
+
+use super::actuator::{
+    coordinate_lines, ActuatorConfig, ActuatorMesh, MaterialConfig, Part, GRAVITY_M_S2,
+};
+use super::hex::{nodal_volumes, HexGeometry};
+use super::inp::C3D8_FACES;
+use super::layer::LayerElement;
+use super::material::MaterialPreset;
+use super::membrane::MembraneElement;
+use super::pressure::CLOSED;
+use super::solve::Model;
+use super::truss::{embed_fibre, TrussSection};
+use super::FemError;
+
+/// How the thread is wound (`[tube] winding`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum Winding {
+    /// A right- and a left-handed helix (bending with a bottom strip, extending without).
+    #[default]
+    Both,
+    /// A right-handed helix only (twisting).
+    OneWay,
+}
+
+/// The fibre-reinforced tube (`[tube]`): dimensions, outer silicone, thread, mesh.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TubeConfig {
+    /// Radius of the semicircular cavity, mm.
+    pub inner_radius_mm: f64,
+    /// Inner silicone layer's thickness ([material]), around the arc and under the cavity, mm.
+    pub inner_wall_mm: f64,
+    /// Outer silicone layer's thickness ([tube.outer_material]), mm.
+    pub outer_wall_mm: f64,
+    /// Length, mm.
+    pub length_mm: f64,
+    /// Clamped length from x = 0, mm.
+    pub clamp_mm: f64,
+    /// Solid end caps closing the cavity at both ends, mm.
+    pub end_cap_mm: f64,
+    /// `"both"` or `"one-way"`.
+    pub winding: Winding,
+    /// Advance along the tube per turn of a thread, mm.
+    pub pitch_mm: f64,
+    /// Thread diameter, mm.
+    pub fibre_diameter_mm: f64,
+    /// Thread's Young's modulus, MPa.
+    pub fibre_modulus_mpa: f64,
+    /// Thread's tensile strength, MPa.
+    pub fibre_strength_mpa: f64,
+    /// The thread carries no compression (a cable); false (default): a bar, which
+    /// converges in fewer Newton iterations (the threads stay in tension under pressure).
+    pub fibre_tension_only: bool,
+    /// A strain-limiting strip in the flat bottom: the config's `[[layer]]`s (membranes).
+    pub bottom_strip: bool,
+    /// Markers along the side, evenly spaced from the clamp to the tip.
+    pub markers: usize,
+    /// The outer silicone layer.
+    pub outer_material: MaterialConfig,
+}
+
+/// The DOE study's actuator as far as it is given (chosen values in docs/src/howto/fem.md),
+/// wound both ways without a strip (extending): the strip's variant is a [[layer]] away.
+impl Default for TubeConfig {
+    fn default() -> Self {
+        Self {
+            inner_radius_mm: 6.0,
+            inner_wall_mm: 1.5,
+            outer_wall_mm: 1.0,
+            length_mm: 100.0,
+            clamp_mm: 10.0,
+            end_cap_mm: 3.0,
+            winding: Winding::Both,
+            pitch_mm: 4.0,
+            fibre_diameter_mm: 0.3,
+            // Kevlar thread as modelled by Polygerinos et al. 2015.
+            fibre_modulus_mpa: 31_067.0,
+            fibre_strength_mpa: 3000.0,
+            fibre_tension_only: false,
+            bottom_strip: false,
+            markers: 8,
+            outer_material: MaterialConfig {
+                preset: MaterialPreset::DragonSkin10,
+                // Smooth-On Dragon Skin 10: specific gravity 1.07, tensile strength 475 psi.
+                density_g_cm3: 1.07,
+                tensile_strength_mpa: 3.28,
+                ..MaterialConfig::default()
+            },
+        }
+    }
+}
+
+fn bad(name: &str, why: String) -> FemError {
+    FemError::Parameter {
+        name: format!("tube.{name}"),
+        why,
+    }
+}
+
+impl TubeConfig {
+    /// Interface radius R1 and outer radius R2, mm.
+    pub fn radii(&self) -> (f64, f64) {
+        let r1 = self.inner_radius_mm + self.inner_wall_mm;
+        (r1, r1 + self.outer_wall_mm)
+    }
+
+    /// Height of the cavity's flat floor (the bottom wall's thickness), mm.
+    pub fn floor_mm(&self) -> f64 {
+        self.inner_wall_mm + self.outer_wall_mm
+    }
+
+    /// Width of the flat bottom, mm.
+    pub fn width_mm(&self) -> f64 {
+        2.0 * self.radii().1
+    }
+
+    /// Checks every dimension.
+    pub fn validate(&self) -> Result<(), FemError> {
+        for (name, v) in [
+            ("inner_radius_mm", self.inner_radius_mm),
+            ("inner_wall_mm", self.inner_wall_mm),
+            ("outer_wall_mm", self.outer_wall_mm),
+            ("length_mm", self.length_mm),
+            ("clamp_mm", self.clamp_mm),
+            ("end_cap_mm", self.end_cap_mm),
+            ("pitch_mm", self.pitch_mm),
+            ("fibre_diameter_mm", self.fibre_diameter_mm),
+            ("fibre_modulus_mpa", self.fibre_modulus_mpa),
+            ("fibre_strength_mpa", self.fibre_strength_mpa),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(bad(name, format!("{v}: must be positive")));
+            }
+        }
+        if self.clamp_mm < self.end_cap_mm {
+            return Err(bad(
+                "clamp_mm",
+                format!(
+                    "{} mm is shorter than the end cap ({} mm): clamp at least the cap",
+                    self.clamp_mm, self.end_cap_mm
+                ),
+            ));
+        }
+        if self.clamp_mm + 2.0 * self.end_cap_mm >= self.length_mm {
+            return Err(bad(
+                "length_mm",
+                format!(
+                    "{} mm leaves no free cavity beyond the clamp ({} mm) and the tip cap ({} mm): make it longer",
+                    self.length_mm, self.clamp_mm, self.end_cap_mm
+                ),
+            ));
+        }
+        if self.fibre_diameter_mm > self.inner_wall_mm.min(self.outer_wall_mm) {
+            return Err(bad(
+                "fibre_diameter_mm",
+                format!(
+                    "{} mm is thicker than a silicone layer it lies between: use a thinner thread or thicker walls",
+                    self.fibre_diameter_mm
+                ),
+            ));
+        }
+        if !(1..=100).contains(&self.markers) || self.markers < 3 {
+            return Err(bad(
+                "markers",
+                format!("{}: use 3 to 100 (a circle needs three)", self.markers),
+            ));
+        }
+        self.outer_material.yeoh().map(|_| ())
+    }
+
+    /// The interface loop (radius R1 over the arc, the sides, z = outer wall under the
+    /// cavity) in (y, z), closed, counter-clockwise from the top, sampled `n` times.
+    fn interface_loop(&self, n: usize) -> Vec<Vector2<f64>> {
+        let (r1, _) = self.radii();
+        let (z0, zf) = (self.floor_mm(), self.outer_wall_mm);
+        let side = z0 - zf;
+        let arc = std::f64::consts::PI * r1;
+        let perimeter = arc + 2.0 * side + 2.0 * r1;
+        (0..=n)
+            .map(|k| {
+                // Arc length from the top, counter-clockwise (towards -y first).
+                let s = perimeter * k as f64 / n as f64;
+                let t = std::f64::consts::FRAC_PI_2 + s / r1;
+                if s <= 0.5 * arc {
+                    return Vector2::new(r1 * t.cos(), z0 + r1 * t.sin());
+                }
+                let s = s - 0.5 * arc;
+                if s <= side {
+                    return Vector2::new(-r1, z0 - s);
+                }
+                let s = s - side;
+                if s <= 2.0 * r1 {
+                    return Vector2::new(-r1 + s, zf);
+                }
+                let s = s - 2.0 * r1;
+                if s <= side {
+                    return Vector2::new(r1, zf + s);
+                }
+                let s = s - side;
+                let t = s / r1;
+                Vector2::new(r1 * t.cos(), z0 + r1 * t.sin())
+            })
+            .collect()
+    }
+
+    /// Thread `handed` (+1 right, -1 left) as a polyline from x = `x0` to `x1`.
+    fn thread(&self, handed: f64, x0: f64, x1: f64) -> Vec<Vector3<f64>> {
+        const PER_TURN: usize = 96;
+        let lp = self.interface_loop(PER_TURN);
+        let turns = (x1 - x0) / self.pitch_mm;
+        let n = (turns * PER_TURN as f64).ceil() as usize;
+        (0..=n)
+            .map(|k| {
+                let x = x0 + (x1 - x0) * k as f64 / n as f64;
+                let m = k % PER_TURN;
+                // Right-handed about +x: y, z turn clockwise in the (y, z) plane as x grows.
+                let p = if handed > 0.0 {
+                    lp[PER_TURN - m]
+                } else {
+                    lp[m]
+                };
+                Vector3::new(x, p.x, p.y)
+            })
+            .collect()
+    }
+}
+
+/// Region of a cross-section quad.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Region {
+    Cavity,
+    Inner,
+    Outer,
+}
+
+/// The cross-section: nodes (y, z), quads counter-clockwise with their region, and the
+/// node indices results are read at.
+struct Section {
+    nodes: Vec<Vector2<f64>>,
+    quads: Vec<([usize; 4], Region)>,
+    /// Outer side edge y = R2, z = z0 (markers).
+    marker: usize,
+    /// Bottom centre (0, 0) and top centre (0, z0 + R2).
+    bottom: usize,
+    top: usize,
+    /// Bottom row (z = 0) nodes.
+    bottom_row: Vec<usize>,
+    /// The filmed side's edges (lower node, upper node), bottom to top.
+    side: Vec<(usize, usize)>,
+    /// Membrane row: (z level, nodes along y from -R2 to R2).
+    rows: Vec<(f64, Vec<usize>)>,
+}
+
+fn lines(a: f64, b: f64, parts: usize) -> Vec<f64> {
+    (0..=parts)
+        .map(|k| a + (b - a) * k as f64 / parts as f64)
+        .collect()
+}
+
+fn section(t: &TubeConfig, h: f64, membrane_z: &[f64]) -> Section {
+    let a = t.inner_radius_mm;
+    let (r1, r2) = t.radii();
+    let z0 = t.floor_mm();
+    let parts = |len: f64, least: usize| ((len / h - 1e-9).ceil() as usize).max(least);
+    // Cavity: a half square n_u x n_v mapped to the half disc; n_u even (a node on y = 0).
+    let mut nu = parts(2.0 * a, 4);
+    nu += nu % 2;
+    let nv = nu / 2;
+    let mut nodes: Vec<Vector2<f64>> = Vec::new();
+    let mut core = vec![0usize; (nu + 1) * (nv + 1)];
+    for iv in 0..=nv {
+        for iu in 0..=nu {
+            let (u, v) = (-1.0 + 2.0 * iu as f64 / nu as f64, iv as f64 / nv as f64);
+            core[iv * (nu + 1) + iu] = nodes.len();
+            nodes.push(Vector2::new(
+                a * u * (1.0 - 0.5 * v * v).sqrt(),
+                z0 + a * v * (1.0 - 0.5 * u * u).sqrt(),
+            ));
+        }
+    }
+    let c = |iu: usize, iv: usize| core[iv * (nu + 1) + iu];
+    let mut quads = Vec::new();
+    for iv in 0..nv {
+        for iu in 0..nu {
+            quads.push((
+                [c(iu, iv), c(iu + 1, iv), c(iu + 1, iv + 1), c(iu, iv + 1)],
+                Region::Cavity,
+            ));
+        }
+    }
+    // The rim, counter-clockwise from (a, z0) to (-a, z0).
+    let mut rim: Vec<usize> = (0..=nv).map(|iv| c(nu, iv)).collect();
+    rim.extend((0..nu).rev().map(|iu| c(iu, nv)));
+    rim.extend((0..nv).rev().map(|iv| c(0, iv)));
+    // Arc wall: radial lines through R1 to R2.
+    let (n1, n2) = (parts(t.inner_wall_mm, 2), parts(t.outer_wall_mm, 1));
+    let mut radii = lines(a, r1, n1);
+    radii.extend(lines(r1, r2, n2).into_iter().skip(1));
+    let lr = radii.len() - 1;
+    let mut radial = Vec::with_capacity(rim.len());
+    for &b in &rim {
+        let p = nodes[b] - Vector2::new(0.0, z0);
+        let th = p.y.atan2(p.x);
+        let mut line = vec![b];
+        for r in &radii[1..] {
+            line.push(nodes.len());
+            nodes.push(Vector2::new(r * th.cos(), z0 + r * th.sin()));
+        }
+        radial.push(line);
+    }
+    for m in 0..rim.len() - 1 {
+        for l in 0..lr {
+            let region = if l < n1 { Region::Inner } else { Region::Outer };
+            quads.push((
+                [
+                    radial[m][l],
+                    radial[m][l + 1],
+                    radial[m + 1][l + 1],
+                    radial[m + 1][l],
+                ],
+                region,
+            ));
+        }
+    }
+    // Bottom wall: the row z = z0 from y = -R2 to R2, extruded down to z = 0.
+    let mut top_row: Vec<usize> = (1..=lr).rev().map(|l| radial[rim.len() - 1][l]).collect();
+    top_row.extend((0..=nu).map(|iu| c(iu, 0)));
+    top_row.extend((1..=lr).map(|l| radial[0][l]));
+    let mut zf = vec![0.0, t.outer_wall_mm, z0];
+    zf.extend(membrane_z.iter().copied());
+    let zs = coordinate_lines(zf, h, &[(0.0, z0)]);
+    let nb = zs.len() - 1;
+    let mut rows = vec![Vec::new(); nb + 1];
+    rows[nb] = top_row.clone();
+    for j in (0..nb).rev() {
+        rows[j] = top_row
+            .iter()
+            .map(|&n| {
+                nodes.push(Vector2::new(nodes[n].x, zs[j]));
+                nodes.len() - 1
+            })
+            .collect();
+    }
+    for j in 0..nb {
+        for i in 0..top_row.len() - 1 {
+            let q = [
+                rows[j][i],
+                rows[j][i + 1],
+                rows[j + 1][i + 1],
+                rows[j + 1][i],
+            ];
+            let mid = q.iter().map(|n| nodes[*n]).sum::<Vector2<f64>>() / 4.0;
+            let region = if mid.y > t.outer_wall_mm && mid.x.abs() < r1 {
+                Region::Inner
+            } else {
+                Region::Outer
+            };
+            quads.push((q, region));
+        }
+    }
+    // Every quad counter-clockwise in (y, z).
+    for (q, _) in &mut quads {
+        let p = q.map(|n| nodes[n]);
+        let area2 = (p[2] - p[0]).perp(&(p[3] - p[1]));
+        if area2 < 0.0 {
+            q.reverse();
+        }
+    }
+    let last = top_row.len() - 1;
+    let mut side: Vec<(usize, usize)> = (0..nb)
+        .map(|j| (rows[j][last], rows[j + 1][last]))
+        .collect();
+    side.extend((0..nu).map(|m| (radial[m][lr], radial[m + 1][lr])));
+    let centre = lr + nu / 2;
+    Section {
+        marker: radial[0][lr],
+        bottom: rows[0][centre],
+        top: radial[nu][lr],
+        bottom_row: rows[0].clone(),
+        side,
+        rows: membrane_z
+            .iter()
+            .map(|z| {
+                let j = zs.iter().position(|v| (v - z).abs() < 1e-9).unwrap_or(0);
+                (*z, rows[j].clone())
+            })
+            .collect(),
+        nodes,
+        quads,
+    }
+}
+
+/// Meshes the fibre-reinforced actuator of `cfg` (its `[tube]`, `[material]` for the
+/// inner silicone, `[[layer]]` for the bottom strip).
+pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
+    let t = cfg.tube.clone().unwrap_or_default();
+    t.validate()?;
+    let h = cfg.mesh.size_mm;
+    let l = t.length_mm;
+    let strips: Vec<_> = if t.bottom_strip {
+        cfg.layer.iter().collect()
+    } else {
+        Vec::new()
+    };
+    let membrane_z: Vec<f64> = strips.iter().map(|s| s.membrane_height_mm()).collect();
+    let sec = section(&t, h, &membrane_z);
+    let n_markers = t.markers;
+    let free = l - t.clamp_mm;
+    let marker_x: Vec<f64> = (1..=n_markers)
+        .map(|k| t.clamp_mm + free * (k as f64 - 0.5) / n_markers as f64)
+        .collect();
+    let mut fx = vec![0.0, t.end_cap_mm, t.clamp_mm, l - t.end_cap_mm, l];
+    fx.extend(&marker_x);
+    let xs = coordinate_lines(fx, h, &[]);
+    let (nx, ns) = (xs.len() - 1, sec.nodes.len());
+    let id = |k: usize, n: usize| k * ns + n;
+    let nodes: Vec<Vector3<f64>> = xs
+        .iter()
+        .flat_map(|x| sec.nodes.iter().map(move |p| Vector3::new(*x, p.x, p.y)))
+        .collect();
+    let hex = |k: usize, q: &[usize; 4]| -> [usize; 8] {
+        [
+            id(k, q[0]),
+            id(k, q[1]),
+            id(k, q[2]),
+            id(k, q[3]),
+            id(k + 1, q[0]),
+            id(k + 1, q[1]),
+            id(k + 1, q[2]),
+            id(k + 1, q[3]),
+        ]
+    };
+    let mut elements = Vec::new();
+    let mut element_material = Vec::new();
+    let mut cavity_cells = Vec::new();
+    for k in 0..nx {
+        let xm = 0.5 * (xs[k] + xs[k + 1]);
+        let cap = xm < t.end_cap_mm || xm > l - t.end_cap_mm;
+        for (q, region) in &sec.quads {
+            let e = hex(k, q);
+            match region {
+                Region::Cavity if !cap => cavity_cells.push(e),
+                Region::Outer => {
+                    elements.push(e);
+                    element_material.push(1u8);
+                }
+                _ => {
+                    elements.push(e);
+                    element_material.push(0u8);
+                }
+            }
+        }
+    }
+    // Pressure faces: faces of solid elements shared with a cavity cell, as the solid
+    // lists them (counter-clockwise seen from inside it: normal out of the cavity).
+    let key = |mut q: [usize; 4]| {
+        q.sort_unstable();
+        q
+    };
+    let mut solid_faces = std::collections::HashMap::new();
+    for el in &elements {
+        for local in &C3D8_FACES {
+            let f = local.map(|a| el[a]);
+            solid_faces.insert(key(f), f);
+        }
+    }
+    let pressure_faces: Vec<[usize; 4]> = cavity_cells
+        .iter()
+        .flat_map(|el| C3D8_FACES.iter().map(move |local| local.map(|a| el[a])))
+        .filter_map(|f| solid_faces.get(&key(f)).copied())
+        .collect();
+
+    let n_nodes = nodes.len();
+    let mut fixed = vec![false; 3 * n_nodes];
+    for (a, x) in nodes.iter().enumerate() {
+        if x.x <= t.clamp_mm + 1e-9 {
+            fixed[3 * a..3 * a + 3].fill(true);
+        }
+    }
+    let inner = cfg.material.yeoh()?;
+    let outer = t.outer_material.yeoh()?;
+    let mut loads = vec![0.0; 3 * n_nodes];
+    if cfg.load.gravity {
+        let down = Vector3::from(cfg.load.gravity_direction).normalize();
+        for (el, m) in elements.iter().zip(&element_material) {
+            let density = if *m == 0 {
+                cfg.material.density_g_cm3
+            } else {
+                t.outer_material.density_g_cm3
+            };
+            let x: [Vector3<f64>; 8] = std::array::from_fn(|a| nodes[el[a]]);
+            let geom = HexGeometry::new(&x).ok_or(FemError::Model {
+                why: "degenerate element (mesh bug)".into(),
+            })?;
+            for (a, v) in nodal_volumes(&geom).iter().enumerate() {
+                for d in 0..3 {
+                    loads[3 * el[a] + d] += density * 1e-6 * GRAVITY_M_S2 * v * down[d];
+                }
+            }
+        }
+    }
+
+    // Threads on the interface, over the whole length but the last half element.
+    let section_fibre = TrussSection {
+        area_mm2: 0.25 * std::f64::consts::PI * t.fibre_diameter_mm.powi(2),
+        youngs_modulus_mpa: t.fibre_modulus_mpa,
+        tension_only: t.fibre_tension_only,
+    };
+    let hands: &[f64] = match t.winding {
+        Winding::Both => &[1.0, -1.0],
+        Winding::OneWay => &[1.0],
+    };
+    let mut trusses = Vec::new();
+    let step = (h.min(t.pitch_mm)) * 0.5;
+    for handed in hands {
+        let path = t.thread(*handed, 0.25 * xs[1], l - 0.25 * (l - xs[nx - 1]));
+        let mut threads =
+            embed_fibre(&nodes, &elements, &path, step, section_fibre).map_err(|i| {
+                FemError::Model {
+                    why: format!(
+                        "thread point {i} ({:.3?}) is outside the body (mesh bug)",
+                        path[i]
+                    ),
+                }
+            })?;
+        trusses.append(&mut threads);
+    }
+
+    // Bottom strips: membranes on their rows, across the y ranges they cover.
+    let mut membranes = Vec::new();
+    let mut strip_parts = Vec::new();
+    for (layer, (_, row)) in strips.iter().zip(&sec.rows) {
+        let ranges: Vec<(f64, f64)> = layer
+            .half_y_ranges(t.width_mm())
+            .into_iter()
+            .flat_map(|(a, b)| [(a, b), (-b, -a)])
+            .collect();
+        let section = layer.section();
+        let mut part = Vec::new();
+        for w in row.windows(2) {
+            let ym = 0.5 * (sec.nodes[w[0]].x + sec.nodes[w[1]].x);
+            if !ranges.iter().any(|(a, b)| ym > *a && ym < *b) {
+                continue;
+            }
+            for k in 0..nx {
+                part.push(membranes.len());
+                membranes.push(MembraneElement {
+                    nodes: [id(k, w[0]), id(k + 1, w[0]), id(k + 1, w[1]), id(k, w[1])],
+                    section,
+                });
+            }
+        }
+        strip_parts.push(part);
+    }
+
+    let at_x = |x: f64| {
+        xs.iter()
+            .enumerate()
+            .min_by(|a, b| (a.1 - x).abs().total_cmp(&(b.1 - x).abs()))
+            .map_or(0, |(k, _)| k)
+    };
+    let markers: Vec<usize> = marker_x.iter().map(|x| id(at_x(*x), sec.marker)).collect();
+    let tip = id(nx, sec.bottom);
+    let side_face: Vec<[usize; 4]> = (0..nx)
+        .flat_map(|k| {
+            sec.side
+                .iter()
+                .map(move |(lo, hi)| [id(k, *lo), id(k + 1, *lo), id(k + 1, *hi), id(k, *hi)])
+        })
+        .collect();
+    let tip_support: Vec<usize> = sec.bottom_row.iter().map(|n| id(nx, *n)).collect();
+    let k_clamp = at_x(t.clamp_mm);
+    let bottom_line: Vec<usize> = (k_clamp..=nx).map(|k| id(k, sec.bottom)).collect();
+    let mut parts = vec![
+        Part {
+            name: "silicone".into(),
+            tensile_strength_mpa: Some(cfg.material.tensile_strength_mpa),
+            solid_material: Some(0),
+            membranes: Vec::new(),
+            trusses: Vec::new(),
+        },
+        Part {
+            name: "outer".into(),
+            tensile_strength_mpa: Some(t.outer_material.tensile_strength_mpa),
+            solid_material: Some(1),
+            membranes: Vec::new(),
+            trusses: Vec::new(),
+        },
+        Part {
+            name: "fibre".into(),
+            tensile_strength_mpa: Some(t.fibre_strength_mpa),
+            solid_material: None,
+            membranes: Vec::new(),
+            trusses: (0..trusses.len()).collect(),
+        },
+    ];
+    for (layer, membranes) in strips.iter().zip(strip_parts) {
+        parts.push(Part {
+            name: layer.name.clone(),
+            tensile_strength_mpa: layer.tensile_strength_mpa,
+            solid_material: None,
+            membranes,
+            trusses: Vec::new(),
+        });
+    }
+    Ok(compact(ActuatorMesh {
+        model: Model {
+            nodes,
+            elements,
+            material: inner,
+            fixed,
+            loads,
+            pressure_faces,
+            volume_weights: CLOSED,
+            element_material,
+            extra_materials: vec![outer],
+            membranes,
+            trusses,
+            contact: None,
+        },
+        markers,
+        tip,
+        tip_support,
+        bottom_line,
+        side_face,
+        clamp_mm: t.clamp_mm,
+        wall_pairs: Vec::new(),
+        parts,
+        twist_pair: (tip, id(nx, sec.top)),
+        bottom_wall: None,
+        half_model: false,
+    }))
+}
+
+/// `mesh` without the nodes no element holds (inside the cavity between the caps).
+fn compact(mut mesh: ActuatorMesh) -> ActuatorMesh {
+    let m = &mut mesh.model;
+    let mut new_id = vec![usize::MAX; m.nodes.len()];
+    let mut kept = 0;
+    for el in &m.elements {
+        for &n in el {
+            if new_id[n] == usize::MAX {
+                new_id[n] = 0;
+            }
+        }
+    }
+    for id in new_id.iter_mut() {
+        if *id == 0 {
+            *id = kept;
+            kept += 1;
+        }
+    }
+    let keep = |v: &[f64], width: usize| -> Vec<f64> {
+        (0..new_id.len())
+            .filter(|a| new_id[*a] != usize::MAX)
+            .flat_map(|a| v[width * a..width * a + width].to_vec())
+            .collect()
+    };
+    m.fixed = (0..new_id.len())
+        .filter(|a| new_id[*a] != usize::MAX)
+        .flat_map(|a| m.fixed[3 * a..3 * a + 3].to_vec())
+        .collect();
+    m.loads = keep(&m.loads, 3);
+    m.nodes = (0..new_id.len())
+        .filter(|a| new_id[*a] != usize::MAX)
+        .map(|a| m.nodes[a])
+        .collect();
+    let map = |n: &mut usize| *n = new_id[*n];
+    m.elements.iter_mut().flatten().for_each(map);
+    m.pressure_faces.iter_mut().flatten().for_each(map);
+    m.membranes
+        .iter_mut()
+        .flat_map(|e| e.nodes.iter_mut())
+        .for_each(map);
+    for t in &mut m.trusses {
+        for end in &mut t.ends {
+            end.nodes.iter_mut().for_each(map);
+        }
+    }
+    mesh.markers.iter_mut().for_each(map);
+    map(&mut mesh.tip);
+    mesh.tip_support.iter_mut().for_each(map);
+    mesh.bottom_line.iter_mut().for_each(map);
+    mesh.side_face.iter_mut().flatten().for_each(map);
+    map(&mut mesh.twist_pair.0);
+    map(&mut mesh.twist_pair.1);
+    mesh
+}
+
+/// Checks the bottom strips against the tube: membranes, inside the bottom wall.
+pub fn validate_strips(cfg: &ActuatorConfig, t: &TubeConfig) -> Result<(), FemError> {
+    if t.bottom_strip && cfg.layer.is_empty() {
+        return Err(bad(
+            "bottom_strip",
+            "true, but the config has no [[layer]] for the strip: add one (see bendscope simulate --family fibre-reinforced --print-config) or set bottom_strip = false".into(),
+        ));
+    }
+    for layer in &cfg.layer {
+        if layer.element != LayerElement::Membrane {
+            return Err(FemError::Parameter {
+                name: "layer.element".into(),
+                why: format!("'{}': the fibre-reinforced tube takes membrane strips only: set element = \"membrane\"", layer.name),
+            });
+        }
+        layer.validate(t.floor_mm())?;
+        layer.validate_width(t.width_mm())?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fem::family::{defaults, Family};
+    use crate::fem::simulate::{run_ramp, RampSettings, StepResult};
+    use crate::fem::solve::Solver;
+
+    fn coarse(winding: Winding) -> ActuatorConfig {
+        let mut cfg = defaults(Family::FibreReinforced);
+        cfg.mesh.size_mm = 2.0;
+        cfg.load.gravity = false;
+        cfg.tube.as_mut().unwrap().winding = winding;
+        cfg
+    }
+
+    fn step(cfg: &ActuatorConfig, mesh: &ActuatorMesh, kpa: f64) -> StepResult {
+        let ramp = run_ramp(
+            mesh,
+            &[kpa],
+            &RampSettings {
+                newton: cfg.solver.newton(),
+                ..Default::default()
+            },
+            |_, _| {},
+        )
+        .unwrap();
+        assert!(ramp.failure.is_none(), "{:?}", ramp.failure);
+        ramp.steps[0].clone()
+    }
+
+    /// The mesh encloses the D-section cavity between the caps (its arc a polygon of
+    /// nodes on the circle: 1.2% less area at 2 mm), every element is valid, and the
+    /// threads lie on the interface loop over the length.
+    #[test]
+    fn the_tube_mesh_encloses_the_cavity_and_holds_the_threads() {
+        let cfg = coarse(Winding::Both);
+        let t = cfg.tube.clone().unwrap();
+        let mesh = build_mesh(&cfg).unwrap();
+        let solver = Solver::new(&mesh.model).unwrap();
+        let v = 0.5
+            * std::f64::consts::PI
+            * t.inner_radius_mm.powi(2)
+            * (t.length_mm - 2.0 * t.end_cap_mm);
+        let ratio = solver.cavity_volume() / v;
+        assert!(ratio > 0.985 && ratio < 1.0, "{ratio}");
+        // Every node of the model is held by an element (no free nodes in the cavity).
+        let mut held = vec![false; mesh.model.nodes.len()];
+        mesh.model
+            .elements
+            .iter()
+            .flatten()
+            .for_each(|n| held[*n] = true);
+        assert!(held.iter().all(|h| *h));
+        // Two threads, each about (length / pitch) loops of the interface's perimeter.
+        let (r1, _) = t.radii();
+        let perimeter = std::f64::consts::PI * r1 + 2.0 * t.inner_wall_mm + 2.0 * r1;
+        let along: f64 = mesh
+            .model
+            .trusses
+            .iter()
+            .map(|e| {
+                let [a, b] = e.ends.map(|p| p.position(|n| mesh.model.nodes[n]));
+                (b - a).norm()
+            })
+            .sum();
+        let expected = 2.0 * (t.length_mm / t.pitch_mm) * perimeter;
+        assert!(
+            (along / expected - 1.0).abs() < 0.03,
+            "{along} vs {expected}"
+        );
+        assert_eq!(
+            mesh.parts
+                .iter()
+                .map(|p| p.name.as_str())
+                .collect::<Vec<_>>(),
+            ["silicone", "outer", "fibre"]
+        );
+    }
+
+    /// Wound both ways the tube extends without twisting (mirror-symmetric to round-off);
+    /// one way it twists.
+    #[test]
+    fn both_ways_the_tube_extends_one_way_it_twists() {
+        let cfg = coarse(Winding::Both);
+        let both = step(&cfg, &build_mesh(&cfg).unwrap(), 10.0);
+        eprintln!(
+            "both: twist {} ext {} angle {} fibre {:?}",
+            both.twist_angle_deg, both.extension_pct, both.bending_angle_deg, both.parts[2]
+        );
+        assert!(
+            both.twist_angle_deg.abs() < 1e-6,
+            "{}",
+            both.twist_angle_deg
+        );
+        // Measured 3.28% at 10 kPa (2 mm mesh, no gravity); the flat bottom, thicker
+        // than the arc's wall, bends it a little (4.6 deg).
+        assert!(
+            both.extension_pct > 2.0 && both.extension_pct < 5.0,
+            "{}",
+            both.extension_pct
+        );
+        assert!(
+            both.parts[2].max_principal_stress_mpa > 10.0,
+            "{:?}",
+            both.parts[2]
+        );
+        let cfg = coarse(Winding::OneWay);
+        let one = step(&cfg, &build_mesh(&cfg).unwrap(), 10.0);
+        eprintln!(
+            "one-way: twist {} ext {}",
+            one.twist_angle_deg, one.extension_pct
+        );
+        // Measured 15.7 deg at 10 kPa.
+        assert!(one.twist_angle_deg.abs() > 5.0, "{}", one.twist_angle_deg);
+    }
+}
