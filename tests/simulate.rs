@@ -264,6 +264,60 @@ fn a_familys_config_is_printed_whole_and_reads_back() {
     assert_eq!(short.stdout, text.replace("chambers = 11", "chambers = 10"));
 }
 
+/// The fibre-reinforced family prints its `[tube]` and reads back; its contradictions
+/// (a strip without a layer, a `[tube]` on another family) and the export of its threads
+/// are refused in one line, exit 2, nothing written.
+#[test]
+fn the_fibre_reinforced_family_prints_its_tube_and_refuses_contradictions() {
+    let dir = tempfile::tempdir().unwrap();
+    let printed = Run::new(
+        dir.path(),
+        &["simulate", "--family", "fibre-reinforced", "--print-config"],
+    );
+    assert_eq!(printed.code, 0, "{printed}");
+    let text = printed.stdout.clone();
+    for needle in [
+        "family = \"fibre-reinforced\"",
+        "preset = \"dragonskin20\"",
+        "[tube]",
+        "winding = \"both\"",
+        "bottom_strip = false",
+        "[tube.outer_material]",
+        "preset = \"dragonskin10\"",
+    ] {
+        assert!(text.contains(needle), "{needle}: {text}");
+    }
+    std::fs::write(dir.path().join("tube.toml"), &text).unwrap();
+    let again = Run::new(
+        dir.path(),
+        &["simulate", "--config", "tube.toml", "--print-config"],
+    );
+    assert_eq!(again.stdout, text);
+    std::fs::write(
+        dir.path().join("strip.toml"),
+        "[geometry]\nfamily = \"fibre-reinforced\"\n[tube]\nbottom_strip = true\n",
+    )
+    .unwrap();
+    Run::new(dir.path(), &["simulate", "--config", "strip.toml"])
+        .assert_bad_input(&["tube.bottom_strip", "[[layer]]"]);
+    std::fs::write(dir.path().join("other.toml"), "[tube]\npitch_mm = 3.0\n").unwrap();
+    Run::new(dir.path(), &["simulate", "--config", "other.toml"])
+        .assert_bad_input(&["[tube]", "fibre-reinforced"]);
+    Run::new(
+        dir.path(),
+        &[
+            "simulate",
+            "--config",
+            "tube.toml",
+            "--export-inp",
+            "tube.inp",
+        ],
+    )
+    .assert_bad_input(&["--export-inp", "threads"]);
+    assert!(!dir.path().join("tube.inp").exists());
+    assert!(!dir.path().join("fem-out").exists());
+}
+
 #[test]
 fn radius_at_115_kpa_changes_less_than_3_percent_on_a_refined_mesh() {
     // Mesh convergence of the reference actuator: the former default mesh (2 mm) against
