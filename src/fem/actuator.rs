@@ -911,6 +911,35 @@ enum Cell {
     Outside,
 }
 
+/// Nodal gravity loads at load factor 1 (zero when `cfg.load.gravity` is off): ρ g ∫ N_a dV
+/// along the gravity direction (N per mm³ = g/cm³ · 1e-6 kg/mm³ · g), element e of density
+/// `density_g_cm3(e)`.
+pub(crate) fn gravity_loads(
+    cfg: &ActuatorConfig,
+    nodes: &[Vector3<f64>],
+    elements: &[[usize; 8]],
+    density_g_cm3: impl Fn(usize) -> f64,
+) -> Result<Vec<f64>, FemError> {
+    let mut loads = vec![0.0; 3 * nodes.len()];
+    if !cfg.load.gravity {
+        return Ok(loads);
+    }
+    let down = Vector3::from(cfg.load.gravity_direction).normalize();
+    for (e, el) in elements.iter().enumerate() {
+        let weight_per_mm3 = density_g_cm3(e) * 1e-6 * GRAVITY_M_S2;
+        let x: [Vector3<f64>; 8] = std::array::from_fn(|a| nodes[el[a]]);
+        let geom = HexGeometry::new(&x).ok_or(FemError::Model {
+            why: "degenerate element (mesh bug)".into(),
+        })?;
+        for (a, v) in nodal_volumes(&geom).iter().enumerate() {
+            for d in 0..3 {
+                loads[3 * el[a] + d] += weight_per_mm3 * v * down[d];
+            }
+        }
+    }
+    Ok(loads)
+}
+
 /// Meshes the half actuator (y ≥ 0) described by `cfg`.
 pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
     cfg.validate()?;
@@ -1205,23 +1234,7 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
         }
     }
 
-    // Gravity: ρ g ∫ N_a dV along -z (N per mm³ = g/cm³ · 1e-6 kg/mm³ · g).
-    let weight_per_mm3 = cfg.material.density_g_cm3 * 1e-6 * GRAVITY_M_S2;
-    let down = Vector3::from(cfg.load.gravity_direction).normalize();
-    let mut loads = vec![0.0; 3 * n_nodes];
-    if cfg.load.gravity {
-        for el in &elements {
-            let x: [Vector3<f64>; 8] = std::array::from_fn(|a| nodes[el[a]]);
-            let geom = HexGeometry::new(&x).ok_or(FemError::Model {
-                why: "degenerate element (mesh bug)".into(),
-            })?;
-            for (a, v) in nodal_volumes(&geom).iter().enumerate() {
-                for d in 0..3 {
-                    loads[3 * el[a] + d] += weight_per_mm3 * v * down[d];
-                }
-            }
-        }
-    }
+    let loads = gravity_loads(cfg, &nodes, &elements, |_| cfg.material.density_g_cm3)?;
 
     let at = |x: f64, y: f64, z: f64| {
         node_of[grid_id(index_of(&xs, x), index_of(&ys, y), index_of(&zs, z))]

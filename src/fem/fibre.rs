@@ -27,9 +27,8 @@ use nalgebra::{Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 
 use super::actuator::{
-    coordinate_lines, ActuatorConfig, ActuatorMesh, MaterialConfig, Part, GRAVITY_M_S2,
+    coordinate_lines, gravity_loads, ActuatorConfig, ActuatorMesh, MaterialConfig, Part,
 };
-use super::hex::{nodal_volumes, HexGeometry};
 use super::inp::C3D8_FACES;
 use super::layer::LayerElement;
 use super::material::MaterialPreset;
@@ -187,7 +186,7 @@ impl TubeConfig {
                 ),
             ));
         }
-        if !(1..=100).contains(&self.markers) || self.markers < 3 {
+        if !(3..=100).contains(&self.markers) {
             return Err(bad(
                 "markers",
                 format!("{}: use 3 to 100 (a circle needs three)", self.markers),
@@ -419,10 +418,10 @@ fn section(t: &TubeConfig, h: f64, membrane_z: &[f64]) -> Section {
 }
 
 /// Meshes the fibre-reinforced actuator of `cfg` (its `[tube]`, `[material]` for the
-/// inner silicone, `[[layer]]` for the bottom strip).
-pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
+/// inner silicone, `[[layer]]` for the bottom strip), validated by
+/// [`super::actuator::build_mesh`], which calls this.
+pub(crate) fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
     let t = cfg.tube.clone().unwrap_or_default();
-    t.validate()?;
     let h = cfg.mesh.size_mm;
     let l = t.length_mm;
     let strips: Vec<_> = if t.bottom_strip {
@@ -507,26 +506,13 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
     }
     let inner = cfg.material.yeoh()?;
     let outer = t.outer_material.yeoh()?;
-    let mut loads = vec![0.0; 3 * n_nodes];
-    if cfg.load.gravity {
-        let down = Vector3::from(cfg.load.gravity_direction).normalize();
-        for (el, m) in elements.iter().zip(&element_material) {
-            let density = if *m == 0 {
-                cfg.material.density_g_cm3
-            } else {
-                t.outer_material.density_g_cm3
-            };
-            let x: [Vector3<f64>; 8] = std::array::from_fn(|a| nodes[el[a]]);
-            let geom = HexGeometry::new(&x).ok_or(FemError::Model {
-                why: "degenerate element (mesh bug)".into(),
-            })?;
-            for (a, v) in nodal_volumes(&geom).iter().enumerate() {
-                for d in 0..3 {
-                    loads[3 * el[a] + d] += density * 1e-6 * GRAVITY_M_S2 * v * down[d];
-                }
-            }
+    let loads = gravity_loads(cfg, &nodes, &elements, |e| {
+        if element_material[e] == 0 {
+            cfg.material.density_g_cm3
+        } else {
+            t.outer_material.density_g_cm3
         }
-    }
+    })?;
 
     // Threads on the interface, over the whole length but the last half element.
     let section_fibre = TrussSection {
