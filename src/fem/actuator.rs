@@ -844,6 +844,10 @@ pub struct ActuatorMesh {
     /// The model is the half y >= 0 of a mirror-symmetric actuator (forces and volumes
     /// of the whole are twice the model's).
     pub half_model: bool,
+    /// Density of each solid material, g/cm³, by material id ([`Model::element_material`]:
+    /// 0 the main silicone, k `extra_materials[k - 1]`): the gravity loads' and the
+    /// exported deck's.
+    pub densities_g_cm3: Vec<f64>,
     /// The bottom wall of the first free chamber: the bottom-face nodes (y = 0) under its
     /// ends and its centre (ends, then centre); its inflation is the centre's distance
     /// from the ends' chord.
@@ -913,20 +917,27 @@ enum Cell {
 
 /// Nodal gravity loads at load factor 1 (zero when `cfg.load.gravity` is off): ρ g ∫ N_a dV
 /// along the gravity direction (N per mm³ = g/cm³ · 1e-6 kg/mm³ · g), element e of density
-/// `density_g_cm3(e)`.
+/// `densities_g_cm3[element_material[e]]` (material 0 where `element_material` is empty).
 pub(crate) fn gravity_loads(
     cfg: &ActuatorConfig,
     nodes: &[Vector3<f64>],
     elements: &[[usize; 8]],
-    density_g_cm3: impl Fn(usize) -> f64,
+    element_material: &[u8],
+    densities_g_cm3: &[f64],
 ) -> Result<Vec<f64>, FemError> {
+    let density_g_cm3 = |e: usize| {
+        let k = element_material.get(e).map_or(0, |&k| usize::from(k));
+        densities_g_cm3.get(k).copied().ok_or(FemError::Model {
+            why: format!("material {k} has no density (mesh bug)"),
+        })
+    };
     let mut loads = vec![0.0; 3 * nodes.len()];
     if !cfg.load.gravity {
         return Ok(loads);
     }
     let down = Vector3::from(cfg.load.gravity_direction).normalize();
     for (e, el) in elements.iter().enumerate() {
-        let weight_per_mm3 = density_g_cm3(e) * 1e-6 * GRAVITY_M_S2;
+        let weight_per_mm3 = density_g_cm3(e)? * 1e-6 * GRAVITY_M_S2;
         let x: [Vector3<f64>; 8] = std::array::from_fn(|a| nodes[el[a]]);
         let geom = HexGeometry::new(&x).ok_or(FemError::Model {
             why: "degenerate element (mesh bug)".into(),
@@ -1234,7 +1245,9 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
         }
     }
 
-    let loads = gravity_loads(cfg, &nodes, &elements, |_| cfg.material.density_g_cm3)?;
+    // A solid layer is moulded in the silicone's volume: it weighs as the silicone.
+    let densities_g_cm3 = vec![cfg.material.density_g_cm3; 1 + solid_layers.len()];
+    let loads = gravity_loads(cfg, &nodes, &elements, &element_material, &densities_g_cm3)?;
 
     let at = |x: f64, y: f64, z: f64| {
         node_of[grid_id(index_of(&xs, x), index_of(&ys, y), index_of(&zs, z))]
@@ -1330,6 +1343,7 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
         parts,
         twist_pair,
         bottom_wall: Some(bottom_wall),
+        densities_g_cm3,
         half_model: true,
     })
 }

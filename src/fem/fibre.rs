@@ -506,13 +506,8 @@ pub(crate) fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError>
     }
     let inner = cfg.material.yeoh()?;
     let outer = t.outer_material.yeoh()?;
-    let loads = gravity_loads(cfg, &nodes, &elements, |e| {
-        if element_material[e] == 0 {
-            cfg.material.density_g_cm3
-        } else {
-            t.outer_material.density_g_cm3
-        }
-    })?;
+    let densities_g_cm3 = vec![cfg.material.density_g_cm3, t.outer_material.density_g_cm3];
+    let loads = gravity_loads(cfg, &nodes, &elements, &element_material, &densities_g_cm3)?;
 
     // Threads on the interface, over the whole length but the last half element.
     let section_fibre = TrussSection {
@@ -643,6 +638,7 @@ pub(crate) fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError>
         twist_pair: (tip, id(nx, sec.top)),
         bottom_wall: None,
         half_model: false,
+        densities_g_cm3,
     }))
 }
 

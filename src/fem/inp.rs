@@ -1,15 +1,24 @@
 //! The model `simulate` solves as an Abaqus/CalculiX input deck (`--export-inp`).
 //!
 //! Written by hand: the deck is a few keyword cards of plain text, and no crate writes
-//! them. The deck is the half actuator of [`super::actuator::build_mesh`] as it is:
-//! nodes (mm), hexahedra as `C3D8I` (incompatible modes: CalculiX has no hybrid
-//! elements and plain C3D8 locks on nearly incompressible silicone), the Yeoh material
-//! (`*HYPERELASTIC, YEOH`: C10 C20 C30 = c1 c2 c3, D1 = 2/K, D2 = D3 = 0) and its
-//! density, the clamp and the symmetry plane y = 0 as `*BOUNDARY`, gravity as
-//! `*DLOAD GRAV` in a first step of its own when on, then one `*STEP, NLGEOM` per ramp
-//! pressure with the cavity pressure as element-face loads `P1..P6` and the marker
-//! (`MARKERS`, from the clamp towards the tip) and tip (`TIP`) displacements printed
-//! once at its end. Units: mm, N, MPa, t/mm³, s.
+//! them. The deck is the model of [`super::actuator::build_mesh`] as it is (the half
+//! actuator of a mirror-symmetric family, the whole of the fibre-reinforced tube):
+//! nodes (mm); hexahedra as `C3D8I` (incompatible modes: CalculiX has no hybrid
+//! elements and plain C3D8 locks on nearly incompressible silicone), an element set,
+//! Yeoh material (`*HYPERELASTIC, YEOH`: C10 C20 C30 = c1 c2 c3, D1 = 2/K, D2 = D3 = 0;
+//! a solid layer as Yeoh with C20 = C30 = 0) and density per solid material; thin layers
+//! as `M3D4` membranes on the same nodes (`*ELASTIC` E ν, `*MEMBRANE SECTION` thickness);
+//! thread segments as `SPRINGA` between a node per thread point, stiffness E A / L0
+//! (bendscope's bar at the thread's small strain; a cable as a `NONLINEAR` spring that
+//! carries nothing shortened), each point tied to its host hexahedron by `*EQUATION`s
+//! u_p − Σ w_a u_a = 0 (the embedding, exact for trilinear hosts); the clamp and the
+//! symmetry plane y = 0 (half models) as `*BOUNDARY`, gravity along the config's
+//! direction as `*DLOAD GRAV` in a first step of its own when on, then one
+//! `*STEP, NLGEOM` per ramp pressure with the cavity pressure as element-face loads
+//! `P1..P6` and the displacements of the markers (`MARKERS`, from the clamp towards the
+//! tip), the tip (`TIP`) and the tip face's twist pair (`TWIST`: on the axis plane, the
+//! lower node first; the twist is the angle of the line between them about the axis)
+//! printed once at its end. Units: mm, N, MPa, t/mm³, s.
 //!
 //! Face numbers (CalculiX and Abaqus C3D8): P1 = nodes 1-2-3-4 (ζ = −1), P2 = 5-8-7-6
 //! (ζ = +1), P3 = 1-5-6-2 (η = −1), P4 = 2-6-7-3 (ξ = +1), P5 = 3-7-8-4 (η = +1),
@@ -23,6 +32,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use super::actuator::{build_mesh, ActuatorConfig, ActuatorMesh, GRAVITY_M_S2};
+use super::truss::EmbeddedPoint;
 use super::FemError;
 
 /// The faces of a C3D8 element: CalculiX/Abaqus face k + 1 has these local nodes.
@@ -47,10 +57,16 @@ pub const MAX_INCREMENTS: usize = 1000;
 /// What an exported deck holds.
 #[derive(Debug, Clone, PartialEq)]
 pub struct InpSummary {
-    /// Nodes of the half model.
+    /// Nodes: the mesh's, then one per thread point (embedded in a hexahedron).
     pub nodes: usize,
     /// C3D8I elements.
     pub elements: usize,
+    /// M3D4 membranes (thin layers).
+    pub membranes: usize,
+    /// SPRINGA thread segments.
+    pub springs: usize,
+    /// `*EQUATION`s tying the thread points to their host hexahedra (3 per point).
+    pub equations: usize,
     /// Element faces carrying the cavity pressure.
     pub pressure_faces: usize,
     /// `*STEP`s (a gravity step when on, then one per ramp pressure).
@@ -61,8 +77,23 @@ impl std::fmt::Display for InpSummary {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "CalculiX deck: {} nodes, {} C3D8I, {} pressure faces, {} steps",
-            self.nodes, self.elements, self.pressure_faces, self.steps
+            "CalculiX deck: {} nodes, {} C3D8I",
+            self.nodes, self.elements
+        )?;
+        if self.membranes > 0 {
+            write!(f, ", {} M3D4", self.membranes)?;
+        }
+        if self.springs > 0 {
+            write!(
+                f,
+                ", {} SPRINGA tied by {} equations",
+                self.springs, self.equations
+            )?;
+        }
+        write!(
+            f,
+            ", {} pressure faces, {} steps",
+            self.pressure_faces, self.steps
         )
     }
 }
@@ -93,18 +124,6 @@ pub fn pressure_face_loads(mesh: &ActuatorMesh) -> Result<Vec<(usize, usize)>, F
 
 /// The deck of the model `cfg` describes (see the module doc), and what it holds.
 pub fn inp_from_config(cfg: &ActuatorConfig) -> Result<(String, InpSummary), FemError> {
-    if !cfg.layer.is_empty() {
-        return Err(FemError::Parameter {
-            name: "layer".into(),
-            why: "--export-inp does not export a [layer] yet: remove the [layer] section or leave out --export-inp".into(),
-        });
-    }
-    if cfg.geometry.family == super::family::Family::FibreReinforced {
-        return Err(FemError::Parameter {
-            name: "family".into(),
-            why: "--export-inp does not export the fibre-reinforced tube's threads yet: leave out --export-inp".into(),
-        });
-    }
     if cfg.contact.as_ref().is_some_and(|c| c.enabled) {
         return Err(FemError::Parameter {
             name: "contact".into(),
@@ -115,12 +134,26 @@ pub fn inp_from_config(cfg: &ActuatorConfig) -> Result<(String, InpSummary), Fem
     let mesh = build_mesh(cfg)?;
     let loads = pressure_face_loads(&mesh)?;
     let m = &mesh.model;
-    let mat = &m.material;
+    let names = part_names(&mesh);
+    let in_parts =
+        |of: fn(&super::actuator::Part) -> usize| mesh.parts.iter().map(of).sum::<usize>();
+    if in_parts(|p| p.membranes.len()) != m.membranes.len()
+        || in_parts(|p| p.trusses.len()) != m.trusses.len()
+    {
+        return Err(FemError::Model {
+            why: "a membrane or thread segment belongs to no part (mesh bug)".into(),
+        });
+    }
     let mut s = String::new();
+    let what = if mesh.half_model {
+        "the half actuator (y >= 0)"
+    } else {
+        "the whole actuator"
+    };
     // Writing into a String cannot fail: the fmt::Results below are discarded.
     let _ = writeln!(
         s,
-        "** bendscope simulate: the half actuator (y >= 0) as solved; mm, N, MPa, t/mm^3, s\n*HEADING\nbendscope half actuator, {} nodes, {} C3D8I, mesh {} mm",
+        "** bendscope simulate: {what} as solved; mm, N, MPa, t/mm^3, s\n*HEADING\nbendscope {what}, {} nodes, {} C3D8I, mesh {} mm",
         m.nodes.len(),
         m.elements.len(),
         cfg.mesh.size_mm
@@ -129,11 +162,147 @@ pub fn inp_from_config(cfg: &ActuatorConfig) -> Result<(String, InpSummary), Fem
     for (a, x) in m.nodes.iter().enumerate() {
         let _ = writeln!(s, "{}, {:.9e}, {:.9e}, {:.9e}", a + 1, x.x, x.y, x.z);
     }
+    // Thread points: a node each (shared by the segments meeting there).
+    let mut points: Vec<EmbeddedPoint> = Vec::new();
+    let mut point_id: HashMap<[i64; 3], usize> = HashMap::new();
+    let mut spring_ends = Vec::with_capacity(m.trusses.len());
+    for t in &m.trusses {
+        let ends = t.ends.map(|p| {
+            let x = p.position(|a| m.nodes[a]);
+            *point_id
+                .entry([x.x, x.y, x.z].map(|v| (v * 1e7).round() as i64))
+                .or_insert_with(|| {
+                    points.push(p);
+                    let id = m.nodes.len() + points.len();
+                    let _ = writeln!(s, "{id}, {:.9e}, {:.9e}, {:.9e}", x.x, x.y, x.z);
+                    id
+                })
+        });
+        spring_ends.push(ends);
+    }
+
+    // Solids: one card (ids 1..E as bendscope numbers them), a set per material.
     s.push_str("*ELEMENT, TYPE=C3D8I, ELSET=EALL\n");
     for (e, el) in m.elements.iter().enumerate() {
-        let ids: Vec<String> = el.iter().map(|n| (n + 1).to_string()).collect();
-        let _ = writeln!(s, "{}, {}", e + 1, ids.join(", "));
+        let _ = writeln!(s, "{}, {}", e + 1, join_ids(el.iter().map(|n| n + 1)));
     }
+    let n_materials = 1 + m.extra_materials.len();
+    for k in 0..n_materials {
+        let ids: Vec<usize> = (0..m.elements.len())
+            .filter(|e| m.element_material.get(*e).map_or(0, |&id| usize::from(id)) == k)
+            .map(|e| e + 1)
+            .collect();
+        let mat = if k == 0 {
+            &m.material
+        } else {
+            &m.extra_materials[k - 1]
+        };
+        let density = mesh
+            .densities_g_cm3
+            .get(k)
+            .copied()
+            .ok_or(FemError::Model {
+                why: format!("material {k} has no density (mesh bug)"),
+            })?;
+        let name = &names.solids[k];
+        write_set(&mut s, "ELSET", name, &ids);
+        let _ = writeln!(
+            s,
+            "*MATERIAL, NAME={name}\n*HYPERELASTIC, YEOH\n{:.9e}, {:.9e}, {:.9e}, {:.9e}, 0., 0.\n*DENSITY\n{:.9e}\n*SOLID SECTION, ELSET={name}, MATERIAL={name}",
+            mat.c1,
+            mat.c2,
+            mat.c3,
+            2.0 / mat.bulk_modulus,
+            density * 1e-9
+        );
+    }
+    // Membranes: M3D4 on the layer's mid-plane nodes, a set and section per layer.
+    let mut next_id = m.elements.len();
+    for (part, name) in mesh.parts.iter().zip(&names.parts) {
+        let Some(&first) = part.membranes.first() else {
+            continue;
+        };
+        let section = m.membranes[first].section;
+        if part
+            .membranes
+            .iter()
+            .any(|&i| m.membranes[i].section != section)
+        {
+            return Err(FemError::Model {
+                why: format!(
+                    "layer {} has membranes of two sections (mesh bug)",
+                    part.name
+                ),
+            });
+        }
+        let _ = writeln!(s, "*ELEMENT, TYPE=M3D4, ELSET={name}");
+        for &i in &part.membranes {
+            next_id += 1;
+            let ids = join_ids(m.membranes[i].nodes.iter().map(|n| n + 1));
+            let _ = writeln!(s, "{next_id}, {ids}");
+        }
+        let _ = writeln!(
+            s,
+            "*MATERIAL, NAME={name}\n*ELASTIC\n{:.9e}, {:.6}\n*MEMBRANE SECTION, ELSET={name}, MATERIAL={name}\n{:.9e}",
+            section.youngs_modulus_mpa, section.poisson_ratio, section.thickness_mm
+        );
+    }
+    // Threads: a SPRINGA per segment, k = E A / L0 (the bar at small strain), its own set.
+    let first_spring = next_id + 1;
+    for (part, name) in mesh.parts.iter().zip(&names.parts) {
+        if part.trusses.is_empty() {
+            continue;
+        }
+        let _ = writeln!(s, "*ELEMENT, TYPE=SPRINGA, ELSET={name}");
+        for &i in &part.trusses {
+            let [a, b] = spring_ends[i];
+            let _ = writeln!(s, "{}, {a}, {b}", first_spring + i);
+        }
+    }
+    for (i, t) in m.trusses.iter().enumerate() {
+        let id = first_spring + i;
+        let [p0, p1] = t.ends.map(|p| p.position(|a| m.nodes[a]));
+        let l0 = (p1 - p0).norm();
+        let k = t.section.youngs_modulus_mpa * t.section.area_mm2 / l0;
+        let _ = writeln!(s, "*ELSET, ELSET=F{id}\n{id}");
+        if t.section.tension_only {
+            // A cable: no force while shorter than at rest (force, elongation pairs).
+            let _ = writeln!(
+                s,
+                "*SPRING, ELSET=F{id}, NONLINEAR\n\n0., {:.9e}\n0., 0.\n{:.9e}, {:.9e}",
+                -0.9 * l0,
+                k * l0,
+                l0
+            );
+        } else {
+            let _ = writeln!(s, "*SPRING, ELSET=F{id}\n\n{k:.9e}");
+        }
+    }
+    // Each thread point moves with its host: u_p = sum w_a u_a, per direction.
+    if !points.is_empty() {
+        s.push_str("*EQUATION\n");
+    }
+    for (i, p) in points.iter().enumerate() {
+        let id = m.nodes.len() + i + 1;
+        let hosts: Vec<(usize, f64)> = p
+            .nodes
+            .iter()
+            .zip(&p.weights)
+            .filter(|(_, w)| w.abs() > 1e-12)
+            .map(|(a, w)| (a + 1, -w))
+            .collect();
+        for dof in 1..=3 {
+            let terms: Vec<String> = std::iter::once((id, 1.0))
+                .chain(hosts.iter().copied())
+                .map(|(n, c)| format!("{n}, {dof}, {c:.12e}"))
+                .collect();
+            let _ = writeln!(s, "{}", terms.len());
+            for line in terms.chunks(4) {
+                let _ = writeln!(s, "{}", line.join(", "));
+            }
+        }
+    }
+
     let fixed_nodes = |dof: usize| -> Vec<usize> {
         (0..m.nodes.len())
             .filter(|a| m.fixed[3 * a + dof])
@@ -146,20 +315,14 @@ pub fn inp_from_config(cfg: &ActuatorConfig) -> Result<(String, InpSummary), Fem
         .into_iter()
         .filter(|a| !clamped.contains(a))
         .collect();
-    write_nset(&mut s, "CLAMPED", &clamped);
-    write_nset(&mut s, "SYMMETRY", &symmetry);
-    write_nset(&mut s, "MARKERS", &mesh.markers);
-    write_nset(&mut s, "TIP", &[mesh.tip]);
-    let _ = writeln!(
-        s,
-        "*MATERIAL, NAME=SILICONE\n*HYPERELASTIC, YEOH\n{:.9e}, {:.9e}, {:.9e}, {:.9e}, 0., 0.\n*DENSITY\n{:.9e}",
-        mat.c1,
-        mat.c2,
-        mat.c3,
-        2.0 / mat.bulk_modulus,
-        cfg.material.density_g_cm3 * 1e-9
-    );
-    s.push_str("*SOLID SECTION, ELSET=EALL, MATERIAL=SILICONE\n*BOUNDARY\n");
+    let one_based = |v: &[usize]| -> Vec<usize> { v.iter().map(|a| a + 1).collect() };
+    write_set(&mut s, "NSET", "CLAMPED", &one_based(&clamped));
+    write_set(&mut s, "NSET", "SYMMETRY", &one_based(&symmetry));
+    write_set(&mut s, "NSET", "MARKERS", &one_based(&mesh.markers));
+    write_set(&mut s, "NSET", "TIP", &[mesh.tip + 1]);
+    let (below, above) = mesh.twist_pair;
+    write_set(&mut s, "NSET", "TWIST", &[below + 1, above + 1]);
+    s.push_str("*BOUNDARY\n");
     if !clamped.is_empty() {
         s.push_str("CLAMPED, 1, 3\n");
     }
@@ -171,10 +334,14 @@ pub fn inp_from_config(cfg: &ActuatorConfig) -> Result<(String, InpSummary), Fem
     );
     let mut steps = 0;
     if cfg.load.gravity {
+        let down = nalgebra::Vector3::from(cfg.load.gravity_direction).normalize();
         let _ = writeln!(
             s,
-            "** gravity first, as bendscope's ramp\n{step_head}*DLOAD\nEALL, GRAV, {:.6}, 0., 0., -1.\n*END STEP",
-            GRAVITY_M_S2 * 1e3
+            "** gravity first, as bendscope's ramp\n{step_head}*DLOAD\nEALL, GRAV, {:.6}, {:.9}, {:.9}, {:.9}\n*END STEP",
+            GRAVITY_M_S2 * 1e3,
+            down.x + 0.0,
+            down.y + 0.0,
+            down.z + 0.0
         );
         steps += 1;
     }
@@ -187,17 +354,71 @@ pub fn inp_from_config(cfg: &ActuatorConfig) -> Result<(String, InpSummary), Fem
         let every = MAX_INCREMENTS + 1;
         let _ = writeln!(
             s,
-            "*NODE PRINT, NSET=MARKERS, FREQUENCY={every}\nU\n*NODE PRINT, NSET=TIP, FREQUENCY={every}\nU\n*END STEP"
+            "*NODE PRINT, NSET=MARKERS, FREQUENCY={every}\nU\n*NODE PRINT, NSET=TIP, FREQUENCY={every}\nU\n*NODE PRINT, NSET=TWIST, FREQUENCY={every}\nU\n*END STEP"
         );
         steps += 1;
     }
     let summary = InpSummary {
-        nodes: m.nodes.len(),
+        nodes: m.nodes.len() + points.len(),
         elements: m.elements.len(),
+        membranes: m.membranes.len(),
+        springs: m.trusses.len(),
+        equations: 3 * points.len(),
         pressure_faces: loads.len(),
         steps,
     };
     Ok((s, summary))
+}
+
+/// Deck names (upper case, `[A-Z0-9_]`, unique) of the solid materials by id and of the
+/// parts in order.
+struct PartNames {
+    solids: Vec<String>,
+    parts: Vec<String>,
+}
+
+fn part_names(mesh: &ActuatorMesh) -> PartNames {
+    let mut used = std::collections::HashSet::new();
+    let mut unique = |raw: &str| {
+        let base: String = raw
+            .chars()
+            .map(|c| {
+                if c.is_ascii_alphanumeric() {
+                    c.to_ascii_uppercase()
+                } else {
+                    '_'
+                }
+            })
+            .take(60)
+            .collect();
+        let base = if base.starts_with(|c: char| c.is_ascii_alphabetic()) {
+            base
+        } else {
+            format!("P_{base}")
+        };
+        let mut name = base.clone();
+        let mut k = 2;
+        while !used.insert(name.clone()) {
+            name = format!("{base}_{k}");
+            k += 1;
+        }
+        name
+    };
+    let parts: Vec<String> = mesh.parts.iter().map(|p| unique(&p.name)).collect();
+    let solids = (0..=mesh.model.extra_materials.len())
+        .map(|k| {
+            mesh.parts
+                .iter()
+                .zip(&parts)
+                .find(|(p, _)| p.solid_material == Some(k as u8))
+                .map_or_else(|| unique(&format!("SOLID{k}")), |(_, n)| n.clone())
+        })
+        .collect();
+    PartNames { solids, parts }
+}
+
+fn join_ids(ids: impl Iterator<Item = usize>) -> String {
+    ids.map(|n| n.to_string()).collect::<Vec<_>>().join(", ")
 }
 
 /// Writes the deck of `cfg` to `path` atomically ([`crate::io::write_atomic`]).
@@ -209,15 +430,14 @@ pub fn write_inp(path: &Path, cfg: &ActuatorConfig) -> Result<InpSummary, FemErr
     Ok(summary)
 }
 
-/// `*NSET` card with 1-based node ids, at most 16 per line (Abaqus's limit).
-fn write_nset(s: &mut String, name: &str, nodes: &[usize]) {
-    if nodes.is_empty() {
+/// `*NSET` or `*ELSET` card of 1-based ids, at most 16 per line (Abaqus's limit).
+fn write_set(s: &mut String, kind: &str, name: &str, ids: &[usize]) {
+    if ids.is_empty() {
         return;
     }
-    let _ = writeln!(s, "*NSET, NSET={name}");
-    for chunk in nodes.chunks(16) {
-        let ids: Vec<String> = chunk.iter().map(|n| (n + 1).to_string()).collect();
-        let _ = writeln!(s, "{}", ids.join(", "));
+    let _ = writeln!(s, "*{kind}, {kind}={name}");
+    for chunk in ids.chunks(16) {
+        let _ = writeln!(s, "{}", join_ids(chunk.iter().copied()));
     }
 }
 
@@ -327,7 +547,80 @@ mod tests {
         with_gravity.load.gravity = true;
         let (text, summary) = inp_from_config(&with_gravity).unwrap();
         assert_eq!(summary.steps, 3);
-        assert!(text.contains("EALL, GRAV, 9806.650000, 0., 0., -1."));
+        assert!(text.contains("EALL, GRAV, 9806.650000, 0.000000000, 0.000000000, -1.000000000"));
         assert_eq!(text.matches("*NODE PRINT, NSET=MARKERS").count(), 2);
+    }
+
+    #[test]
+    fn layers_go_out_as_membranes_and_threads_as_springs_tied_by_equations() {
+        use crate::fem::family::Family;
+        // The strap: two layers (PLA strips, fabric sheet), hanging from its clamp.
+        let mut strap = ActuatorConfig::for_family(Family::Strap);
+        strap.mesh.size_mm = 4.0;
+        strap.load.pressures_kpa = "5".into();
+        let mesh = build_mesh(&strap).unwrap();
+        let (text, summary) = inp_from_config(&strap).unwrap();
+        assert!(mesh.model.membranes.len() > 50);
+        assert_eq!(summary.membranes, mesh.model.membranes.len());
+        assert_eq!(text.matches("*ELEMENT, TYPE=M3D4").count(), 2);
+        assert_eq!(text.matches("*MEMBRANE SECTION").count(), 2);
+        assert!(text.contains("*MEMBRANE SECTION, ELSET=FABRIC, MATERIAL=FABRIC\n1.000000000e-1"));
+        assert!(text.contains("EALL, GRAV, 9806.650000, 1.000000000, 0.000000000, 0.000000000"));
+        assert!(text.contains("*NSET, NSET=SYMMETRY") && summary.springs == 0);
+
+        // The tube, wound both ways, its threads as cables: the whole section.
+        let mut tube = ActuatorConfig::for_family(Family::FibreReinforced);
+        tube.mesh.size_mm = 3.0;
+        tube.load.pressures_kpa = "5,10".into();
+        tube.load.gravity = false;
+        tube.tube.as_mut().unwrap().fibre_tension_only = true;
+        tube.tube.as_mut().unwrap().length_mm = 40.0;
+        let mesh = build_mesh(&tube).unwrap();
+        let (text, summary) = inp_from_config(&tube).unwrap();
+        let n = mesh.model.trusses.len();
+        assert!(n > 100, "{n}");
+        assert_eq!(summary.springs, n);
+        assert_eq!(text.matches("*SPRING, ELSET=F").count(), n);
+        assert_eq!(text.matches(", NONLINEAR").count(), n);
+        // One node per thread point: consecutive segments share theirs (so do the two
+        // hands where they cross on a segment end: the same point of the same host), at
+        // most one more point than segments per thread; three equations each.
+        let distinct: std::collections::BTreeSet<[i64; 3]> = mesh
+            .model
+            .trusses
+            .iter()
+            .flat_map(|t| t.ends.map(|p| p.position(|a| mesh.model.nodes[a])))
+            .map(|x| [x.x, x.y, x.z].map(|v| (v * 1e7).round() as i64))
+            .collect();
+        let points = summary.nodes - mesh.model.nodes.len();
+        assert_eq!(points, distinct.len());
+        assert!(
+            points <= n + 2 && points > n * 9 / 10,
+            "{points} points, {n} segments"
+        );
+        assert_eq!(summary.equations, 3 * points);
+        assert!(!text.contains("NSET=SYMMETRY"));
+        assert!(text.contains("*SOLID SECTION, ELSET=OUTER, MATERIAL=OUTER"));
+        assert_eq!(text.matches("*DENSITY").count(), 2);
+        // Every equation's weights sum to one (the host interpolation).
+        let lines: Vec<&str> = text.lines().collect();
+        let at = lines.iter().position(|l| *l == "*EQUATION").unwrap() + 1;
+        let mut k = at;
+        let mut checked = 0;
+        while let Ok(terms) = lines[k].trim().parse::<usize>() {
+            let rows = terms.div_ceil(4);
+            let coeffs: Vec<f64> = lines[k + 1..k + 1 + rows]
+                .iter()
+                .flat_map(|l| l.split(", ").collect::<Vec<_>>())
+                .collect::<Vec<_>>()
+                .chunks(3)
+                .map(|t| t[2].parse::<f64>().unwrap())
+                .collect();
+            assert_eq!(coeffs.len(), terms);
+            assert!((coeffs.iter().sum::<f64>()).abs() < 1e-9, "{coeffs:?}");
+            k += 1 + rows;
+            checked += 1;
+        }
+        assert_eq!(checked, summary.equations);
     }
 }
