@@ -756,15 +756,15 @@ fn calculix_on_the_exported_deck_agrees_with_bendscopes_markers() {
 /// chambers (Ecoflex 00-30, shortened to 4 chambers) on its polyester sheet alone (0.1 mm,
 /// 2.5 GPa: the sheet takes the radius from 201 to 261 mm at 4 kPa), hanging from the
 /// clamp under gravity (the GRAV direction +x), bulk modulus 100 mu0, default 1.5 mm mesh.
-/// Measured: radius -1.2% (2 kPa) and -1.5% (4 kPa), tip 0.03 mm apart.
+/// Measured: radius 261.33 / 257.62 mm (-1.42%), tip 0.026 mm apart (at 2 kPa -0.08%).
 #[test]
 fn calculix_agrees_on_a_sheet_exported_as_membranes_under_hanging_gravity() {
     let config = "[geometry]\nfamily = \"strap\"\nchambers = 4\nb = 62.0\nr = 52.0\n\
         [material]\nbulk_modulus_mpa = 20.0\n\
         [[layer]]\nname = \"fabric\"\nthickness_mm = 0.1\nyoungs_modulus_mpa = 2500.0\n\
         poisson_ratio = 0.3\nheight_mm = 1.5\n";
-    let (h, _, steps) = simulate_and_calculix(&["--pressures", "2,4"], Some(config));
-    assert_eq!(steps.len(), 2);
+    let (h, _, steps) = simulate_and_calculix(&["--pressures", "4"], Some(config));
+    assert_eq!(steps.len(), 1);
     assert_radius_and_tip_agree(&h, &steps, 0.03, 0.5);
 }
 
