@@ -295,11 +295,64 @@ fn the_fibre_reinforced_family_prints_its_tube_and_refuses_contradictions() {
     assert_eq!(again.stdout, text);
     std::fs::write(
         dir.path().join("strip.toml"),
+        "layer = []\n[geometry]\nfamily = \"fibre-reinforced\"\n[tube]\nbottom_strip = true\n",
+    )
+    .unwrap();
+    Run::new(dir.path(), &["simulate", "--config", "strip.toml"]).assert_bad_input(&[
+        "tube.bottom_strip",
+        "layer = []",
+        "[[layer]]",
+    ]);
+    // Without a layer of its own the strip is the family's glass-fibre plate.
+    std::fs::write(
+        dir.path().join("bending.toml"),
         "[geometry]\nfamily = \"fibre-reinforced\"\n[tube]\nbottom_strip = true\n",
     )
     .unwrap();
-    Run::new(dir.path(), &["simulate", "--config", "strip.toml"])
-        .assert_bad_input(&["tube.bottom_strip", "[[layer]]"]);
+    let bending = Run::new(
+        dir.path(),
+        &["simulate", "--config", "bending.toml", "--print-config"],
+    );
+    assert_eq!(bending.code, 0, "{bending}");
+    for needle in [
+        "bottom_strip = true",
+        "[[layer]]",
+        "name = \"glass\"",
+        "element = \"plate\"",
+    ] {
+        assert!(bending.stdout.contains(needle), "{needle}: {bending}");
+    }
+    // The plate has no CalculiX element on shared nodes: the export says so, writes nothing.
+    Run::new(
+        dir.path(),
+        &[
+            "simulate",
+            "--config",
+            "bending.toml",
+            "--export-inp",
+            "bending.inp",
+        ],
+    )
+    .assert_bad_input(&["layer.element", "'glass'", "element = \"membrane\""]);
+    assert!(!dir.path().join("bending.inp").exists());
+    // A [layer] table updates that strip.
+    std::fs::write(
+        dir.path().join("membrane.toml"),
+        "[geometry]\nfamily = \"fibre-reinforced\"\n[tube]\nbottom_strip = true\n[layer]\nelement = \"membrane\"\n",
+    )
+    .unwrap();
+    let membrane = Run::new(
+        dir.path(),
+        &["simulate", "--config", "membrane.toml", "--print-config"],
+    );
+    assert_eq!(membrane.code, 0, "{membrane}");
+    for needle in [
+        "name = \"glass\"",
+        "thickness_mm = 0.5",
+        "element = \"membrane\"",
+    ] {
+        assert!(membrane.stdout.contains(needle), "{needle}: {membrane}");
+    }
     std::fs::write(dir.path().join("other.toml"), "[tube]\npitch_mm = 3.0\n").unwrap();
     Run::new(dir.path(), &["simulate", "--config", "other.toml"])
         .assert_bad_input(&["[tube]", "fibre-reinforced"]);

@@ -30,6 +30,7 @@ use super::hex::{nodal_volumes, HexGeometry};
 use super::layer::{LayerConfig, LayerElement};
 use super::material::{MaterialPreset, Yeoh, DEFAULT_BULK_TO_SHEAR};
 use super::membrane::MembraneElement;
+use super::plate::{plate_terms, Mirror};
 use super::pressure::CLOSED;
 use super::solve::{Model, NewtonSettings};
 use super::FemError;
@@ -456,14 +457,24 @@ impl<'de> Deserialize<'de> for ActuatorConfig {
             Some(v) => Family::deserialize(v).map_err(D::Error::custom)?,
         };
         let mut doc = serde_json::to_value(Self::for_family(family)).map_err(D::Error::custom)?;
-        // `bottom_strip = false` without layers of the file's own: the family's strip goes.
-        let no_strip = user
+        // `bottom_strip = false` without layers of the file's own: the family's strip
+        // goes; `true`: the fibre-reinforced tube's default strip is the family's layer
+        // (a `[layer]` table updates it, `[[layer]]` tables replace it).
+        let strip = user
             .get("tube")
             .and_then(|t| t.get("bottom_strip"))
-            .is_some_and(|v| v == &serde_json::Value::Bool(false));
-        if no_strip && user.get("layer").is_none() {
-            if let Some(o) = doc.as_object_mut() {
-                o.remove("layer");
+            .and_then(serde_json::Value::as_bool);
+        if let Some(o) = doc.as_object_mut() {
+            match strip {
+                Some(false) if user.get("layer").is_none() => {
+                    o.remove("layer");
+                }
+                Some(true) if family == Family::FibreReinforced => {
+                    let layer = serde_json::to_value(vec![family::bottom_strip_layer()])
+                        .map_err(D::Error::custom)?;
+                    o.insert("layer".into(), layer);
+                }
+                _ => {}
             }
         }
         merge_over(&mut doc, user);
@@ -992,7 +1003,7 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
             LayerElement::Solid => {
                 fz.extend([layer.height_mm, layer.height_mm + layer.thickness_mm])
             }
-            LayerElement::Membrane => fz.push(layer.membrane_height_mm()),
+            LayerElement::Membrane | LayerElement::Plate => fz.push(layer.membrane_height_mm()),
         }
     }
     let zs = coordinate_lines(fz, h, &[(0.0, z_channel), (z_top, a)]);
@@ -1097,7 +1108,7 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
     // Each layer's membranes (none for a solid layer), in the config's order.
     let mut layer_membranes: Vec<Vec<usize>> = Vec::new();
     for layer in &cfg.layer {
-        if layer.element != LayerElement::Membrane {
+        if !layer.is_sheet() {
             layer_membranes.push(Vec::new());
             continue;
         }
@@ -1315,6 +1326,25 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
             why: "a marker or support point is not on the solid (mesh bug)".into(),
         });
     }
+    let plates = cfg
+        .layer
+        .iter()
+        .zip(&parts[1..])
+        .filter_map(|(layer, part)| {
+            let d = layer.plate_rigidity()?;
+            // The half model's symmetry plane y = 0 mirrors the sheet.
+            let mirror = [Mirror { axis: 1, at: 0.0 }];
+            Some(plate_terms(
+                &nodes,
+                &membranes,
+                &part.membranes,
+                d,
+                layer.poisson_ratio,
+                &mirror,
+            ))
+        })
+        .flatten()
+        .collect();
     Ok(ActuatorMesh {
         model: Model {
             nodes,
@@ -1328,6 +1358,7 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
             extra_materials: solid_layers.iter().map(|(l, _)| l.material()).collect(),
             membranes,
             trusses: Vec::new(),
+            plates,
             contact: cfg.contact.as_ref().filter(|c| c.enabled).map(|c| Contact {
                 pairs: wall_pairs.clone(),
                 penalty_mpa_per_mm: c.penalty_for(&material, h),

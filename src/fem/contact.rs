@@ -647,6 +647,7 @@ mod tests {
             extra_materials: Vec::new(),
             membranes: Vec::new(),
             trusses: Vec::new(),
+            plates: Vec::new(),
             contact: Some(Contact {
                 pairs: pairs.clone(),
                 penalty_mpa_per_mm: penalty,

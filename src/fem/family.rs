@@ -189,6 +189,25 @@ pub fn defaults(family: Family) -> ActuatorConfig {
     }
 }
 
+/// The fibre-reinforced bending actuator's strip (`[tube] bottom_strip = true` without
+/// `[[layer]]`s of the config's own): a glass-fibre sheet 0.5 mm thick across the flat
+/// bottom (the DOE study's strip; its modulus, 6.5 GPa, ν = 0.2, is chosen for a woven
+/// glass-fibre sheet, no strength given), centred in the outer silicone under the
+/// cavity (0.25..0.75 mm), meshed as a plate: compressed where the tube sags or
+/// bends, a membrane alone wrinkles ([`super::plate`]).
+pub fn bottom_strip_layer() -> LayerConfig {
+    LayerConfig {
+        name: "glass".into(),
+        thickness_mm: 0.5,
+        youngs_modulus_mpa: 6500.0,
+        poisson_ratio: 0.2,
+        height_mm: 0.25,
+        element: LayerElement::Plate,
+        tensile_strength_mpa: None,
+        ..LayerConfig::default()
+    }
+}
+
 /// The fibre-reinforced family's default ramp, kPa.
 pub const FIBRE_PRESSURES: &str = "10:60:10";
 

@@ -2,7 +2,7 @@
 //! Polygerinos et al. 2015): a tube of semicircular (D) cross-section, an inner silicone
 //! layer (Dragon Skin 20) inside an outer one (Dragon Skin 10), a thread wound as a helix
 //! on the interface between them, both ways or one way, and optionally a strain-limiting
-//! strip ([`super::layer`], membranes) in the flat bottom. Both ways with the strip it
+//! strip ([`super::layer`], a plate: membranes with bending stiffness) in the flat bottom. Both ways with the strip it
 //! bends, one way it twists, both ways without the strip it extends.
 //!
 //! Written by hand: no meshing crate builds a structured hexahedral D-section. The cross
@@ -30,9 +30,9 @@ use super::actuator::{
     coordinate_lines, gravity_loads, ActuatorConfig, ActuatorMesh, MaterialConfig, Part,
 };
 use super::inp::C3D8_FACES;
-use super::layer::LayerElement;
 use super::material::MaterialPreset;
 use super::membrane::MembraneElement;
+use super::plate::plate_terms;
 use super::pressure::CLOSED;
 use super::solve::Model;
 use super::truss::{embed_fibre, TrussSection};
@@ -78,7 +78,8 @@ pub struct TubeConfig {
     /// The thread carries no compression (a cable); false (default): a bar, which
     /// converges in fewer Newton iterations (the threads stay in tension under pressure).
     pub fibre_tension_only: bool,
-    /// A strain-limiting strip in the flat bottom: the config's `[[layer]]`s (membranes).
+    /// A strain-limiting strip in the flat bottom: the config's `[[layer]]`s (sheets;
+    /// without any, the family's glass-fibre plate, [`super::family::bottom_strip_layer`]).
     pub bottom_strip: bool,
     /// Markers along the side, evenly spaced from the clamp to the tip.
     pub markers: usize,
@@ -612,6 +613,22 @@ pub(crate) fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError>
             trusses: Vec::new(),
         });
     }
+    let plates = strips
+        .iter()
+        .zip(&parts[3..])
+        .filter_map(|(layer, part)| {
+            let d = layer.plate_rigidity()?;
+            Some(plate_terms(
+                &nodes,
+                &membranes,
+                &part.membranes,
+                d,
+                layer.poisson_ratio,
+                &[],
+            ))
+        })
+        .flatten()
+        .collect();
     Ok(compact(ActuatorMesh {
         model: Model {
             nodes,
@@ -625,6 +642,7 @@ pub(crate) fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError>
             extra_materials: vec![outer],
             membranes,
             trusses,
+            plates,
             contact: None,
         },
         markers,
@@ -687,6 +705,10 @@ fn compact(mut mesh: ActuatorMesh) -> ActuatorMesh {
             end.nodes.iter_mut().for_each(map);
         }
     }
+    m.plates
+        .iter_mut()
+        .flat_map(|t| t.nodes.iter_mut())
+        .for_each(map);
     mesh.markers.iter_mut().for_each(map);
     map(&mut mesh.tip);
     mesh.tip_support.iter_mut().for_each(map);
@@ -702,14 +724,14 @@ pub fn validate_strips(cfg: &ActuatorConfig, t: &TubeConfig) -> Result<(), FemEr
     if t.bottom_strip && cfg.layer.is_empty() {
         return Err(bad(
             "bottom_strip",
-            "true, but the config has no [[layer]] for the strip: add one (see bendscope simulate --family fibre-reinforced --print-config) or set bottom_strip = false".into(),
+            "true, but the config's layer list is empty: leave out layer = [] for the family's glass-fibre strip, add a [[layer]] or set bottom_strip = false".into(),
         ));
     }
     for layer in &cfg.layer {
-        if layer.element != LayerElement::Membrane {
+        if !layer.is_sheet() {
             return Err(FemError::Parameter {
                 name: "layer.element".into(),
-                why: format!("'{}': the fibre-reinforced tube takes membrane strips only: set element = \"membrane\"", layer.name),
+                why: format!("'{}': the fibre-reinforced tube takes sheet strips only: set element = \"plate\" (or \"membrane\")", layer.name),
             });
         }
         layer.validate(t.floor_mm())?;
@@ -722,6 +744,7 @@ pub fn validate_strips(cfg: &ActuatorConfig, t: &TubeConfig) -> Result<(), FemEr
 mod tests {
     use super::*;
     use crate::fem::family::{defaults, Family};
+    use crate::fem::layer::LayerElement;
     use crate::fem::simulate::{run_ramp, RampSettings, StepResult};
     use crate::fem::solve::Solver;
 
@@ -832,5 +855,39 @@ mod tests {
         );
         // Measured 15.7 deg at 10 kPa.
         assert!(one.twist_angle_deg.abs() > 5.0, "{}", one.twist_angle_deg);
+    }
+
+    /// Wound both ways with the family's glass-fibre strip (a plate) in the flat bottom,
+    /// the tube bends (3 mm mesh, no gravity, 10 kPa): measured 11.4 deg here, 11.0,
+    /// 10.8, 10.7 deg on the 2, 1.5, 1.2 mm meshes; the strip holds the marker line's
+    /// extension to 0.53% (3.28% without it) and Newton takes 20 iterations. The same
+    /// strip as a bare membrane wrinkles: 58 iterations, 4.9 deg, a kink at the clamp.
+    #[test]
+    fn with_the_glass_fibre_strip_the_tube_bends() {
+        let cfg: ActuatorConfig = toml::from_str(
+            "[geometry]\nfamily = \"fibre-reinforced\"\n[tube]\nbottom_strip = true\n[mesh]\nsize_mm = 3.0\n[load]\ngravity = false\n",
+        )
+        .unwrap();
+        assert_eq!(cfg.layer[0].element, LayerElement::Plate);
+        let mesh = build_mesh(&cfg).unwrap();
+        assert!(!mesh.model.plates.is_empty());
+        let s = step(&cfg, &mesh, 10.0);
+        eprintln!(
+            "strip: angle {:.2} deg, radius {:.1} mm, extension {:.3}%, twist {:.1e} deg, {} iterations, glass {:?}",
+            s.bending_angle_deg, s.radius_mm, s.extension_pct, s.twist_angle_deg, s.newton_iterations, s.parts[3]
+        );
+        assert!(
+            s.bending_angle_deg > 9.0 && s.bending_angle_deg < 13.0,
+            "{}",
+            s.bending_angle_deg
+        );
+        assert!(s.extension_pct < 1.0, "{}", s.extension_pct);
+        assert!(s.twist_angle_deg.abs() < 1e-6, "{}", s.twist_angle_deg);
+        assert!(s.newton_iterations <= 30, "{}", s.newton_iterations);
+        assert!(
+            s.parts[3].max_principal_stress_mpa > 0.5,
+            "{:?}",
+            s.parts[3]
+        );
     }
 }

@@ -32,6 +32,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use super::actuator::{build_mesh, ActuatorConfig, ActuatorMesh, GRAVITY_M_S2};
+use super::layer::LayerElement;
 use super::truss::EmbeddedPoint;
 use super::FemError;
 
@@ -124,6 +125,16 @@ pub fn pressure_face_loads(mesh: &ActuatorMesh) -> Result<Vec<(usize, usize)>, F
 
 /// The deck of the model `cfg` describes (see the module doc), and what it holds.
 pub fn inp_from_config(cfg: &ActuatorConfig) -> Result<(String, InpSummary), FemError> {
+    let meshed = match &cfg.tube {
+        Some(t) if !t.bottom_strip => &[][..],
+        _ => &cfg.layer[..],
+    };
+    if let Some(layer) = meshed.iter().find(|l| l.element == LayerElement::Plate) {
+        return Err(FemError::Parameter {
+            name: "layer.element".into(),
+            why: format!("--export-inp does not export a plate layer ('{}': its bending stiffness has no CalculiX element on the shared nodes): set element = \"membrane\" or leave out --export-inp", layer.name),
+        });
+    }
     if cfg.contact.as_ref().is_some_and(|c| c.enabled) {
         return Err(FemError::Parameter {
             name: "contact".into(),

@@ -35,6 +35,11 @@ pub enum LayerElement {
     /// One slab of hexahedra through the layer's thickness: for strips whose own
     /// bending stiffness counts (a 1 mm PLA strip), meshed finely enough along.
     Solid,
+    /// Membranes with the sheet's bending stiffness D = E t³ / 12 (1 − ν²) on their
+    /// nodes ([`super::plate`]): for a stiff sheet that is compressed (a glass-fibre
+    /// strip under a sagging or bending actuator), where a membrane alone wrinkles at
+    /// the mesh's wavelength.
+    Plate,
 }
 
 /// A strain-limiting layer in the base (`[layer]` in the config, or several as
@@ -52,7 +57,8 @@ pub struct LayerConfig {
     pub poisson_ratio: f64,
     /// Height of the layer's underside above the bottom face, mm (0: on the bottom).
     pub height_mm: f64,
-    /// How the layer is meshed: `"membrane"` (default) or `"solid"`.
+    /// How the layer is meshed: `"membrane"` (default), `"plate"` (membranes with the
+    /// sheet's bending stiffness) or `"solid"`.
     pub element: LayerElement,
     /// Width of each strip, mm; absent: a sheet across the whole width.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -193,6 +199,22 @@ impl LayerConfig {
             youngs_modulus_mpa: self.youngs_modulus_mpa,
             poisson_ratio: self.poisson_ratio,
         }
+    }
+
+    /// Meshed as membranes (with or without bending stiffness), not as hexahedra.
+    pub fn is_sheet(&self) -> bool {
+        self.element != LayerElement::Solid
+    }
+
+    /// The sheet's flexural rigidity D, N mm, when it is a plate (`None` otherwise).
+    pub fn plate_rigidity(&self) -> Option<f64> {
+        (self.element == LayerElement::Plate).then(|| {
+            super::plate::flexural_rigidity(
+                self.thickness_mm,
+                self.youngs_modulus_mpa,
+                self.poisson_ratio,
+            )
+        })
     }
 
     /// Height of the membrane's plane above the bottom face, mm: the layer's mid-plane.
@@ -400,6 +422,28 @@ mod tests {
                 loads[3 * id(nx, j, 1)] += -0.5 * width * t * s;
             }
         }
+        // A plate also carries its own couple −E κ b t³/12 (the linear stress through its
+        // thickness about its mid-plane): a pair of z forces on the last two columns.
+        let mut plates = Vec::new();
+        if let Some(d) = layer.plate_rigidity() {
+            let all: Vec<usize> = (0..membranes.len()).collect();
+            // x = 0 is a symmetry plane of the pure bending: the sheet is mirrored there.
+            let mirror = [crate::fem::plate::Mirror { axis: 0, at: 0.0 }];
+            plates = crate::fem::plate::plate_terms(
+                &nodes,
+                &membranes,
+                &all,
+                d,
+                layer.poisson_ratio,
+                &mirror,
+            );
+            let dx = len / nx as f64;
+            let f = layer.youngs_modulus_mpa * kappa * width * t.powi(3) / (12.0 * dx);
+            for j in 0..2 {
+                loads[3 * id(nx, j, 1) + 2] += 0.5 * f;
+                loads[3 * id(nx - 1, j, 1) + 2] -= 0.5 * f;
+            }
+        }
         let model = Model {
             nodes,
             elements,
@@ -412,6 +456,7 @@ mod tests {
             extra_materials: vec![layer.material()],
             membranes,
             trusses: Vec::new(),
+            plates,
             contact: None,
         };
         let r = solve_static(&model, &NewtonSettings::default()).unwrap();
@@ -482,6 +527,44 @@ mod tests {
             assert!((coarse - 1.0).abs() < 0.015, "{coarse}");
             assert!((fine - 1.0).abs() < 0.015, "{fine}");
         }
+    }
+
+    /// A glass-fibre strip (0.5 mm, 6.5 GPa) whose own bending stiffness E t³/12 is
+    /// most of the section's (ν = 0: beam and plate agree): as a plate (membranes with
+    /// [`crate::fem::plate`]'s bending terms) it matches the composite beam; without
+    /// them it would curve several times more (the strip's own share of D is ~80%).
+    #[test]
+    fn plate_strip_in_pure_bending_matches_the_composite_beam() {
+        let glass = LayerConfig {
+            thickness_mm: 0.5,
+            youngs_modulus_mpa: 6500.0,
+            poisson_ratio: 0.0,
+            height_mm: 0.0,
+            element: LayerElement::Plate,
+            ..LayerConfig::default()
+        };
+        let (coarse, homogeneous) = strip_curvature_ratio(&glass, 40, 8, 1);
+        let (fine, _) = strip_curvature_ratio(&glass, 80, 16, 1);
+        // The strip's own share of the section's bending stiffness (silicone E = 0.6 MPa).
+        let sections = [
+            BeamLayer {
+                youngs_modulus_mpa: 6500.0,
+                z0_mm: 0.0,
+                z1_mm: 0.5,
+            },
+            BeamLayer {
+                youngs_modulus_mpa: 0.6 * 200.0 / (200.0 + 0.2 / 3.0),
+                z0_mm: 0.5,
+                z1_mm: 4.5,
+            },
+        ];
+        let own = 6500.0 * 0.5f64.powi(3) / 12.0 / composite_section(&sections).1;
+        eprintln!(
+            "glass plate: FEM / composite-beam curvature {coarse:.4} (0.5 mm), {fine:.4} (0.25 mm); the strip's own share of D {own:.3}; all-silicone {homogeneous:.3}"
+        );
+        assert!(own > 0.7, "{own}");
+        assert!((coarse - 1.0).abs() < 0.015, "{coarse}");
+        assert!((fine - 1.0).abs() < 0.015, "{fine}");
     }
 
     /// A PLA strip (1 mm, 4 GPa) as a solid layer, 4 hexahedra through it: its own

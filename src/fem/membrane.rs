@@ -6,7 +6,9 @@
 //! through-thickness stiffness (E A / t) dwarfs everything else in the tangent and which
 //! lock in bending; the sheet's own bending stiffness (E t³/12) is negligible beside
 //! the silicone's, so a membrane on the sheet's mid-plane, sharing the silicone's nodes
-//! (bonded), carries what the sheet carries and nothing it does not.
+//! (bonded), carries what the sheet carries and nothing it does not. A sheet that is
+//! compressed, or thick enough for its own bending to count, needs that bending too:
+//! [`super::plate`] (`element = "plate"`).
 //!
 //! Material: the plane-stress Saint Venant-Kirchhoff membrane, energy per reference area
 //! t (½ λ' (tr E)² + μ E:E) with the in-plane Green-Lagrange strain E = ½ (FᵀF − I₂)
@@ -360,6 +362,7 @@ mod tests {
             extra_materials: Vec::new(),
             membranes,
             trusses: Vec::new(),
+            plates: Vec::new(),
             contact: None,
         };
         let r = solve_static(&model, &NewtonSettings::default()).unwrap();

@@ -7,7 +7,7 @@
 //! Data flows: [`material`] (Yeoh silicone, isochoric/volumetric split, stress and
 //! tangent) -> [`hex`] (Q1/P0 mean-dilatation hexahedron) and [`pressure`] (cavity
 //! faces, follower pressure as −p V) and [`membrane`] (4-node membranes for thin stiff
-//! sheets, [`layer`]) and [`truss`] (fibre segments embedded in the hexahedra, cables
+//! sheets, [`layer`]; [`plate`] their bending stiffness) and [`truss`] (fibre segments embedded in the hexahedra, cables
 //! optionally tension-only) and [`contact`] (frictionless node-to-surface
 //! penalty contact between the facing chamber walls, optional) -> [`solve`] (Newton on
 //! the three-field form, adaptive load steps) -> [`actuator`] (the parametric PneuNets geometry and its half
@@ -19,7 +19,9 @@
 //! tangent, pressure force and load stiffness against finite differences; the uniaxial
 //! block exactly; the plane-strain thick cylinder against the analytic inflation
 //! pressure; Cook's membrane against its reference tip displacement; the membrane
-//! element's patch test and the composite beam with a sheet or strip; the fibre segment
+//! element's patch test and the composite beam with a sheet or strip; the plate terms
+//! on a sheet rolled onto a cylinder, a cantilever strip and the composite beam with a
+//! glass strip whose own bending is most of the section's; the fibre segment
 //! against finite differences and the Saint Venant-Kirchhoff bar; the fibre-wound tube
 //! against the incompressible thick tube (plain: stretch 1.0192 vs 1.0194 at 10 kPa;
 //! hoop-wound, outer radius held: 1.0806 vs 1.0808) and a one-way winding's twist
@@ -38,6 +40,7 @@ pub mod layer;
 pub mod material;
 pub mod membrane;
 pub mod output;
+pub mod plate;
 pub mod pressure;
 pub mod simulate;
 pub mod solve;

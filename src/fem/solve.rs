@@ -40,6 +40,7 @@ use super::material::Yeoh;
 use super::membrane::{
     membrane_response, MembraneElement, MembraneGeometry, MembraneMatrix, MembraneVector,
 };
+use super::plate::{PlateTerm, PLATE_NODES};
 use super::pressure::{face_volume, FaceMatrix, FaceVector};
 use super::truss::{truss_response, TrussElement, TrussMatrix, TrussVector, TRUSS_DOFS};
 use super::FemError;
@@ -73,6 +74,9 @@ pub struct Model {
     pub membranes: Vec<MembraneElement>,
     /// Fibre segments embedded in the hexahedra ([`super::truss`]).
     pub trusses: Vec<TrussElement>,
+    /// Bending terms of sheets meshed as membranes with their bending stiffness
+    /// ([`super::plate`]): a constant stiffness.
+    pub plates: Vec<PlateTerm>,
     /// Frictionless contact between surfaces ([`super::contact`]); `None`: no contact.
     pub contact: Option<Contact>,
 }
@@ -217,6 +221,8 @@ struct Pattern {
     membrane_slots: Vec<[u32; 144]>,
     /// `truss_slots[t][a + 48 b]`: value index of entry (a, b) of fibre segment t, or SKIP.
     truss_slots: Vec<Box<[u32; TRUSS_DOFS * TRUSS_DOFS]>>,
+    /// `plate_slots[t][a + 15 b]`: value index of entry (a, b) of bending term t, or SKIP.
+    plate_slots: Vec<[u32; 9 * PLATE_NODES * PLATE_NODES]>,
 }
 
 impl Pattern {
@@ -252,6 +258,9 @@ impl Pattern {
         }
         for t in &model.trusses {
             add(&dofs(&t.nodes()));
+        }
+        for t in &model.plates {
+            add(&dofs(&t.nodes));
         }
         // Contact: the node pairs contact has coupled so far (`extra`, found during the
         // solve); the master faces' own couplings are those of their elements.
@@ -336,6 +345,15 @@ impl Pattern {
                 s
             })
             .collect();
+        let plate_slots = model
+            .plates
+            .iter()
+            .map(|t| {
+                let mut s = [SKIP; 9 * PLATE_NODES * PLATE_NODES];
+                slots(&dofs(&t.nodes), &mut s);
+                s
+            })
+            .collect();
         let symbolic = SymbolicSparseColMat::new_checked(n_eq, n_eq, col_ptr, None, row_idx);
         Ok(Self {
             symbolic,
@@ -344,6 +362,7 @@ impl Pattern {
             face_slots,
             membrane_slots,
             truss_slots,
+            plate_slots,
         })
     }
 
@@ -499,6 +518,7 @@ impl<'m> Solver<'m> {
             .flatten()
             .chain(model.pressure_faces.iter().flatten())
             .chain(model.membranes.iter().flat_map(|m| &m.nodes))
+            .chain(model.plates.iter().flat_map(|t| &t.nodes))
             .chain(
                 model
                     .trusses
@@ -630,6 +650,11 @@ impl<'m> Solver<'m> {
             let nodes = t.nodes();
             for a in 0..TRUSS_DOFS {
                 f[3 * nodes[a / 3] + a % 3] += ft[a];
+            }
+        }
+        for t in &self.model.plates {
+            for (a, fa) in t.force(&self.u).iter().enumerate() {
+                f[3 * t.nodes[a / 3] + a % 3] += fa;
             }
         }
         let p = self.load.pressure_mpa;
@@ -958,6 +983,20 @@ impl<'m> Solver<'m> {
             for (s, v) in slots.iter().zip(k.as_slice()) {
                 if *s != SKIP {
                     values[*s as usize] += v;
+                }
+            }
+        }
+        for (t, slots) in model.plates.iter().zip(&self.pattern.plate_slots) {
+            for (a, fa) in t.force(u).iter().enumerate() {
+                if let Some(i) = eq[3 * t.nodes[a / 3] + a % 3] {
+                    r[i] += fa;
+                }
+            }
+            let n = 3 * PLATE_NODES;
+            for (ab, s) in slots.iter().enumerate() {
+                if *s != SKIP {
+                    let (a, b) = (ab % n, ab / n);
+                    values[*s as usize] += t.tangent(a / 3, a % 3, b / 3, b % 3);
                 }
             }
         }
@@ -1295,6 +1334,7 @@ pub(crate) mod tests {
             extra_materials: Vec::new(),
             membranes: Vec::new(),
             trusses: Vec::new(),
+            plates: Vec::new(),
             contact: None,
         };
         let r = solve_static(&model, &NewtonSettings::default()).unwrap();
@@ -1380,6 +1420,7 @@ pub(crate) mod tests {
             extra_materials: Vec::new(),
             membranes: Vec::new(),
             trusses: Vec::new(),
+            plates: Vec::new(),
             contact: None,
         };
         let r = solve_static(&model, &NewtonSettings::default()).unwrap();
@@ -1480,6 +1521,7 @@ pub(crate) mod tests {
             extra_materials: Vec::new(),
             membranes: Vec::new(),
             trusses: Vec::new(),
+            plates: Vec::new(),
             contact: None,
         };
         let mut solver = Solver::new(&model).unwrap();
@@ -1584,6 +1626,7 @@ mod assembly_tests {
                     .0
             })
             .sum();
+        e += m.plates.iter().map(|t| t.energy(u)).sum::<f64>();
         for f in &m.pressure_faces {
             let du = gather(u, f);
             let x: [Vector3<f64>; 4] = std::array::from_fn(|k| m.nodes[f[k]] + du[k]);

@@ -140,6 +140,7 @@ pub fn tube_mesh(spec: TubeSpec, material: Yeoh) -> Result<TubeMesh, FemError> {
             extra_materials: Vec::new(),
             membranes: Vec::new(),
             trusses: Vec::new(),
+            plates: Vec::new(),
             contact: None,
         },
         spec,
