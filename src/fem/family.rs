@@ -10,7 +10,7 @@
 //! - `pneunets`: the reference actuator of method.md §4 (Dragon Skin 30).
 //! - `glove` (smartphone study): the PneuNets layout in Ecoflex 00-50 (Yeoh C1 = 0.0127,
 //!   C2 = 4.23e-4 MPa) with a paper sheet (0.1 mm, 3 GPa: the middle of 2-4 GPa)
-//!   embedded at mid-height of the base.
+//!   embedded at mid-height of the base, a plate ([`super::plate`]).
 //! - `strap` (strap study): PneuNets chambers in Ecoflex 00-30 on a base holding two PLA
 //!   strips (4 GPa) under a 0.1 mm polyester fabric sheet (2.5 GPa), hanging from its
 //!   clamp (gravity along the actuator, +x), 0-15 kPa.
@@ -115,7 +115,10 @@ pub fn defaults(family: Family) -> ActuatorConfig {
                 poisson_ratio: 0.3,
                 // Between two silicone layers: centred in the 6 mm base.
                 height_mm: 2.95,
-                element: LayerElement::Membrane,
+                // A plate: as a bare membrane the compressed paper wrinkles (148 Newton
+                // iterations over the ramp against 77) and its own bending, beside
+                // Ecoflex 00-50's, moves the radius 4%.
+                element: LayerElement::Plate,
                 // Printer paper, in plane: ~30-50 MPa.
                 tensile_strength_mpa: Some(30.0),
                 ..LayerConfig::default()

@@ -125,6 +125,12 @@ pub fn pressure_face_loads(mesh: &ActuatorMesh) -> Result<Vec<(usize, usize)>, F
 
 /// The deck of the model `cfg` describes (see the module doc), and what it holds.
 pub fn inp_from_config(cfg: &ActuatorConfig) -> Result<(String, InpSummary), FemError> {
+    if cfg.contact.as_ref().is_some_and(|c| c.enabled) {
+        return Err(FemError::Parameter {
+            name: "contact".into(),
+            why: "--export-inp does not export [contact] yet: set enabled = false or leave out --export-inp".into(),
+        });
+    }
     let meshed = match &cfg.tube {
         Some(t) if !t.bottom_strip => &[][..],
         _ => &cfg.layer[..],
@@ -133,12 +139,6 @@ pub fn inp_from_config(cfg: &ActuatorConfig) -> Result<(String, InpSummary), Fem
         return Err(FemError::Parameter {
             name: "layer.element".into(),
             why: format!("--export-inp does not export a plate layer ('{}': its bending stiffness has no CalculiX element on the shared nodes): set element = \"membrane\" or leave out --export-inp", layer.name),
-        });
-    }
-    if cfg.contact.as_ref().is_some_and(|c| c.enabled) {
-        return Err(FemError::Parameter {
-            name: "contact".into(),
-            why: "--export-inp does not export [contact] yet: set enabled = false or leave out --export-inp".into(),
         });
     }
     let pressures_kpa = cfg.pressures_kpa()?;
