@@ -30,7 +30,7 @@ use super::hex::{nodal_volumes, HexGeometry};
 use super::layer::{LayerConfig, LayerElement};
 use super::material::{MaterialPreset, Yeoh, DEFAULT_BULK_TO_SHEAR};
 use super::membrane::MembraneElement;
-use super::plate::{plate_terms, Mirror};
+use super::plate::Mirror;
 use super::pressure::CLOSED;
 use super::solve::{Model, NewtonSettings};
 use super::FemError;
@@ -1326,24 +1326,13 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
             why: "a marker or support point is not on the solid (mesh bug)".into(),
         });
     }
+    // The half model's symmetry plane y = 0 mirrors a sheet.
+    let mirror = [Mirror { axis: 1, at: 0.0 }];
     let plates = cfg
         .layer
         .iter()
         .zip(&parts[1..])
-        .filter_map(|(layer, part)| {
-            let d = layer.plate_rigidity()?;
-            // The half model's symmetry plane y = 0 mirrors the sheet.
-            let mirror = [Mirror { axis: 1, at: 0.0 }];
-            Some(plate_terms(
-                &nodes,
-                &membranes,
-                &part.membranes,
-                d,
-                layer.poisson_ratio,
-                &mirror,
-            ))
-        })
-        .flatten()
+        .flat_map(|(layer, part)| layer.plate_terms(&nodes, &membranes, &part.membranes, &mirror))
         .collect();
     Ok(ActuatorMesh {
         model: Model {

@@ -32,7 +32,6 @@ use super::actuator::{
 use super::inp::C3D8_FACES;
 use super::material::MaterialPreset;
 use super::membrane::MembraneElement;
-use super::plate::plate_terms;
 use super::pressure::CLOSED;
 use super::solve::Model;
 use super::truss::{embed_fibre, TrussSection};
@@ -616,18 +615,7 @@ pub(crate) fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError>
     let plates = strips
         .iter()
         .zip(&parts[3..])
-        .filter_map(|(layer, part)| {
-            let d = layer.plate_rigidity()?;
-            Some(plate_terms(
-                &nodes,
-                &membranes,
-                &part.membranes,
-                d,
-                layer.poisson_ratio,
-                &[],
-            ))
-        })
-        .flatten()
+        .flat_map(|(layer, part)| layer.plate_terms(&nodes, &membranes, &part.membranes, &[]))
         .collect();
     Ok(compact(ActuatorMesh {
         model: Model {

@@ -217,6 +217,20 @@ impl LayerConfig {
         })
     }
 
+    /// The bending terms of this layer's membranes `part` (indices into `membranes`) on
+    /// `nodes`, mirrored at `mirrors` ([`super::plate`]); none unless it is a plate.
+    pub fn plate_terms(
+        &self,
+        nodes: &[nalgebra::Vector3<f64>],
+        membranes: &[super::membrane::MembraneElement],
+        part: &[usize],
+        mirrors: &[super::plate::Mirror],
+    ) -> Vec<super::plate::PlateTerm> {
+        self.plate_rigidity().map_or_else(Vec::new, |d| {
+            super::plate::plate_terms(nodes, membranes, part, d, self.poisson_ratio, mirrors)
+        })
+    }
+
     /// Height of the membrane's plane above the bottom face, mm: the layer's mid-plane.
     pub fn membrane_height_mm(&self) -> f64 {
         self.height_mm + 0.5 * self.thickness_mm
@@ -424,19 +438,11 @@ mod tests {
         }
         // A plate also carries its own couple −E κ b t³/12 (the linear stress through its
         // thickness about its mid-plane): a pair of z forces on the last two columns.
-        let mut plates = Vec::new();
-        if let Some(d) = layer.plate_rigidity() {
-            let all: Vec<usize> = (0..membranes.len()).collect();
-            // x = 0 is a symmetry plane of the pure bending: the sheet is mirrored there.
-            let mirror = [crate::fem::plate::Mirror { axis: 0, at: 0.0 }];
-            plates = crate::fem::plate::plate_terms(
-                &nodes,
-                &membranes,
-                &all,
-                d,
-                layer.poisson_ratio,
-                &mirror,
-            );
+        let all: Vec<usize> = (0..membranes.len()).collect();
+        // x = 0 is a symmetry plane of the pure bending: the sheet is mirrored there.
+        let mirror = [crate::fem::plate::Mirror { axis: 0, at: 0.0 }];
+        let plates = layer.plate_terms(&nodes, &membranes, &all, &mirror);
+        if layer.plate_rigidity().is_some() {
             let dx = len / nx as f64;
             let f = layer.youngs_modulus_mpa * kappa * width * t.powi(3) / (12.0 * dx);
             for j in 0..2 {
