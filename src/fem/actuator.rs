@@ -357,6 +357,27 @@ impl MaterialConfig {
 pub struct MeshConfig {
     /// Largest element edge, mm.
     pub size_mm: f64,
+    /// The solid element ([`crate::fem::hex`]).
+    pub element: SolidElement,
+}
+
+/// The hexahedron the silicone is meshed with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SolidElement {
+    /// Trilinear, with the Q1/P0 mean dilatation.
+    #[default]
+    Q1p0,
+    /// The same with three incompatible modes condensed per element (Wilson-Taylor, as
+    /// CalculiX's C3D8I): it bends through one element without shear locking.
+    IncompatibleModes,
+}
+
+impl SolidElement {
+    /// Whether the element has incompatible modes.
+    pub fn incompatible_modes(self) -> bool {
+        self == Self::IncompatibleModes
+    }
 }
 
 /// Default element size, mm: within 1% of the converged radius over the whole ramp
@@ -372,6 +393,7 @@ impl Default for MeshConfig {
     fn default() -> Self {
         Self {
             size_mm: DEFAULT_MESH_SIZE_MM,
+            element: SolidElement::default(),
         }
     }
 }
@@ -1352,6 +1374,7 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
                 pairs: wall_pairs.clone(),
                 penalty_mpa_per_mm: c.penalty_for(&material, h),
             }),
+            incompatible_modes: cfg.mesh.element.incompatible_modes(),
         },
         markers,
         tip,
@@ -1412,7 +1435,10 @@ mod tests {
     #[test]
     fn mesh_volume_and_cavity_volume_are_those_of_the_geometry() {
         let cfg = ActuatorConfig {
-            mesh: MeshConfig { size_mm: 2.0 },
+            mesh: MeshConfig {
+                size_mm: 2.0,
+                ..Default::default()
+            },
             ..Default::default()
         };
         let mesh = build_mesh(&cfg).unwrap();

@@ -648,6 +648,7 @@ mod tests {
             membranes: Vec::new(),
             trusses: Vec::new(),
             plates: Vec::new(),
+            incompatible_modes: false,
             contact: Some(Contact {
                 pairs: pairs.clone(),
                 penalty_mpa_per_mm: penalty,
@@ -716,7 +717,10 @@ mod tests {
                 enabled: false,
                 ..c.clone()
             }),
-            mesh: MeshConfig { size_mm: 4.0 },
+            mesh: MeshConfig {
+                size_mm: 4.0,
+                ..Default::default()
+            },
             ..Default::default()
         };
         let mesh = build_mesh(&off).unwrap();

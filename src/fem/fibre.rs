@@ -632,6 +632,7 @@ pub(crate) fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError>
             trusses,
             plates,
             contact: None,
+            incompatible_modes: cfg.mesh.element.incompatible_modes(),
         },
         markers,
         tip,

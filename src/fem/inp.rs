@@ -465,7 +465,10 @@ mod tests {
 
     fn coarse() -> ActuatorConfig {
         ActuatorConfig {
-            mesh: MeshConfig { size_mm: 4.0 },
+            mesh: MeshConfig {
+                size_mm: 4.0,
+                ..Default::default()
+            },
             load: LoadConfig {
                 pressures_kpa: "5,10".into(),
                 gravity: false,

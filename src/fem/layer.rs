@@ -464,6 +464,7 @@ mod tests {
             trusses: Vec::new(),
             plates,
             contact: None,
+            incompatible_modes: false,
         };
         let r = solve_static(&model, &NewtonSettings::default()).unwrap();
         let (top, bottom) = (id(nx, 0, nz), id(nx, 0, 0));

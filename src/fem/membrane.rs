@@ -363,6 +363,7 @@ mod tests {
             membranes,
             trusses: Vec::new(),
             plates: Vec::new(),
+            incompatible_modes: false,
             contact: None,
         };
         let r = solve_static(&model, &NewtonSettings::default()).unwrap();

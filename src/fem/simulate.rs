@@ -407,7 +407,10 @@ mod tests {
 
     fn coarse(gravity: bool) -> ActuatorMesh {
         build_mesh(&ActuatorConfig {
-            mesh: MeshConfig { size_mm: 2.5 },
+            mesh: MeshConfig {
+                size_mm: 2.5,
+                ..Default::default()
+            },
             load: LoadConfig {
                 gravity,
                 ..Default::default()
@@ -480,7 +483,10 @@ mod layer_tests {
     /// 3 GPa, 1 mm above the bottom) meshed as `element`.
     fn paper(element: LayerElement) -> (ActuatorMesh, Ramp) {
         let cfg = ActuatorConfig {
-            mesh: MeshConfig { size_mm: 2.5 },
+            mesh: MeshConfig {
+                size_mm: 2.5,
+                ..Default::default()
+            },
             load: LoadConfig {
                 gravity: true,
                 ..Default::default()
@@ -541,7 +547,10 @@ mod contact_tests {
                 d: 0.5,
                 ..Geometry::default()
             },
-            mesh: MeshConfig { size_mm: 3.0 },
+            mesh: MeshConfig {
+                size_mm: 3.0,
+                ..Default::default()
+            },
             load: LoadConfig {
                 pressures_kpa: "10,25,40".into(),
                 gravity: true,

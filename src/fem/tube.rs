@@ -141,6 +141,7 @@ pub fn tube_mesh(spec: TubeSpec, material: Yeoh) -> Result<TubeMesh, FemError> {
             membranes: Vec::new(),
             trusses: Vec::new(),
             plates: Vec::new(),
+            incompatible_modes: false,
             contact: None,
         },
         spec,
