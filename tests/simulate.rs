@@ -786,30 +786,68 @@ fn assert_radius_and_tip_agree(h: &[String], steps: &[BothSolvers], radius_tol: 
 /// (issue 21 item 6) on the exported default 1.5 mm mesh (within 1% of converged; the
 /// 2-4 mm meshes differ by 4-7%: the two elements converge from different sides),
 /// gravity off, 5 and 10 kPa, bulk modulus 100 mu0 (issue 11's CalculiX configuration:
-/// C3D8I is fully integrated and locks at the default 1000 mu0).
+/// C3D8I is fully integrated and locks at the default 1000 mu0). Then the same model
+/// with bendscope's hexahedra with incompatible modes (`[mesh] element =
+/// "incompatible-modes"`, CalculiX's C3D8I formulation) against the same CalculiX run:
+/// measured +0.21% and -0.21%, tips 0.02-0.04 mm apart (Q1/P0: +2.37%, +1.91%, 0.19-0.31
+/// mm), so the Q1/P0 element is what
+/// parted the solvers.
 #[test]
 fn calculix_on_the_exported_deck_agrees_with_bendscopes_markers() {
-    let (h, _, steps) = simulate_and_calculix(
-        &[
-            "--mesh-size",
-            "1.5",
-            "--pressures",
-            "5,10",
-            "--no-gravity",
-            "--bulk-modulus",
-            "21.488",
-        ],
-        None,
-    );
+    let args = [
+        "--mesh-size",
+        "1.5",
+        "--pressures",
+        "5,10",
+        "--no-gravity",
+        "--bulk-modulus",
+        "21.488",
+    ];
+    let (h, _, steps) = simulate_and_calculix(&args, None);
     assert_eq!(steps.len(), 2);
     assert_radius_and_tip_agree(&h, &steps, 0.03, 2.0);
+    let modes = with_incompatible_modes(&args, "", &h, steps);
+    assert_radius_and_tip_agree(&h, &modes, 0.005, 0.2);
+}
+
+/// CalculiX's side of `steps` beside bendscope's steps.csv rows of the same model
+/// (`config`, then `args`) solved with the hexahedra with incompatible modes.
+fn with_incompatible_modes(
+    args: &[&str],
+    config: &str,
+    header: &[String],
+    steps: Vec<BothSolvers>,
+) -> Vec<BothSolvers> {
+    let dir = tempfile::tempdir().unwrap();
+    let config = format!("{config}[mesh]\nelement = \"incompatible-modes\"\n");
+    std::fs::write(dir.path().join("model.toml"), config).unwrap();
+    let mut all = vec![
+        "simulate",
+        "--no-vtu",
+        "-o",
+        "fem",
+        "--config",
+        "model.toml",
+    ];
+    all.extend_from_slice(args);
+    let run = Run::new(dir.path(), &all);
+    assert_eq!(run.code, 0, "{run}");
+    let (h, rows) = read_csv(&dir.path().join("fem/steps.csv"));
+    assert_eq!(h, header);
+    assert_eq!(rows.len(), steps.len());
+    steps
+        .into_iter()
+        .zip(rows)
+        .map(|(s, row)| BothSolvers { row, ..s })
+        .collect()
 }
 
 /// A sheet bonded in the base goes out as M3D4 membranes on the same nodes: the strap's
 /// chambers (Ecoflex 00-30, shortened to 4 chambers) on its polyester sheet alone (0.1 mm,
 /// 2.5 GPa: the sheet takes the radius from 201 to 261 mm at 4 kPa), hanging from the
 /// clamp under gravity (the GRAV direction +x), bulk modulus 100 mu0, default 1.5 mm mesh.
-/// Measured: radius 261.33 / 257.62 mm (-1.42%), tip 0.026 mm apart (at 2 kPa -0.08%).
+/// Measured: radius 261.33 / 257.62 mm (-1.42%), tip 0.026 mm apart (at 2 kPa -0.08%);
+/// with bendscope's hexahedra with incompatible modes 258.90 mm (-0.55%).
 #[test]
 fn calculix_agrees_on_a_sheet_exported_as_membranes_under_hanging_gravity() {
     let config = "[geometry]\nfamily = \"strap\"\nchambers = 4\nb = 62.0\nr = 52.0\n\
@@ -819,6 +857,9 @@ fn calculix_agrees_on_a_sheet_exported_as_membranes_under_hanging_gravity() {
     let (h, _, steps) = simulate_and_calculix(&["--pressures", "4"], Some(config));
     assert_eq!(steps.len(), 1);
     assert_radius_and_tip_agree(&h, &steps, 0.03, 0.5);
+    // With incompatible modes: 258.90 mm, -0.55% (Q1/P0 -1.47%).
+    let modes = with_incompatible_modes(&["--pressures", "4"], config, &h, steps);
+    assert_radius_and_tip_agree(&h, &modes, 0.01, 0.1);
 }
 
 /// The fibre-reinforced tube's threads go out as SPRINGA segments tied to their host

@@ -21,9 +21,9 @@ use super::{EXIT_BAD_INPUT, EXIT_NOTHING, EXIT_OK, EXIT_PARTIAL};
 side_face.json (the filmed face per step, input of bendscope render), vtu/ + actuator.pvd (deformed mesh, displacement and stress, for ParaView), plots/, config.toml (the resolved \
 actuator), summary.json; with --blocked force.csv; with --sweep sweep.csv.
 Config sections: [geometry] chambers b i f m p r c g d e l n top_wall roof (mm, method.md §4 names); \
-[material] preset c1 c2 c3 bulk_modulus_mpa density_g_cm3 tensile_strength_mpa scale; [mesh] size_mm; \
+[material] preset c1 c2 c3 bulk_modulus_mpa density_g_cm3 tensile_strength_mpa scale; [mesh] size_mm element (q1p0 or incompatible-modes); \
 [load] pressures_kpa gravity gravity_direction; [solver] max_iterations tolerance; [layer] (or several [[layer]]) name thickness_mm \
-youngs_modulus_mpa poisson_ratio height_mm element (membrane or solid) width_mm strips spacing_mm tensile_strength_mpa; [contact]. \
+youngs_modulus_mpa poisson_ratio height_mm element (membrane, plate or solid) width_mm strips spacing_mm tensile_strength_mpa; [contact]. \
 [geometry] family = pneunets, glove, strap or fibre-reinforced picks the published design whose values fill what the file leaves out. \
 Print a family's whole config with --family NAME --print-config."
 )]

@@ -1308,6 +1308,7 @@ impl<'m> Solver<'m> {
             // Element updates from the condensation: the modes'
             // Δa = −K_aa⁻¹ (r_a + K_au Δu), then Δθ = (Gᵀ Δu + R_p) / V (G over the nodes
             // and the modes, per Gauss point with the modes), Δp = U'' Δθ + R_θ / V.
+            let points = volume_points(self.model);
             let updates: Vec<(Vec<(f64, f64)>, Option<Modes>)> = self
                 .model
                 .elements
@@ -1318,8 +1319,11 @@ impl<'m> Solver<'m> {
                     let due = ElementVector::from_fn(|a, _| du_full[3 * el[a / 3] + a % 3]);
                     match &c.modes {
                         None => {
+                            // Q1/P0, or an element at rest (every node fixed: G = 0, no
+                            // residual, so no update at any of its points).
                             let dth = (c.g.dot(&due) + c.r_volume) / g.volume;
-                            (vec![(dth, c.ddu * dth + c.r_pressure / g.volume)], None)
+                            let dp = c.ddu * dth + c.r_pressure / g.volume;
+                            (vec![(dth, dp); points], None)
                         }
                         Some(m) => {
                             let da = -(m.kaa_inv * (m.ra + m.kau * due));
@@ -1343,7 +1347,6 @@ impl<'m> Solver<'m> {
                     }
                 })
                 .collect();
-            let points = volume_points(self.model);
             // Full step unless it inverts an element; then halve.
             let mut alpha = 1.0;
             let mut accepted = None;
