@@ -85,6 +85,33 @@ pub struct Model {
 }
 
 impl Model {
+    /// A model of hexahedra alone (Q1/P0, one material, no pressure, sheets, fibres or
+    /// contact).
+    pub fn solid(
+        nodes: Vec<Vector3<f64>>,
+        elements: Vec<[usize; 8]>,
+        material: Yeoh,
+        fixed: Vec<bool>,
+        loads: Vec<f64>,
+    ) -> Self {
+        Self {
+            nodes,
+            elements,
+            material,
+            fixed,
+            loads,
+            pressure_faces: Vec::new(),
+            volume_weights: super::pressure::CLOSED,
+            element_material: Vec::new(),
+            extra_materials: Vec::new(),
+            membranes: Vec::new(),
+            trusses: Vec::new(),
+            plates: Vec::new(),
+            contact: None,
+            incompatible_modes: false,
+        }
+    }
+
     /// The material of element `e`.
     pub fn material_of(&self, e: usize) -> &Yeoh {
         match self.element_material.get(e) {
@@ -1525,20 +1552,8 @@ pub(crate) mod tests {
             bulk_modulus: 2.0 * mu * (1.0 + nu) / (3.0 * (1.0 - 2.0 * nu)),
         };
         let model = Model {
-            nodes,
-            elements,
-            material,
-            fixed,
-            loads,
-            pressure_faces: Vec::new(),
-            volume_weights: crate::fem::pressure::CLOSED,
-            element_material: Vec::new(),
-            extra_materials: Vec::new(),
-            membranes: Vec::new(),
-            trusses: Vec::new(),
-            plates: Vec::new(),
             incompatible_modes,
-            contact: None,
+            ..Model::solid(nodes, elements, material, fixed, loads)
         };
         let r = solve_static(&model, &NewtonSettings::default()).unwrap();
         r.displacement[3 * id(n, n, 0) + 1]
@@ -1594,20 +1609,8 @@ pub(crate) mod tests {
         let e = 9.0 * k * mu / (3.0 * k + mu);
         let exact = p * len.powi(3) / (3.0 * e * t.powi(4) / 12.0);
         let model = Model {
-            nodes,
-            elements,
-            material,
-            fixed,
-            loads,
-            pressure_faces: Vec::new(),
-            volume_weights: crate::fem::pressure::CLOSED,
-            element_material: Vec::new(),
-            extra_materials: Vec::new(),
-            membranes: Vec::new(),
-            trusses: Vec::new(),
-            plates: Vec::new(),
             incompatible_modes,
-            contact: None,
+            ..Model::solid(nodes, elements, material, fixed, loads)
         };
         let r = solve_static(&model, &NewtonSettings::default()).unwrap();
         let tip: f64 = (0..2)
