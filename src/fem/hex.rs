@@ -365,25 +365,12 @@ pub fn element_response(
     modes: Option<&Modes>,
 ) -> Option<(f64, ElementVector, ElementMatrix)> {
     if let Some(m) = modes {
-        // The volumetric energy at each Gauss point: Σ_g w_g U(J_g).
-        let c = enhanced_kinematics(geom, material, u, m, &[1.0; 8])?
-            .v_points
-            .iter()
-            .zip(&geom.weights)
-            .map(|(v, w)| material.du(v / w))
-            .collect::<Vec<_>>();
-        let e = enhanced_kinematics(geom, material, u, m, &std::array::from_fn(|g| c[g]))?;
-        let mut energy = e.energy_iso;
-        let mut force = e.force_iso.fixed_rows::<24>(0).into_owned();
-        let mut k = e.k_iso.fixed_view::<24, 24>(0, 0) + e.h.fixed_view::<24, 24>(0, 0);
-        for g in 0..8 {
-            let (w, j) = (geom.weights[g], e.v_points[g] / geom.weights[g]);
-            let gg = e.g_points[g].fixed_rows::<24>(0);
-            energy += w * material.u(j);
-            force += gg * material.du(j);
-            k += gg * gg.transpose() * (material.ddu(j) / w);
-        }
-        return Some((energy, force, k));
+        let (energy, force, k) = enhanced_response(geom, material, u, m)?;
+        return Some((
+            energy,
+            force.fixed_rows::<24>(0).into_owned(),
+            k.fixed_view::<24, 24>(0, 0).into_owned(),
+        ));
     }
     let e = element_kinematics(geom, material, u)?;
     let (energy_iso, force_iso, k_iso, v, g, h) =
@@ -400,6 +387,34 @@ pub fn element_response(
     Some((energy, force, k))
 }
 
+/// Energy, force and tangent of the element with incompatible modes over all its 33
+/// unknowns (nodes, then modes) in the displacement-only form: the volumetric energy
+/// Σ_g w_g U(J_g) per Gauss point. `None` when an inverted Gauss point is met.
+pub fn enhanced_response(
+    geom: &HexGeometry,
+    material: &Yeoh,
+    u: &[Vector3<f64>; 8],
+    modes: &Modes,
+) -> Option<(
+    f64,
+    SVector<f64, ENHANCED_DOFS>,
+    SMatrix<f64, ENHANCED_DOFS, ENHANCED_DOFS>,
+)> {
+    // The volume Hessians are weighted by the points' pressures U'(J_g).
+    let c = std::array::from_fn(|g| {
+        material.du(geom.deformation_gradient(g, u, Some(modes)).determinant())
+    });
+    let e = enhanced_kinematics(geom, material, u, modes, &c)?;
+    let (mut energy, mut force, mut k) = (e.energy_iso, e.force_iso, e.k_iso + e.h);
+    for g in 0..8 {
+        let (w, j) = (geom.weights[g], e.v_points[g] / geom.weights[g]);
+        energy += w * material.u(j);
+        force += e.g_points[g] * material.du(j);
+        k += e.g_points[g] * e.g_points[g].transpose() * (material.ddu(j) / w);
+    }
+    Some((energy, force, k))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -413,6 +428,38 @@ mod tests {
                 0.5 * (c[2] + 1.0) * 1.2,
             )
         })
+    }
+
+    /// Asserts that a response's force and tangent are the central differences of its
+    /// energy and force, and the tangent symmetric; `response(d, s)`: the response with
+    /// unknown d moved by s.
+    fn assert_derivatives<const D: usize>(
+        response: impl Fn(usize, f64) -> (f64, SVector<f64, D>, SMatrix<f64, D, D>),
+    ) {
+        let (_, f, k) = response(0, 0.0);
+        let h = 1e-6;
+        for d in 0..D {
+            let ((ep, fp, _), (em, fm, _)) = (response(d, h), response(d, -h));
+            let fd = (ep - em) / (2.0 * h);
+            assert!(
+                (fd - f[d]).abs() < 1e-6 * f.norm().max(1.0),
+                "f[{d}] {} vs {fd}",
+                f[d]
+            );
+            let col = (fp - fm) / (2.0 * h);
+            for r in 0..D {
+                assert!(
+                    (col[r] - k[(r, d)]).abs() < 1e-5 * k.norm(),
+                    "K[{r},{d}] {} vs {}",
+                    k[(r, d)],
+                    col[r]
+                );
+            }
+        }
+        assert!(
+            (k - k.transpose()).norm() < 1e-9 * k.norm(),
+            "symmetric tangent"
+        );
     }
 
     #[test]
@@ -433,35 +480,11 @@ mod tests {
                 -0.04 * (t * 0.4).sin(),
             )
         });
-        let (_, f, k) = element_response(&geom, &m, &u, None).unwrap();
-        let h = 1e-6;
-        for d in 0..24 {
-            let mut up = u;
-            let mut um = u;
-            up[d / 3][d % 3] += h;
-            um[d / 3][d % 3] -= h;
-            let (ep, fp, _) = element_response(&geom, &m, &up, None).unwrap();
-            let (em, fm, _) = element_response(&geom, &m, &um, None).unwrap();
-            let fd = (ep - em) / (2.0 * h);
-            assert!(
-                (fd - f[d]).abs() < 1e-6 * f.norm().max(1.0),
-                "f[{d}] {} vs {fd}",
-                f[d]
-            );
-            let col = (fp - fm) / (2.0 * h);
-            for r in 0..24 {
-                assert!(
-                    (col[r] - k[(r, d)]).abs() < 1e-5 * k.norm(),
-                    "K[{r},{d}] {} vs {}",
-                    k[(r, d)],
-                    col[r]
-                );
-            }
-        }
-        assert!(
-            (k - k.transpose()).norm() < 1e-9 * k.norm(),
-            "symmetric tangent"
-        );
+        assert_derivatives::<24>(|d, s| {
+            let mut uu = u;
+            uu[d / 3][d % 3] += s;
+            element_response(&geom, &m, &uu, None).unwrap()
+        });
     }
 
     #[test]
@@ -485,32 +508,6 @@ mod tests {
         x
     }
 
-    fn volumetric_response(
-        geom: &HexGeometry,
-        m: &Yeoh,
-        u: &[Vector3<f64>; 8],
-        modes: &Modes,
-    ) -> (
-        f64,
-        SVector<f64, ENHANCED_DOFS>,
-        SMatrix<f64, ENHANCED_DOFS, ENHANCED_DOFS>,
-    ) {
-        // The volumetric energy per Gauss point, its Hessian weighted by U'(J_g).
-        let j0 = enhanced_kinematics(geom, m, u, modes, &[1.0; 8])
-            .unwrap()
-            .v_points;
-        let c = std::array::from_fn(|g| m.du(j0[g] / geom.weights[g]));
-        let e = enhanced_kinematics(geom, m, u, modes, &c).unwrap();
-        let (mut energy, mut force, mut k) = (e.energy_iso, e.force_iso, e.k_iso + e.h);
-        for g in 0..8 {
-            let (w, j) = (geom.weights[g], e.v_points[g] / geom.weights[g]);
-            energy += w * m.u(j);
-            force += e.g_points[g] * m.du(j);
-            k += e.g_points[g] * e.g_points[g].transpose() * (m.ddu(j) / w);
-        }
-        (energy, force, k)
-    }
-
     #[test]
     fn incompatible_modes_force_and_tangent_are_derivatives_of_the_energy() {
         let x = distorted();
@@ -528,36 +525,15 @@ mod tests {
             )
         });
         let modes: Modes = std::array::from_fn(|i| 0.03 * ((i as f64) * 0.9).cos());
-        let (_, f, k) = volumetric_response(&geom, &m, &u, &modes);
-        let h = 1e-6;
-        for d in 0..ENHANCED_DOFS {
-            let shifted = |s: f64| {
-                let (mut uu, mut mm) = (u, modes);
-                if d < 24 {
-                    uu[d / 3][d % 3] += s;
-                } else {
-                    mm[d - 24] += s;
-                }
-                volumetric_response(&geom, &m, &uu, &mm)
-            };
-            let ((ep, fp, _), (em, fm, _)) = (shifted(h), shifted(-h));
-            let fd = (ep - em) / (2.0 * h);
-            assert!(
-                (fd - f[d]).abs() < 1e-6 * f.norm().max(1.0),
-                "f[{d}] {} vs {fd}",
-                f[d]
-            );
-            let col = (fp - fm) / (2.0 * h);
-            for r in 0..ENHANCED_DOFS {
-                assert!(
-                    (col[r] - k[(r, d)]).abs() < 1e-5 * k.norm(),
-                    "K[{r},{d}] {} vs {}",
-                    k[(r, d)],
-                    col[r]
-                );
+        assert_derivatives::<ENHANCED_DOFS>(|d, s| {
+            let (mut uu, mut mm) = (u, modes);
+            if d < 24 {
+                uu[d / 3][d % 3] += s;
+            } else {
+                mm[d - 24] += s;
             }
-        }
-        assert!((k - k.transpose()).norm() < 1e-9 * k.norm());
+            enhanced_response(&geom, &m, &uu, &mm).unwrap()
+        });
     }
 
     #[test]
@@ -571,7 +547,7 @@ mod tests {
         let f = Matrix3::new(1.2, 0.1, -0.05, 0.03, 0.9, 0.08, -0.1, 0.02, 1.05);
         let u: [Vector3<f64>; 8] = std::array::from_fn(|a| (f - Matrix3::identity()) * x[a]);
         let zero = [0.0; 3 * MODES];
-        let (_, fe, _) = volumetric_response(&geom, &m, &u, &zero);
+        let (_, fe, _) = enhanced_response(&geom, &m, &u, &zero).unwrap();
         let (_, fp, _) = element_response(&geom, &m, &u, None).unwrap();
         let (_, fr, _) = element_response(&geom, &m, &u, Some(&zero)).unwrap();
         assert!((fr - fp).norm() < 1e-12 * fp.norm());

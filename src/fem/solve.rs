@@ -1724,22 +1724,7 @@ pub(crate) mod tests {
                 }
             }
         }
-        let model = Model {
-            nodes,
-            elements,
-            material,
-            fixed,
-            loads,
-            pressure_faces: Vec::new(),
-            volume_weights: crate::fem::pressure::CLOSED,
-            element_material: Vec::new(),
-            extra_materials: Vec::new(),
-            membranes: Vec::new(),
-            trusses: Vec::new(),
-            plates: Vec::new(),
-            incompatible_modes: false,
-            contact: None,
-        };
+        let model = Model::solid(nodes, elements, material, fixed, loads);
         let r = solve_static(&model, &NewtonSettings::default()).unwrap();
         // Exact: F = diag(l1, l2, l2) with P11 = T, P22 = 0 (Newton on the material).
         let (mut l1, mut l2) = (1.0, 1.0);
