@@ -484,6 +484,10 @@ pub struct Solver<'m> {
     previous: Option<(State, LoadState)>,
 }
 
+/// One element's Newton update: (Δθ, Δp) of each of its volume points, and the modes'
+/// Δa for the element with them.
+type ElementUpdate = (Vec<(f64, f64)>, Option<Modes>);
+
 /// A state of the three-field iteration: u, θ_e, p_e and the modes' amplitudes.
 type State = (Vec<f64>, Vec<f64>, Vec<f64>, Vec<Modes>);
 
@@ -1336,7 +1340,7 @@ impl<'m> Solver<'m> {
             // Δa = −K_aa⁻¹ (r_a + K_au Δu), then Δθ = (Gᵀ Δu + R_p) / V (G over the nodes
             // and the modes, per Gauss point with the modes), Δp = U'' Δθ + R_θ / V.
             let points = volume_points(self.model);
-            let updates: Vec<(Vec<(f64, f64)>, Option<Modes>)> = self
+            let updates: Vec<ElementUpdate> = self
                 .model
                 .elements
                 .iter()
