@@ -81,7 +81,7 @@ pub struct SimulateArgs {
     /// Print the resolved actuator config (TOML) and exit.
     #[arg(long)]
     pub print_config: bool,
-    /// Also write the model as an Abaqus/CalculiX deck (C3D8I Yeoh solids, M3D4 layers, SPRINGA
+    /// Also write the model as an Abaqus/CalculiX deck (C3D8I Yeoh solids, M3D4 layers, S4 plates, SPRINGA
     /// threads tied by *EQUATION, one step per pressure; not [contact]).
     #[arg(long, value_name = "FILE")]
     pub export_inp: Option<PathBuf>,

@@ -898,6 +898,9 @@ pub struct Part {
     pub solid_material: Option<u8>,
     /// Membrane elements (indices into [`Model::membranes`]).
     pub membranes: Vec<usize>,
+    /// The membranes carry the sheet's bending stiffness ([`Model::plates`], a layer
+    /// with `element = "plate"`).
+    pub plate: bool,
     /// Fibre segments (indices into [`Model::trusses`]).
     pub trusses: Vec<usize>,
 }
@@ -1309,6 +1312,7 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
         tensile_strength_mpa: Some(cfg.material.tensile_strength_mpa),
         solid_material: Some(0),
         membranes: Vec::new(),
+        plate: false,
         trusses: Vec::new(),
     }];
     let mut solid_id = 0u8;
@@ -1322,6 +1326,7 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
             tensile_strength_mpa: layer.tensile_strength_mpa,
             solid_material,
             membranes,
+            plate: layer.element == LayerElement::Plate,
             trusses: Vec::new(),
         });
     }

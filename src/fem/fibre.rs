@@ -30,6 +30,7 @@ use super::actuator::{
     coordinate_lines, gravity_loads, ActuatorConfig, ActuatorMesh, MaterialConfig, Part,
 };
 use super::inp::C3D8_FACES;
+use super::layer::LayerElement;
 use super::material::MaterialPreset;
 use super::membrane::MembraneElement;
 use super::pressure::CLOSED;
@@ -586,6 +587,7 @@ pub(crate) fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError>
             tensile_strength_mpa: Some(cfg.material.tensile_strength_mpa),
             solid_material: Some(0),
             membranes: Vec::new(),
+            plate: false,
             trusses: Vec::new(),
         },
         Part {
@@ -593,6 +595,7 @@ pub(crate) fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError>
             tensile_strength_mpa: Some(t.outer_material.tensile_strength_mpa),
             solid_material: Some(1),
             membranes: Vec::new(),
+            plate: false,
             trusses: Vec::new(),
         },
         Part {
@@ -600,6 +603,7 @@ pub(crate) fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError>
             tensile_strength_mpa: Some(t.fibre_strength_mpa),
             solid_material: None,
             membranes: Vec::new(),
+            plate: false,
             trusses: (0..trusses.len()).collect(),
         },
     ];
@@ -609,6 +613,7 @@ pub(crate) fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError>
             tensile_strength_mpa: layer.tensile_strength_mpa,
             solid_material: None,
             membranes,
+            plate: layer.element == LayerElement::Plate,
             trusses: Vec::new(),
         });
     }

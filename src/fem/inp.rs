@@ -7,7 +7,10 @@
 //! elements and plain C3D8 locks on nearly incompressible silicone), an element set,
 //! Yeoh material (`*HYPERELASTIC, YEOH`: C10 C20 C30 = c1 c2 c3, D1 = 2/K, D2 = D3 = 0;
 //! a solid layer as Yeoh with C20 = C30 = 0) and density per solid material; thin layers
-//! as `M3D4` membranes on the same nodes (`*ELASTIC` E ν, `*MEMBRANE SECTION` thickness);
+//! as `M3D4` membranes on the same nodes (`*ELASTIC` E ν, `*MEMBRANE SECTION` thickness),
+//! plate layers as `S4` shells there (`*SHELL SECTION` thickness: CalculiX expands them
+//! into C3D8I through the thickness, the mid-plane tied to the silicone's nodes, and on a
+//! half model holds their rotations 4 and 6 on y = 0, `SYMMETRY_SHELL`);
 //! thread segments as `SPRINGA` between a node per thread point, stiffness E A / L0
 //! (bendscope's bar at the thread's small strain; a cable as a `NONLINEAR` spring that
 //! carries nothing shortened), each point tied to its host hexahedron by `*EQUATION`s
@@ -32,7 +35,6 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use super::actuator::{build_mesh, ActuatorConfig, ActuatorMesh, GRAVITY_M_S2};
-use super::layer::LayerElement;
 use super::truss::EmbeddedPoint;
 use super::FemError;
 
@@ -64,6 +66,8 @@ pub struct InpSummary {
     pub elements: usize,
     /// M3D4 membranes (thin layers).
     pub membranes: usize,
+    /// S4 shells (thin layers with their bending stiffness: plate layers).
+    pub shells: usize,
     /// SPRINGA thread segments.
     pub springs: usize,
     /// `*EQUATION`s tying the thread points to their host hexahedra (3 per point).
@@ -83,6 +87,9 @@ impl std::fmt::Display for InpSummary {
         )?;
         if self.membranes > 0 {
             write!(f, ", {} M3D4", self.membranes)?;
+        }
+        if self.shells > 0 {
+            write!(f, ", {} S4", self.shells)?;
         }
         if self.springs > 0 {
             write!(
@@ -129,16 +136,6 @@ pub fn inp_from_config(cfg: &ActuatorConfig) -> Result<(String, InpSummary), Fem
         return Err(FemError::Parameter {
             name: "contact".into(),
             why: "--export-inp does not export [contact] yet: set enabled = false or leave out --export-inp".into(),
-        });
-    }
-    let meshed = match &cfg.tube {
-        Some(t) if !t.bottom_strip => &[][..],
-        _ => &cfg.layer[..],
-    };
-    if let Some(layer) = meshed.iter().find(|l| l.element == LayerElement::Plate) {
-        return Err(FemError::Parameter {
-            name: "layer.element".into(),
-            why: format!("--export-inp does not export a plate layer ('{}': its bending stiffness has no CalculiX element on the shared nodes): set element = \"membrane\" or leave out --export-inp", layer.name),
         });
     }
     let pressures_kpa = cfg.pressures_kpa()?;
@@ -227,8 +224,12 @@ pub fn inp_from_config(cfg: &ActuatorConfig) -> Result<(String, InpSummary), Fem
             density * 1e-9
         );
     }
-    // Membranes: M3D4 on the layer's mid-plane nodes, a set and section per layer.
+    // Sheets on the layer's mid-plane nodes, a set and section per layer: M3D4 membranes,
+    // or S4 shells for a plate layer (its bending stiffness; CalculiX expands them to
+    // C3D8I through the thickness, tied to the silicone's nodes at their mid-plane).
     let mut next_id = m.elements.len();
+    let (mut n_membranes, mut n_shells) = (0, 0);
+    let mut shell_nodes = std::collections::BTreeSet::new();
     for (part, name) in mesh.parts.iter().zip(&names.parts) {
         let Some(&first) = part.membranes.first() else {
             continue;
@@ -246,15 +247,25 @@ pub fn inp_from_config(cfg: &ActuatorConfig) -> Result<(String, InpSummary), Fem
                 ),
             });
         }
-        let _ = writeln!(s, "*ELEMENT, TYPE=M3D4, ELSET={name}");
+        let (kind, card) = if part.plate {
+            n_shells += part.membranes.len();
+            ("S4", "SHELL SECTION")
+        } else {
+            n_membranes += part.membranes.len();
+            ("M3D4", "MEMBRANE SECTION")
+        };
+        let _ = writeln!(s, "*ELEMENT, TYPE={kind}, ELSET={name}");
         for &i in &part.membranes {
             next_id += 1;
-            let ids = join_ids(m.membranes[i].nodes.iter().map(|n| n + 1));
-            let _ = writeln!(s, "{next_id}, {ids}");
+            let nodes = m.membranes[i].nodes;
+            if part.plate {
+                shell_nodes.extend(nodes);
+            }
+            let _ = writeln!(s, "{next_id}, {}", join_ids(nodes.iter().map(|n| n + 1)));
         }
         let _ = writeln!(
             s,
-            "*MATERIAL, NAME={name}\n*ELASTIC\n{:.9e}, {:.6}\n*MEMBRANE SECTION, ELSET={name}, MATERIAL={name}\n{:.9e}",
+            "*MATERIAL, NAME={name}\n*ELASTIC\n{:.9e}, {:.6}\n*{card}, ELSET={name}, MATERIAL={name}\n{:.9e}",
             section.youngs_modulus_mpa, section.poisson_ratio, section.thickness_mm
         );
     }
@@ -329,6 +340,14 @@ pub fn inp_from_config(cfg: &ActuatorConfig) -> Result<(String, InpSummary), Fem
     let one_based = |v: &[usize]| -> Vec<usize> { v.iter().map(|a| a + 1).collect() };
     write_set(&mut s, "NSET", "CLAMPED", &one_based(&clamped));
     write_set(&mut s, "NSET", "SYMMETRY", &one_based(&symmetry));
+    // A shell's rotations about x and z vanish on the symmetry plane y = 0 (bendscope's
+    // plate takes its mirrored neighbour there).
+    let symmetry_shell: Vec<usize> = symmetry
+        .iter()
+        .filter(|a| shell_nodes.contains(*a))
+        .map(|a| a + 1)
+        .collect();
+    write_set(&mut s, "NSET", "SYMMETRY_SHELL", &symmetry_shell);
     write_set(&mut s, "NSET", "MARKERS", &one_based(&mesh.markers));
     write_set(&mut s, "NSET", "TIP", &[mesh.tip + 1]);
     let (below, above) = mesh.twist_pair;
@@ -339,6 +358,9 @@ pub fn inp_from_config(cfg: &ActuatorConfig) -> Result<(String, InpSummary), Fem
     }
     if !symmetry.is_empty() {
         s.push_str("SYMMETRY, 2, 2\n");
+    }
+    if !symmetry_shell.is_empty() {
+        s.push_str("SYMMETRY_SHELL, 4, 4\nSYMMETRY_SHELL, 6, 6\n");
     }
     let step_head = format!(
         "*STEP, NLGEOM, INC={MAX_INCREMENTS}\n*STATIC\n{INITIAL_INCREMENT}, 1., {MIN_INCREMENT:e}, 1.\n"
@@ -372,7 +394,8 @@ pub fn inp_from_config(cfg: &ActuatorConfig) -> Result<(String, InpSummary), Fem
     let summary = InpSummary {
         nodes: m.nodes.len() + points.len(),
         elements: m.elements.len(),
-        membranes: m.membranes.len(),
+        membranes: n_membranes,
+        shells: n_shells,
         springs: m.trusses.len(),
         equations: 3 * points.len(),
         pressure_faces: loads.len(),
@@ -636,5 +659,54 @@ mod tests {
             checked += 1;
         }
         assert_eq!(checked, summary.equations);
+    }
+
+    #[test]
+    fn plate_layers_go_out_as_shells_held_at_the_symmetry_plane() {
+        use crate::fem::family::Family;
+        // The glove's paper is a plate; the half model holds its rotations about x and z
+        // on y = 0.
+        let mut glove = ActuatorConfig::for_family(Family::Glove);
+        glove.mesh.size_mm = 4.0;
+        glove.load.pressures_kpa = "1".into();
+        glove.contact = None;
+        let mesh = build_mesh(&glove).unwrap();
+        let (text, summary) = inp_from_config(&glove).unwrap();
+        assert!(mesh.model.plates.len() > 10);
+        assert_eq!(
+            (summary.membranes, summary.shells),
+            (0, mesh.model.membranes.len())
+        );
+        assert_eq!(text.matches("*ELEMENT, TYPE=S4, ELSET=PAPER").count(), 1);
+        assert!(text.contains("*SHELL SECTION, ELSET=PAPER, MATERIAL=PAPER\n1.000000000e-1"));
+        assert!(!text.contains("M3D4") && !text.contains("MEMBRANE SECTION"));
+        assert!(text.contains("SYMMETRY_SHELL, 4, 4\nSYMMETRY_SHELL, 6, 6\n"));
+        let lines: Vec<&str> = text.lines().collect();
+        let at = lines
+            .iter()
+            .position(|l| *l == "*NSET, NSET=SYMMETRY_SHELL")
+            .unwrap();
+        let held: Vec<usize> = lines[at + 1..]
+            .iter()
+            .take_while(|l| !l.starts_with('*'))
+            .flat_map(|l| l.split(", ").map(|v| v.parse::<usize>().unwrap() - 1))
+            .collect();
+        let sheet: std::collections::BTreeSet<usize> =
+            mesh.model.membranes.iter().flat_map(|m| m.nodes).collect();
+        let on_plane: Vec<usize> = sheet
+            .iter()
+            .copied()
+            .filter(|a| mesh.model.nodes[*a].y.abs() < 1e-9 && !mesh.model.fixed[3 * a])
+            .collect();
+        assert!(!held.is_empty());
+        assert_eq!(held, on_plane);
+        // As membranes they are M3D4 again, with nothing held but translations.
+        glove.layer[0].element = crate::fem::layer::LayerElement::Membrane;
+        let (text, summary) = inp_from_config(&glove).unwrap();
+        assert_eq!(
+            (summary.membranes, summary.shells),
+            (mesh.model.membranes.len(), 0)
+        );
+        assert!(!text.contains("S4") && !text.contains("SYMMETRY_SHELL"));
     }
 }
