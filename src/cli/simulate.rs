@@ -82,7 +82,7 @@ pub struct SimulateArgs {
     #[arg(long)]
     pub print_config: bool,
     /// Also write the model as an Abaqus/CalculiX deck (C3D8I Yeoh solids, M3D4 layers, S4 plates, SPRINGA
-    /// threads tied by *EQUATION, one step per pressure; not [contact]).
+    /// threads tied by *EQUATION, [contact] as node-to-surface contact pairs, one step per pressure).
     #[arg(long, value_name = "FILE")]
     pub export_inp: Option<PathBuf>,
 }

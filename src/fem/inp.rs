@@ -15,7 +15,10 @@
 //! (bendscope's bar at the thread's small strain; a cable as a `NONLINEAR` spring that
 //! carries nothing shortened), each point tied to its host hexahedron by `*EQUATION`s
 //! u_p − Σ w_a u_a = 0 (the embedding, exact for trilinear hosts); the clamp and the
-//! symmetry plane y = 0 (half models) as `*BOUNDARY`, gravity along the config's
+//! symmetry plane y = 0 (half models) as `*BOUNDARY`; `[contact]` as node-to-surface
+//! penalty contact (each chamber wall a `*SURFACE` of element faces, a `*CONTACT PAIR`
+//! per bendscope pair, the linear pressure-overclosure slope half bendscope's penalty, as
+//! bendscope pairs the walls both ways with half a node's area in each); gravity along the config's
 //! direction as `*DLOAD GRAV` in a first step of its own when on, then one
 //! `*STEP, NLGEOM` per ramp pressure with the cavity pressure as element-face loads
 //! `P1..P6` and the displacements of the markers (`MARKERS`, from the clamp towards the
@@ -74,6 +77,8 @@ pub struct InpSummary {
     pub equations: usize,
     /// Element faces carrying the cavity pressure.
     pub pressure_faces: usize,
+    /// `*CONTACT PAIR`s (node-to-surface, the facing chamber walls both ways).
+    pub contact_pairs: usize,
     /// `*STEP`s (a gravity step when on, then one per ramp pressure).
     pub steps: usize,
 }
@@ -98,46 +103,60 @@ impl std::fmt::Display for InpSummary {
                 self.springs, self.equations
             )?;
         }
-        write!(
-            f,
-            ", {} pressure faces, {} steps",
-            self.pressure_faces, self.steps
-        )
+        write!(f, ", {} pressure faces", self.pressure_faces)?;
+        if self.contact_pairs > 0 {
+            write!(f, ", {} contact pairs", self.contact_pairs)?;
+        }
+        write!(f, ", {} steps", self.steps)
     }
+}
+
+/// Sorted node ids: a face's key whatever its orientation.
+fn face_key(mut q: [usize; 4]) -> [usize; 4] {
+    q.sort_unstable();
+    q
+}
+
+/// Every face of the solid elements by [`face_key`]: its element and CalculiX face number
+/// (1..6).
+fn solid_faces(mesh: &ActuatorMesh) -> HashMap<[usize; 4], (usize, usize)> {
+    let mut faces = HashMap::new();
+    for (e, el) in mesh.model.elements.iter().enumerate() {
+        for (f, local) in C3D8_FACES.iter().enumerate() {
+            faces.insert(face_key(local.map(|a| el[a])), (e, f + 1));
+        }
+    }
+    faces
+}
+
+/// The element and CalculiX face number of each of `faces` (element faces on the
+/// solid's surface: a cavity's or a chamber wall's).
+fn element_faces(
+    index: &HashMap<[usize; 4], (usize, usize)>,
+    faces: &[[usize; 4]],
+    what: &str,
+) -> Result<Vec<(usize, usize)>, FemError> {
+    faces
+        .iter()
+        .map(|q| {
+            index
+                .get(&face_key(*q))
+                .copied()
+                .ok_or_else(|| FemError::Model {
+                    why: format!("a {what} face belongs to no element (mesh bug)"),
+                })
+        })
+        .collect()
 }
 
 /// The element and CalculiX face number (1..6) of every cavity face: the solid element
 /// the face belongs to.
 pub fn pressure_face_loads(mesh: &ActuatorMesh) -> Result<Vec<(usize, usize)>, FemError> {
-    let key = |mut q: [usize; 4]| {
-        q.sort_unstable();
-        q
-    };
-    let mut faces: HashMap<[usize; 4], (usize, usize)> = HashMap::new();
-    for (e, el) in mesh.model.elements.iter().enumerate() {
-        for (f, local) in C3D8_FACES.iter().enumerate() {
-            faces.insert(key(local.map(|a| el[a])), (e, f + 1));
-        }
-    }
-    mesh.model
-        .pressure_faces
-        .iter()
-        .map(|q| {
-            faces.get(&key(*q)).copied().ok_or_else(|| FemError::Model {
-                why: "a cavity face belongs to no element (mesh bug)".into(),
-            })
-        })
-        .collect()
+    element_faces(&solid_faces(mesh), &mesh.model.pressure_faces, "cavity")
 }
 
 /// The deck of the model `cfg` describes (see the module doc), and what it holds.
 pub fn inp_from_config(cfg: &ActuatorConfig) -> Result<(String, InpSummary), FemError> {
-    if cfg.contact.as_ref().is_some_and(|c| c.enabled) {
-        return Err(FemError::Parameter {
-            name: "contact".into(),
-            why: "--export-inp does not export [contact] yet: set enabled = false or leave out --export-inp".into(),
-        });
-    }
     let pressures_kpa = cfg.pressures_kpa()?;
     let mesh = build_mesh(cfg)?;
     let loads = pressure_face_loads(&mesh)?;
@@ -362,6 +381,7 @@ pub fn inp_from_config(cfg: &ActuatorConfig) -> Result<(String, InpSummary), Fem
     if !symmetry_shell.is_empty() {
         s.push_str("SYMMETRY_SHELL, 4, 4\nSYMMETRY_SHELL, 6, 6\n");
     }
+    let contact_pairs = write_contact(&mut s, &mesh)?;
     let step_head = format!(
         "*STEP, NLGEOM, INC={MAX_INCREMENTS}\n*STATIC\n{INITIAL_INCREMENT}, 1., {MIN_INCREMENT:e}, 1.\n"
     );
@@ -399,9 +419,61 @@ pub fn inp_from_config(cfg: &ActuatorConfig) -> Result<(String, InpSummary), Fem
         springs: m.trusses.len(),
         equations: 3 * points.len(),
         pressure_faces: loads.len(),
+        contact_pairs,
         steps,
     };
     Ok((s, summary))
+}
+
+/// The model's contact ([`super::contact`]) as CalculiX's node-to-surface penalty contact:
+/// each wall's faces a `*SURFACE` (element faces), each pair a `*CONTACT PAIR` of the
+/// slave wall's surface against the master's, one `*SURFACE INTERACTION` with the linear
+/// pressure-overclosure law. bendscope pairs the walls both ways, each pass with half a
+/// slave node's area; CalculiX gives a slave node its whole area in each pass, so the
+/// slope is half bendscope's penalty. Returns the number of pairs.
+fn write_contact(s: &mut String, mesh: &ActuatorMesh) -> Result<usize, FemError> {
+    let Some(contact) = &mesh.model.contact else {
+        return Ok(0);
+    };
+    if contact.pairs.is_empty() {
+        return Ok(0);
+    }
+    let index = solid_faces(mesh);
+    let nodes_of = |faces: &[[usize; 4]]| -> std::collections::BTreeSet<usize> {
+        faces.iter().flatten().copied().collect()
+    };
+    let _ = writeln!(
+        s,
+        "** contact between the facing walls of neighbouring chambers, both ways\n*SURFACE INTERACTION, NAME=WALLS\n*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=LINEAR\n{:.9e}",
+        0.5 * contact.penalty_mpa_per_mm
+    );
+    for (k, pair) in contact.pairs.iter().enumerate() {
+        let _ = writeln!(s, "*SURFACE, NAME=WALL{}, TYPE=ELEMENT", k + 1);
+        for (e, f) in element_faces(&index, &pair.master_faces, "chamber wall")? {
+            let _ = writeln!(s, "{}, S{f}", e + 1);
+        }
+    }
+    for (k, pair) in contact.pairs.iter().enumerate() {
+        // The slave wall is the master of another pair: its faces are that surface.
+        let slave: std::collections::BTreeSet<usize> = pair.slave_nodes.iter().copied().collect();
+        let of_slave = contact
+            .pairs
+            .iter()
+            .position(|p| nodes_of(&p.master_faces) == slave)
+            .ok_or_else(|| FemError::Model {
+                why: format!(
+                    "contact pair {} has a slave wall that is no pair's master (mesh bug)",
+                    k + 1
+                ),
+            })?;
+        let _ = writeln!(
+            s,
+            "*CONTACT PAIR, INTERACTION=WALLS, TYPE=NODE TO SURFACE\nWALL{}, WALL{}",
+            of_slave + 1,
+            k + 1
+        );
+    }
+    Ok(contact.pairs.len())
 }
 
 /// Deck names (upper case, `[A-Z0-9_]`, unique) of the solid materials by id and of the
@@ -708,5 +780,55 @@ mod tests {
             (mesh.model.membranes.len(), 0)
         );
         assert!(!text.contains("S4") && !text.contains("SYMMETRY_SHELL"));
+    }
+
+    #[test]
+    fn contact_goes_out_as_node_to_surface_pairs_both_ways() {
+        use crate::fem::family::Family;
+        // The glove has [contact] on: its walls paired both ways across every gap.
+        let mut glove = ActuatorConfig::for_family(Family::Glove);
+        glove.mesh.size_mm = 4.0;
+        glove.load.pressures_kpa = "1".into();
+        let mesh = build_mesh(&glove).unwrap();
+        let contact = mesh.model.contact.as_ref().unwrap();
+        let (text, summary) = inp_from_config(&glove).unwrap();
+        let n = contact.pairs.len();
+        assert!(n >= 2 && n % 2 == 0, "{n}");
+        assert_eq!(summary.contact_pairs, n);
+        assert_eq!(
+            text.matches("*CONTACT PAIR, INTERACTION=WALLS, TYPE=NODE TO SURFACE\n")
+                .count(),
+            n
+        );
+        assert_eq!(text.matches("*SURFACE, NAME=WALL").count(), n);
+        let slope = format!(
+            "PRESSURE-OVERCLOSURE=LINEAR\n{:.9e}\n",
+            0.5 * contact.penalty_mpa_per_mm
+        );
+        assert!(text.contains(&slope), "{slope}");
+        // Each wall's surface lists its faces as (element, face) whose nodes are the
+        // pair's master faces; a pair's slave surface is the other wall's.
+        let lines: Vec<&str> = text.lines().collect();
+        let index = solid_faces(&mesh);
+        for (k, pair) in contact.pairs.iter().enumerate() {
+            let head = format!("*SURFACE, NAME=WALL{}, TYPE=ELEMENT", k + 1);
+            let at = lines.iter().position(|l| *l == head).unwrap();
+            let listed: Vec<&str> = lines[at + 1..]
+                .iter()
+                .take_while(|l| !l.starts_with('*'))
+                .copied()
+                .collect();
+            let expected: Vec<String> = pair
+                .master_faces
+                .iter()
+                .map(|f| {
+                    let (e, face) = index[&face_key(*f)];
+                    format!("{}, S{face}", e + 1)
+                })
+                .collect();
+            assert_eq!(listed, expected);
+            let partner = if k % 2 == 0 { k + 2 } else { k };
+            assert!(text.contains(&format!("NODE TO SURFACE\nWALL{partner}, WALL{}\n", k + 1)));
+        }
     }
 }
