@@ -829,24 +829,22 @@ fn with_incompatible_modes(
         .collect()
 }
 
-/// A sheet bonded in the base goes out as M3D4 membranes on the same nodes: the strap's
-/// chambers (Ecoflex 00-30, shortened to 4 chambers) on its polyester sheet alone (0.1 mm,
-/// 2.5 GPa: the sheet takes the radius from 201 to 261 mm at 4 kPa), hanging from the
-/// clamp under gravity (the GRAV direction +x), bulk modulus 100 mu0, default 1.5 mm mesh.
-/// Measured: radius 261.33 / 257.62 mm (-1.42%), tip 0.026 mm apart (at 2 kPa -0.08%);
-/// with bendscope's hexahedra with incompatible modes 258.90 mm (-0.55%).
+/// The strap as published goes out with its polyester sheet as M3D4 membranes and its
+/// PLA strips (plates) as S4 shells on the same nodes: its chambers (Ecoflex 00-30,
+/// shortened to 4 chambers), hanging from the clamp under gravity (the GRAV direction
+/// +x), bulk modulus 100 mu0, default 1.5 mm mesh, 4 kPa. Measured: radius 1427.33 /
+/// 1437.64 mm (+0.72%); with bendscope's hexahedra with incompatible modes 1460.98 mm
+/// (-1.6%). With the strips as membranes (before they were plates) the two solvers were
+/// 4.3% apart (the compressed strips wrinkle); the sheet alone as membranes -1.42%.
 #[test]
-fn calculix_agrees_on_a_sheet_exported_as_membranes_under_hanging_gravity() {
+fn calculix_agrees_on_the_strap_as_published_with_sheet_and_strips() {
     let config = "[geometry]\nfamily = \"strap\"\nchambers = 4\nb = 62.0\nr = 52.0\n\
-        [material]\nbulk_modulus_mpa = 20.0\n\
-        [[layer]]\nname = \"fabric\"\nthickness_mm = 0.1\nyoungs_modulus_mpa = 2500.0\n\
-        poisson_ratio = 0.3\nheight_mm = 1.5\n";
+        [material]\nbulk_modulus_mpa = 20.0\n";
     let (h, _, steps) = simulate_and_calculix(&["--pressures", "4"], Some(config));
     assert_eq!(steps.len(), 1);
     assert_radius_and_tip_agree(&h, &steps, 0.03, 0.5);
-    // With incompatible modes: 258.90 mm, -0.55% (Q1/P0 -1.47%).
     let modes = with_incompatible_modes(&["--pressures", "4"], config, &h, steps);
-    assert_radius_and_tip_agree(&h, &modes, 0.01, 0.1);
+    assert_radius_and_tip_agree(&h, &modes, 0.03, 0.5);
 }
 
 /// The fibre-reinforced tube's threads go out as SPRINGA segments tied to their host
