@@ -669,11 +669,24 @@ mod tests {
         strap.load.pressures_kpa = "5".into();
         let mesh = build_mesh(&strap).unwrap();
         let (text, summary) = inp_from_config(&strap).unwrap();
+        // The fabric as membranes, the PLA strips (plates) as shells.
         assert!(mesh.model.membranes.len() > 50);
-        assert_eq!(summary.membranes, mesh.model.membranes.len());
-        assert_eq!(text.matches("*ELEMENT, TYPE=M3D4").count(), 2);
-        assert_eq!(text.matches("*MEMBRANE SECTION").count(), 2);
+        let count = |name: &str| {
+            let part = mesh.parts.iter().find(|p| p.name == name).unwrap();
+            part.membranes.len()
+        };
+        assert!(count("pla") > 10 && count("fabric") > 10);
+        assert_eq!(summary.membranes, count("fabric"));
+        assert_eq!(summary.shells, count("pla"));
+        assert_eq!(
+            summary.membranes + summary.shells,
+            mesh.model.membranes.len()
+        );
+        assert_eq!(text.matches("*ELEMENT, TYPE=M3D4, ELSET=FABRIC").count(), 1);
+        assert_eq!(text.matches("*ELEMENT, TYPE=S4, ELSET=PLA").count(), 1);
+        assert_eq!(text.matches("*MEMBRANE SECTION").count(), 1);
         assert!(text.contains("*MEMBRANE SECTION, ELSET=FABRIC, MATERIAL=FABRIC\n1.000000000e-1"));
+        assert!(text.contains("*SHELL SECTION, ELSET=PLA, MATERIAL=PLA\n5.000000000e-1"));
         assert!(text.contains("EALL, GRAV, 9806.650000, 1.000000000, 0.000000000, 0.000000000"));
         assert!(text.contains("*NSET, NSET=SYMMETRY") && summary.springs == 0);
 
