@@ -665,6 +665,18 @@ struct BothSolvers {
     twist_pair: [[f64; 3]; 2],
 }
 
+impl BothSolvers {
+    /// Pratt radius (x-z plane) of CalculiX's markers, mm.
+    fn calculix_radius_mm(&self) -> f64 {
+        let points: Vec<nalgebra::Point2<f64>> = self
+            .markers
+            .iter()
+            .map(|p| nalgebra::Point2::new(p[0], p[2]))
+            .collect();
+        bendscope::fit::fit_circle_pratt(&points).unwrap().radius
+    }
+}
+
 /// Runs `bendscope simulate ARGS --export-inp` (with `config` as its `--config` when
 /// given), then `ccx` on the deck; returns the steps.csv header, the markers' reference
 /// positions and both solvers' results per ramp pressure (CalculiX printing each set once
@@ -747,12 +759,7 @@ fn simulate_and_calculix(
 /// within `tip_mm`.
 fn assert_radius_and_tip_agree(h: &[String], steps: &[BothSolvers], radius_tol: f64, tip_mm: f64) {
     for s in steps {
-        let points: Vec<nalgebra::Point2<f64>> = s
-            .markers
-            .iter()
-            .map(|p| nalgebra::Point2::new(p[0], p[2]))
-            .collect();
-        let r_ccx = bendscope::fit::fit_circle_pratt(&points).unwrap().radius;
+        let r_ccx = s.calculix_radius_mm();
         let r = s.row[col(h, "radius_mm")];
         let t = s.tip;
         let tip_gap = (t[0] - s.row[col(h, "tip_x_mm")]).hypot(t[2] - s.row[col(h, "tip_z_mm")]);
@@ -959,12 +966,7 @@ fn calculix_agrees_on_walls_held_apart_by_contact() {
     );
     let r_free = free[0].row[col(&h, "radius_mm")];
     assert!(free[0].row[col(&h, "min_wall_gap_mm")] < -0.1);
-    let points: Vec<nalgebra::Point2<f64>> = free[0]
-        .markers
-        .iter()
-        .map(|p| nalgebra::Point2::new(p[0], p[2]))
-        .collect();
-    let r_ccx = bendscope::fit::fit_circle_pratt(&points).unwrap().radius;
+    let r_ccx = free[0].calculix_radius_mm();
     assert!(
         r_ccx < 0.95 * r_free,
         "CalculiX {r_ccx} mm, bendscope without contact {r_free} mm"
