@@ -159,7 +159,8 @@ pub fn pressure_face_loads(mesh: &ActuatorMesh) -> Result<Vec<(usize, usize)>, F
 pub fn inp_from_config(cfg: &ActuatorConfig) -> Result<(String, InpSummary), FemError> {
     let pressures_kpa = cfg.pressures_kpa()?;
     let mesh = build_mesh(cfg)?;
-    let loads = pressure_face_loads(&mesh)?;
+    let faces = solid_faces(&mesh);
+    let loads = element_faces(&faces, &mesh.model.pressure_faces, "cavity")?;
     let m = &mesh.model;
     let names = part_names(&mesh);
     let in_parts =
@@ -381,7 +382,7 @@ pub fn inp_from_config(cfg: &ActuatorConfig) -> Result<(String, InpSummary), Fem
     if !symmetry_shell.is_empty() {
         s.push_str("SYMMETRY_SHELL, 4, 4\nSYMMETRY_SHELL, 6, 6\n");
     }
-    let contact_pairs = write_contact(&mut s, &mesh)?;
+    let contact_pairs = write_contact(&mut s, &mesh, &faces)?;
     let step_head = format!(
         "*STEP, NLGEOM, INC={MAX_INCREMENTS}\n*STATIC\n{INITIAL_INCREMENT}, 1., {MIN_INCREMENT:e}, 1.\n"
     );
@@ -431,17 +432,22 @@ pub fn inp_from_config(cfg: &ActuatorConfig) -> Result<(String, InpSummary), Fem
 /// pressure-overclosure law. bendscope pairs the walls both ways, each pass with half a
 /// slave node's area; CalculiX gives a slave node its whole area in each pass, so the
 /// slope is half bendscope's penalty. Returns the number of pairs.
-fn write_contact(s: &mut String, mesh: &ActuatorMesh) -> Result<usize, FemError> {
+fn write_contact(
+    s: &mut String,
+    mesh: &ActuatorMesh,
+    index: &HashMap<[usize; 4], (usize, usize)>,
+) -> Result<usize, FemError> {
     let Some(contact) = &mesh.model.contact else {
         return Ok(0);
     };
     if contact.pairs.is_empty() {
         return Ok(0);
     }
-    let index = solid_faces(mesh);
-    let nodes_of = |faces: &[[usize; 4]]| -> std::collections::BTreeSet<usize> {
-        faces.iter().flatten().copied().collect()
-    };
+    let masters: Vec<std::collections::BTreeSet<usize>> = contact
+        .pairs
+        .iter()
+        .map(|p| p.master_faces.iter().flatten().copied().collect())
+        .collect();
     let _ = writeln!(
         s,
         "** contact between the facing walls of neighbouring chambers, both ways\n*SURFACE INTERACTION, NAME=WALLS\n*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=LINEAR\n{:.9e}",
@@ -449,17 +455,16 @@ fn write_contact(s: &mut String, mesh: &ActuatorMesh) -> Result<usize, FemError>
     );
     for (k, pair) in contact.pairs.iter().enumerate() {
         let _ = writeln!(s, "*SURFACE, NAME=WALL{}, TYPE=ELEMENT", k + 1);
-        for (e, f) in element_faces(&index, &pair.master_faces, "chamber wall")? {
+        for (e, f) in element_faces(index, &pair.master_faces, "chamber wall")? {
             let _ = writeln!(s, "{}, S{f}", e + 1);
         }
     }
     for (k, pair) in contact.pairs.iter().enumerate() {
         // The slave wall is the master of another pair: its faces are that surface.
         let slave: std::collections::BTreeSet<usize> = pair.slave_nodes.iter().copied().collect();
-        let of_slave = contact
-            .pairs
+        let of_slave = masters
             .iter()
-            .position(|p| nodes_of(&p.master_faces) == slave)
+            .position(|m| *m == slave)
             .ok_or_else(|| FemError::Model {
                 why: format!(
                     "contact pair {} has a slave wall that is no pair's master (mesh bug)",
