@@ -12,9 +12,14 @@
 //! cavity rim through the interface radius R1 to the outer radius R2; the bottom wall,
 //! the rectangle |y| <= R2, 0 <= z <= z0 under both. The section is extruded along x;
 //! cavity cells at the two ends (`end_cap_mm`) are solid caps, so the cavity is closed and
-//! its pressure faces are the faces between cavity cells and solid elements. The whole
-//! section is meshed (not a half model): a one-way winding is not mirror-symmetric.
-//! Supports: every node with x <= `clamp_mm` is held.
+//! its pressure faces are the faces between cavity cells and solid elements. Wound both
+//! ways the tube is mirror-symmetric about y = 0 (the two threads are each other's mirror
+//! images, both starting on the plane) and only its half y >= 0 is meshed: u_y = 0 on the
+//! plane, each thread's runs on y >= 0 embedded (a run ends on the plane, where its
+//! mirror image, the other thread's run, continues it: their forces there cancel but
+//! for the plane's reaction), a strip's plate mirrored there. Wound one way it is not
+//! symmetric and the whole section is meshed. Supports: every node with x <= `clamp_mm`
+//! is held.
 //!
 //! Threads ([`super::truss`], embedded in the hexahedra) follow the interface loop
 //! (radius R1 over the arc, down its sides, along z = outer wall thickness under the
@@ -33,6 +38,7 @@ use super::inp::C3D8_FACES;
 use super::layer::LayerElement;
 use super::material::MaterialPreset;
 use super::membrane::MembraneElement;
+use super::plate::Mirror;
 use super::pressure::CLOSED;
 use super::solve::Model;
 use super::truss::{embed_fibre, TrussSection};
@@ -394,6 +400,13 @@ fn section(t: &TubeConfig, h: f64, membrane_z: &[f64]) -> Section {
             q.reverse();
         }
     }
+    // Nodes on the symmetry plane exactly on it (the radial line at the top has
+    // y = r cos(pi/2) ~ 1e-16).
+    for p in &mut nodes {
+        if p.x.abs() < 1e-9 {
+            p.x = 0.0;
+        }
+    }
     let last = top_row.len() - 1;
     let mut side: Vec<(usize, usize)> = (0..nb)
         .map(|j| (rows[j][last], rows[j + 1][last]))
@@ -422,6 +435,14 @@ fn section(t: &TubeConfig, h: f64, membrane_z: &[f64]) -> Section {
 /// inner silicone, `[[layer]]` for the bottom strip), validated by
 /// [`super::actuator::build_mesh`], which calls this.
 pub(crate) fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
+    // Wound both ways the tube is mirror-symmetric about y = 0 (the two threads are each
+    // other's mirror images, both starting on the plane): its half y >= 0 is meshed.
+    let half = cfg.tube.as_ref().map_or(Winding::default(), |t| t.winding) == Winding::Both;
+    mesh_tube(cfg, half)
+}
+
+/// [`build_mesh`], the half y >= 0 (`half`, for a mirror-symmetric winding) or the whole.
+fn mesh_tube(cfg: &ActuatorConfig, half: bool) -> Result<ActuatorMesh, FemError> {
     let t = cfg.tube.clone().unwrap_or_default();
     let h = cfg.mesh.size_mm;
     let l = t.length_mm;
@@ -432,6 +453,7 @@ pub(crate) fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError>
     };
     let membrane_z: Vec<f64> = strips.iter().map(|s| s.membrane_height_mm()).collect();
     let sec = section(&t, h, &membrane_z);
+    let kept = |q: &[usize; 4]| !half || q.iter().map(|n| sec.nodes[*n].x).sum::<f64>() > 0.0;
     let n_markers = t.markers;
     let free = l - t.clamp_mm;
     let marker_x: Vec<f64> = (1..=n_markers)
@@ -464,7 +486,7 @@ pub(crate) fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError>
     for k in 0..nx {
         let xm = 0.5 * (xs[k] + xs[k + 1]);
         let cap = xm < t.end_cap_mm || xm > l - t.end_cap_mm;
-        for (q, region) in &sec.quads {
+        for (q, region) in sec.quads.iter().filter(|(q, _)| kept(q)) {
             let e = hex(k, q);
             match region {
                 Region::Cavity if !cap => cavity_cells.push(e),
@@ -504,6 +526,9 @@ pub(crate) fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError>
         if x.x <= t.clamp_mm + 1e-9 {
             fixed[3 * a..3 * a + 3].fill(true);
         }
+        if half && x.y == 0.0 {
+            fixed[3 * a + 1] = true;
+        }
     }
     let inner = cfg.material.yeoh()?;
     let outer = t.outer_material.yeoh()?;
@@ -524,16 +549,27 @@ pub(crate) fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError>
     let step = (h.min(t.pitch_mm)) * 0.5;
     for handed in hands {
         let path = t.thread(*handed, 0.25 * xs[1], l - 0.25 * (l - xs[nx - 1]));
-        let mut threads =
-            embed_fibre(&nodes, &elements, &path, step, section_fibre).map_err(|i| {
-                FemError::Model {
-                    why: format!(
-                        "thread point {i} ({:.3?}) is outside the body (mesh bug)",
-                        path[i]
-                    ),
-                }
-            })?;
-        trusses.append(&mut threads);
+        // On the half model, the runs of the path on y >= 0 (each from and to a point on
+        // the plane, where the mirror image's run continues it).
+        let runs: Vec<&[Vector3<f64>]> = if half {
+            path.split(|p| p.y < -1e-9)
+                .filter(|r| r.len() > 1)
+                .collect()
+        } else {
+            vec![&path]
+        };
+        for run in runs {
+            let mut threads =
+                embed_fibre(&nodes, &elements, run, step, section_fibre).map_err(|i| {
+                    FemError::Model {
+                        why: format!(
+                            "thread point {i} ({:.3?}) is outside the body (mesh bug)",
+                            run[i]
+                        ),
+                    }
+                })?;
+            trusses.append(&mut threads);
+        }
     }
 
     // Bottom strips: membranes on their rows, across the y ranges they cover.
@@ -549,7 +585,7 @@ pub(crate) fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError>
         let mut part = Vec::new();
         for w in row.windows(2) {
             let ym = 0.5 * (sec.nodes[w[0]].x + sec.nodes[w[1]].x);
-            if !ranges.iter().any(|(a, b)| ym > *a && ym < *b) {
+            if (half && ym < 0.0) || !ranges.iter().any(|(a, b)| ym > *a && ym < *b) {
                 continue;
             }
             for k in 0..nx {
@@ -578,7 +614,12 @@ pub(crate) fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError>
                 .map(move |(lo, hi)| [id(k, *lo), id(k + 1, *lo), id(k + 1, *hi), id(k, *hi)])
         })
         .collect();
-    let tip_support: Vec<usize> = sec.bottom_row.iter().map(|n| id(nx, *n)).collect();
+    let tip_support: Vec<usize> = sec
+        .bottom_row
+        .iter()
+        .filter(|n| !half || sec.nodes[**n].x >= 0.0)
+        .map(|n| id(nx, *n))
+        .collect();
     let k_clamp = at_x(t.clamp_mm);
     let bottom_line: Vec<usize> = (k_clamp..=nx).map(|k| id(k, sec.bottom)).collect();
     let mut parts = vec![
@@ -617,10 +658,15 @@ pub(crate) fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError>
             trusses: Vec::new(),
         });
     }
+    let mirrors: &[Mirror] = if half {
+        &[Mirror { axis: 1, at: 0.0 }]
+    } else {
+        &[]
+    };
     let plates = strips
         .iter()
         .zip(&parts[3..])
-        .flat_map(|(layer, part)| layer.plate_terms(&nodes, &membranes, &part.membranes, &[]))
+        .flat_map(|(layer, part)| layer.plate_terms(&nodes, &membranes, &part.membranes, mirrors))
         .collect();
     Ok(compact(ActuatorMesh {
         model: Model {
@@ -649,7 +695,7 @@ pub(crate) fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError>
         parts,
         twist_pair: (tip, id(nx, sec.top)),
         bottom_wall: None,
-        half_model: false,
+        half_model: half,
         densities_g_cm3,
     }))
 }
@@ -765,6 +811,47 @@ mod tests {
         ramp.steps[0].clone()
     }
 
+    /// Wound both ways, the half model solves as the whole one (bending with the strip,
+    /// its plate mirrored on the plane; 3 mm, 10 kPa).
+    #[test]
+    fn the_half_model_of_the_mirror_symmetric_winding_solves_as_the_whole() {
+        let cfg: ActuatorConfig = toml::from_str(
+            "[geometry]\nfamily = \"fibre-reinforced\"\n[tube]\nbottom_strip = true\n[mesh]\nsize_mm = 3.0\n[load]\ngravity = false\n",
+        )
+        .unwrap();
+        let half = build_mesh(&cfg).unwrap();
+        let whole = mesh_tube(&cfg, false).unwrap();
+        assert!(half.half_model && !whole.half_model);
+        assert!(2 * half.model.elements.len() == whole.model.elements.len());
+        let (a, b) = (step(&cfg, &half, 10.0), step(&cfg, &whole, 10.0));
+        eprintln!(
+            "half / whole: radius {} / {} mm, extension {} / {}%, volume {} / {} mm3",
+            a.radius_mm,
+            b.radius_mm,
+            a.extension_pct,
+            b.extension_pct,
+            a.cavity_volume_mm3,
+            b.cavity_volume_mm3
+        );
+        for (x, y) in [
+            (a.radius_mm, b.radius_mm),
+            (a.bending_angle_deg, b.bending_angle_deg),
+            (a.extension_pct, b.extension_pct),
+            (a.cavity_volume_mm3, b.cavity_volume_mm3),
+            (
+                a.parts[2].max_principal_stress_mpa,
+                b.parts[2].max_principal_stress_mpa,
+            ),
+            (
+                a.parts[3].max_principal_stress_mpa,
+                b.parts[3].max_principal_stress_mpa,
+            ),
+        ] {
+            assert!((x / y - 1.0).abs() < 1e-6, "{x} vs {y}");
+        }
+        assert!(a.twist_angle_deg.abs() < 1e-9 && b.twist_angle_deg.abs() < 1e-6);
+    }
+
     /// The mesh encloses the D-section cavity between the caps (its arc a polygon of
     /// nodes on the circle: 1.2% less area at 2 mm), every element is valid, and the
     /// threads lie on the interface loop over the length.
@@ -773,8 +860,11 @@ mod tests {
         let cfg = coarse(Winding::Both);
         let t = cfg.tube.clone().unwrap();
         let mesh = build_mesh(&cfg).unwrap();
+        // Wound both ways: the half y >= 0.
+        assert!(mesh.half_model);
+        assert!(mesh.model.nodes.iter().all(|x| x.y >= 0.0));
         let solver = Solver::new(&mesh.model).unwrap();
-        let v = 0.5
+        let v = 0.25
             * std::f64::consts::PI
             * t.inner_radius_mm.powi(2)
             * (t.length_mm - 2.0 * t.end_cap_mm);
@@ -800,7 +890,8 @@ mod tests {
                 (b - a).norm()
             })
             .sum();
-        let expected = 2.0 * (t.length_mm / t.pitch_mm) * perimeter;
+        // Two threads on the whole, their halves on y >= 0 here.
+        let expected = (t.length_mm / t.pitch_mm) * perimeter;
         assert!(
             (along / expected - 1.0).abs() < 0.03,
             "{along} vs {expected}"
