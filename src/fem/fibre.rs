@@ -594,16 +594,18 @@ fn mesh_tube(cfg: &ActuatorConfig, half: bool) -> Result<ActuatorMesh, FemError>
     let mut membranes = Vec::new();
     let mut strip_parts = Vec::new();
     for (layer, (_, row)) in strips.iter().zip(&sec.rows) {
+        // The ranges on y >= 0, and on the whole section their mirror images too.
         let ranges: Vec<(f64, f64)> = layer
             .half_y_ranges(t.width_mm())
             .into_iter()
-            .flat_map(|(a, b)| [(a, b), (-b, -a)])
+            .flat_map(|(a, b)| [Some((a, b)), (!half).then_some((-b, -a))])
+            .flatten()
             .collect();
         let section = layer.section();
         let mut part = Vec::new();
         for w in row.windows(2) {
             let ym = 0.5 * (sec.nodes[w[0]].x + sec.nodes[w[1]].x);
-            if (half && ym < 0.0) || !ranges.iter().any(|(a, b)| ym > *a && ym < *b) {
+            if !ranges.iter().any(|(a, b)| ym > *a && ym < *b) {
                 continue;
             }
             for k in 0..nx {
