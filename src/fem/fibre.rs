@@ -28,7 +28,9 @@
 //! (radius R1 over the arc, down its sides, along z = outer wall thickness under the
 //! cavity), advancing one pitch along x per loop, from the top (y = 0), right-handed, and
 //! for `winding = "both"` also left-handed (then the model is mirror-symmetric about
-//! y = 0). Markers: evenly spaced on the side face's edge y = R2, z = z0 (the line a
+//! y = 0); or, `fibre_model = "smeared"`, each hand's turns as a sheet on the interface
+//! faces carrying stress along the thread only ([`super::membrane::Fibres`], thickness
+//! A / spacing), which converges with the mesh where the line of bars does not. Markers: evenly spaced on the side face's edge y = R2, z = z0 (the line a
 //! camera beside the actuator sees at the widest point), from the clamp to the tip.
 
 use nalgebra::{Vector2, Vector3};
@@ -40,7 +42,7 @@ use super::actuator::{
 use super::inp::C3D8_FACES;
 use super::layer::LayerElement;
 use super::material::MaterialPreset;
-use super::membrane::MembraneElement;
+use super::membrane::{Fibres, MembraneElement, MembraneSection};
 use super::plate::Mirror;
 use super::pressure::CLOSED;
 use super::solve::Model;
@@ -56,6 +58,20 @@ pub enum Winding {
     Both,
     /// A right-handed helix only (twisting).
     OneWay,
+}
+
+/// How the thread is modelled (`[tube] fibre_model`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum FibreModel {
+    /// Each thread a line of bars embedded in the hexahedra (the thread as it lies, but
+    /// of zero diameter: the tube softens without a limit as the mesh is refined).
+    #[default]
+    Line,
+    /// Each hand's turns smeared over the interface: membranes that carry stress along
+    /// the thread only, of the thread's modulus and thickness A / spacing (a continuum:
+    /// the mesh converges).
+    Smeared,
 }
 
 /// The fibre-reinforced tube (`[tube]`): dimensions, outer silicone, thread, mesh.
@@ -84,6 +100,8 @@ pub struct TubeConfig {
     pub fibre_modulus_mpa: f64,
     /// Thread's tensile strength, MPa.
     pub fibre_strength_mpa: f64,
+    /// `"line"` (default) or `"smeared"`.
+    pub fibre_model: FibreModel,
     /// The thread carries no compression (a cable); false (default): a bar, which
     /// converges in fewer Newton iterations (the threads stay in tension under pressure).
     pub fibre_tension_only: bool,
@@ -113,6 +131,7 @@ impl Default for TubeConfig {
             // Kevlar thread as modelled by Polygerinos et al. 2015.
             fibre_modulus_mpa: 31_067.0,
             fibre_strength_mpa: 3000.0,
+            fibre_model: FibreModel::Line,
             fibre_tension_only: false,
             bottom_strip: false,
             markers: 8,
@@ -212,7 +231,7 @@ impl TubeConfig {
         let (z0, zf) = (self.floor_mm(), self.outer_wall_mm);
         let side = z0 - zf;
         let arc = std::f64::consts::PI * r1;
-        let perimeter = arc + 2.0 * side + 2.0 * r1;
+        let perimeter = self.interface_perimeter();
         (0..=n)
             .map(|k| {
                 // Arc length from the top, counter-clockwise (towards -y first).
@@ -238,6 +257,32 @@ impl TubeConfig {
                 Vector2::new(r1 * t.cos(), z0 + r1 * t.sin())
             })
             .collect()
+    }
+
+    /// Length of the interface loop, mm.
+    fn interface_perimeter(&self) -> f64 {
+        let (r1, _) = self.radii();
+        std::f64::consts::PI * r1 + 2.0 * (self.floor_mm() - self.outer_wall_mm) + 2.0 * r1
+    }
+
+    /// One hand's thread smeared over the interface face whose section edge runs
+    /// counter-clockwise (about the cavity) along the unit `tangent` (y, z): the membrane
+    /// section of the thread's direction there and its cross-section per unit width.
+    fn smeared_thread(&self, handed: f64, tangent: Vector2<f64>) -> MembraneSection {
+        let (p, perimeter) = (self.pitch_mm, self.interface_perimeter());
+        // The thread advances one pitch per loop: per unit arc length p / P along x,
+        // clockwise (right-handed, as `thread`) or counter-clockwise (left-handed).
+        let a = Vector3::new(p / perimeter, -handed * tangent.x, -handed * tangent.y).normalize();
+        // Neighbouring turns are p apart along x, p cos θ across the thread (θ from the hoop).
+        let spacing = p * perimeter / perimeter.hypot(p);
+        let area = 0.25 * std::f64::consts::PI * self.fibre_diameter_mm.powi(2);
+        MembraneSection {
+            fibres: Some(Fibres {
+                direction: a.into(),
+                tension_only: self.fibre_tension_only,
+            }),
+            ..MembraneSection::isotropic(area / spacing, self.fibre_modulus_mpa, 0.0)
+        }
     }
 
     /// Thread `handed` (+1 right, -1 left) as a polyline from x = `x0` to `x1`.
@@ -564,8 +609,26 @@ fn mesh_tube(cfg: &ActuatorConfig, half: bool) -> Result<ActuatorMesh, FemError>
         Winding::OneWay => &[1.0],
     };
     let mut trusses = Vec::new();
+    let mut membranes = Vec::new();
+    let mut fibre_membranes = Vec::new();
     let step = (h.min(t.pitch_mm)) * 0.5;
-    for handed in hands {
+    if t.fibre_model == FibreModel::Smeared {
+        for (n0, n1) in interface_edges(&sec, t.floor_mm(), kept) {
+            let (p0, p1) = (sec.nodes[n0], sec.nodes[n1]);
+            let tangent = (p1 - p0).normalize();
+            for handed in hands {
+                let section = t.smeared_thread(*handed, tangent);
+                for k in 0..nx {
+                    fibre_membranes.push(membranes.len());
+                    membranes.push(MembraneElement {
+                        nodes: [id(k, n0), id(k + 1, n0), id(k + 1, n1), id(k, n1)],
+                        section,
+                    });
+                }
+            }
+        }
+    }
+    for handed in hands.iter().filter(|_| t.fibre_model == FibreModel::Line) {
         let path = t.thread(*handed, 0.25 * xs[1], l - 0.25 * (l - xs[nx - 1]));
         // On the half model, the runs of the path on y >= 0 (each from and to a point on
         // the plane, where the mirror image's run continues it).
@@ -591,7 +654,6 @@ fn mesh_tube(cfg: &ActuatorConfig, half: bool) -> Result<ActuatorMesh, FemError>
     }
 
     // Bottom strips: membranes on their rows, across the y ranges they cover.
-    let mut membranes = Vec::new();
     let mut strip_parts = Vec::new();
     for (layer, (_, row)) in strips.iter().zip(&sec.rows) {
         // The ranges on y >= 0, and on the whole section their mirror images too.
@@ -663,7 +725,7 @@ fn mesh_tube(cfg: &ActuatorConfig, half: bool) -> Result<ActuatorMesh, FemError>
             name: "fibre".into(),
             tensile_strength_mpa: Some(t.fibre_strength_mpa),
             solid_material: None,
-            membranes: Vec::new(),
+            membranes: fibre_membranes,
             plate: false,
             trusses: (0..trusses.len()).collect(),
         },
@@ -718,6 +780,42 @@ fn mesh_tube(cfg: &ActuatorConfig, half: bool) -> Result<ActuatorMesh, FemError>
         half_model: half,
         densities_g_cm3,
     }))
+}
+
+/// The section's edges between the inner and the outer silicone (the interface the
+/// threads lie on) among the quads `kept`, each counter-clockwise about the cavity's
+/// centre (0, `z0`).
+fn interface_edges(
+    sec: &Section,
+    z0: f64,
+    kept: impl Fn(&[usize; 4]) -> bool,
+) -> Vec<(usize, usize)> {
+    let mut sides: std::collections::BTreeMap<(usize, usize), [bool; 2]> = Default::default();
+    for (q, region) in sec.quads.iter().filter(|(q, _)| kept(q)) {
+        let side = match region {
+            Region::Inner => 0,
+            Region::Outer => 1,
+            Region::Cavity => continue,
+        };
+        for k in 0..4 {
+            let (a, b) = (q[k], q[(k + 1) % 4]);
+            sides.entry((a.min(b), a.max(b))).or_default()[side] = true;
+        }
+    }
+    let centre = Vector2::new(0.0, z0);
+    sides
+        .into_iter()
+        .filter(|(_, s)| s[0] && s[1])
+        .map(|((a, b), _)| {
+            let (pa, pb) = (sec.nodes[a], sec.nodes[b]);
+            let r = 0.5 * (pa + pb) - centre;
+            if r.perp(&(pb - pa)) >= 0.0 {
+                (a, b)
+            } else {
+                (b, a)
+            }
+        })
+        .collect()
 }
 
 /// `mesh` without the nodes no element holds (inside the cavity between the caps).
@@ -805,6 +903,7 @@ mod tests {
     use super::*;
     use crate::fem::family::{defaults, Family};
     use crate::fem::layer::LayerElement;
+    use crate::fem::membrane::MembraneGeometry;
     use crate::fem::simulate::{run_ramp, RampSettings, StepResult};
     use crate::fem::solve::Solver;
 
@@ -922,6 +1021,44 @@ mod tests {
                 .map(|p| p.name.as_str())
                 .collect::<Vec<_>>(),
             ["silicone", "outer", "fibre"]
+        );
+    }
+
+    /// Smeared, the threads are membranes on the interface, two per face (one per hand)
+    /// on the half model: their volume (area x A / spacing) is the threads' (length x A)
+    /// within 1.5% (the arc a polygon), and each carries its thread's direction, in its
+    /// plane, at atan(p / P) from the loop.
+    #[test]
+    fn smeared_threads_cover_the_interface_with_the_threads_volume() {
+        let mut cfg = coarse(Winding::Both);
+        let t = cfg.tube.as_mut().unwrap();
+        t.fibre_model = FibreModel::Smeared;
+        let t = t.clone();
+        let mesh = build_mesh(&cfg).unwrap();
+        assert!(mesh.model.trusses.is_empty());
+        let fibre = &mesh.parts[2];
+        assert_eq!(fibre.membranes.len(), mesh.model.membranes.len());
+        let perimeter = t.interface_perimeter();
+        let area = 0.25 * std::f64::consts::PI * t.fibre_diameter_mm.powi(2);
+        let threads = t.length_mm / t.pitch_mm * perimeter.hypot(t.pitch_mm) * area;
+        let mut volume = 0.0;
+        for m in &mesh.model.membranes {
+            let x = m.nodes.map(|n| mesh.model.nodes[n]);
+            let geom = MembraneGeometry::new(&x).unwrap();
+            volume += geom.area() * m.section.thickness_mm;
+            let a = Vector3::from(m.section.fibres.unwrap().direction);
+            let normal = geom.frame[0].cross(&geom.frame[1]);
+            assert!(a.dot(&normal).abs() < 1e-9 && (a.norm() - 1.0).abs() < 1e-12);
+            let lead = a.x.abs().asin();
+            assert!(
+                (lead - (t.pitch_mm / perimeter).atan()).abs() < 1e-9,
+                "{lead}"
+            );
+        }
+        // Both hands on the half y >= 0: one whole thread's volume.
+        assert!(
+            (volume / threads - 1.0).abs() < 0.015,
+            "{volume} vs {threads} mm3"
         );
     }
 

@@ -14,7 +14,9 @@
 //! thread segments as `SPRINGA` between a node per thread point, stiffness E A / L0
 //! (bendscope's bar at the thread's small strain; a cable as a `NONLINEAR` spring that
 //! carries nothing shortened), each point tied to its host hexahedron by `*EQUATION`s
-//! u_p − Σ w_a u_a = 0 (the embedding, exact for trilinear hosts); the clamp and the
+//! u_p − Σ w_a u_a = 0 (the embedding, exact for trilinear hosts); smeared threads as
+//! `M3D4` of an `*ELASTIC, TYPE=ORTHO` material, an `*ORIENTATION` per direction (local 1
+//! along the thread; [`SMEARED_ACROSS`] of its modulus across); the clamp and the
 //! symmetry plane y = 0 (half models) as `*BOUNDARY`; `[contact]` as node-to-surface
 //! penalty contact (each chamber wall a `*SURFACE` of element faces, a `*CONTACT PAIR`
 //! per bendscope pair, the linear pressure-overclosure slope half bendscope's penalty, as
@@ -38,6 +40,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use super::actuator::{build_mesh, ActuatorConfig, ActuatorMesh, GRAVITY_M_S2};
+use super::membrane::MembraneSection;
 use super::truss::EmbeddedPoint;
 use super::FemError;
 
@@ -56,6 +59,9 @@ pub const INITIAL_INCREMENT: f64 = 0.25;
 
 /// Smallest increment CalculiX may cut a step to, as a fraction of the step.
 pub const MIN_INCREMENT: f64 = 1e-5;
+
+/// Stiffness of smeared threads across themselves in the deck, as a share of theirs.
+pub const SMEARED_ACROSS: f64 = 1e-6;
 
 /// Most increments in a step (`*STEP, INC=`).
 pub const MAX_INCREMENTS: usize = 1000;
@@ -255,16 +261,28 @@ pub fn inp_from_config(cfg: &ActuatorConfig) -> Result<(String, InpSummary), Fem
             continue;
         };
         let section = m.membranes[first].section;
-        if part
-            .membranes
-            .iter()
-            .any(|&i| m.membranes[i].section != section)
-        {
-            return Err(FemError::Model {
-                why: format!(
-                    "layer {} has membranes of two sections (mesh bug)",
-                    part.name
-                ),
+        // Smeared threads: a section per direction (a set and an orientation each).
+        let mut groups: Vec<(MembraneSection, Vec<usize>)> = Vec::new();
+        for &i in &part.membranes {
+            let sec = m.membranes[i].section;
+            let bare = |x: MembraneSection| MembraneSection { fibres: None, ..x };
+            if bare(sec) != bare(section) || sec.fibres.is_some() != section.fibres.is_some() {
+                return Err(FemError::Model {
+                    why: format!(
+                        "layer {} has membranes of two sections (mesh bug)",
+                        part.name
+                    ),
+                });
+            }
+            match groups.iter_mut().find(|(g, _)| *g == sec) {
+                Some((_, ids)) => ids.push(i),
+                None => groups.push((sec, vec![i])),
+            }
+        }
+        if section.fibres.is_some_and(|f| f.tension_only) {
+            return Err(FemError::Parameter {
+                name: "tube.fibre_tension_only".into(),
+                why: "smeared tension-only threads have no CalculiX equivalent: export them as a bar (false) or use fibre_model = \"line\"".into(),
             });
         }
         let (kind, card) = if part.plate {
@@ -275,19 +293,50 @@ pub fn inp_from_config(cfg: &ActuatorConfig) -> Result<(String, InpSummary), Fem
             ("M3D4", "MEMBRANE SECTION")
         };
         let _ = writeln!(s, "*ELEMENT, TYPE={kind}, ELSET={name}");
+        let mut ids = HashMap::new();
         for &i in &part.membranes {
             next_id += 1;
+            ids.insert(i, next_id);
             let nodes = m.membranes[i].nodes;
             if part.plate {
                 shell_nodes.extend(nodes);
             }
             let _ = writeln!(s, "{next_id}, {}", join_ids(nodes.iter().map(|n| n + 1)));
         }
+        if section.fibres.is_none() {
+            let _ = writeln!(
+                s,
+                "*MATERIAL, NAME={name}\n*ELASTIC\n{:.9e}, {:.6}\n*{card}, ELSET={name}, MATERIAL={name}\n{:.9e}",
+                section.youngs_modulus_mpa, section.poisson_ratio, section.thickness_mm
+            );
+            continue;
+        }
+        // Threads along the local 1 axis: D1111 = E; the rest 1e-6 E (CalculiX expands
+        // the membrane into a solid, which nothing across the threads would leave
+        // singular; with 1e-9 E stock ccx stalls in the first increment; 1e-6 E of Kevlar
+        // is 0.03 MPa over the layer's 0.02 mm, 0.1% of the wall's stiffness).
+        let e = section.youngs_modulus_mpa;
+        let small = SMEARED_ACROSS * e;
         let _ = writeln!(
             s,
-            "*MATERIAL, NAME={name}\n*ELASTIC\n{:.9e}, {:.6}\n*{card}, ELSET={name}, MATERIAL={name}\n{:.9e}",
-            section.youngs_modulus_mpa, section.poisson_ratio, section.thickness_mm
+            "*MATERIAL, NAME={name}\n*ELASTIC, TYPE=ORTHO\n{e:.9e}, 0., {small:.3e}, 0., 0., {small:.3e}, {small:.3e}, {small:.3e}\n{small:.3e}, 294."
         );
+        for (g, (sec, members)) in groups.iter().enumerate() {
+            let a = nalgebra::Vector3::from(sec.fibres.map_or([1.0, 0.0, 0.0], |f| f.direction));
+            // Local 2: any direction across the thread.
+            let b = a
+                .cross(&nalgebra::Vector3::x())
+                .try_normalize(1e-6)
+                .unwrap_or_else(|| a.cross(&nalgebra::Vector3::y()).normalize());
+            let set = format!("{name}_{}", g + 1);
+            let list: Vec<usize> = members.iter().map(|i| ids[i]).collect();
+            write_set(&mut s, "ELSET", &set, &list);
+            let _ = writeln!(
+                s,
+                "*ORIENTATION, NAME={set}, SYSTEM=RECTANGULAR\n{:.12e}, {:.12e}, {:.12e}, {:.12e}, {:.12e}, {:.12e}\n*{card}, ELSET={set}, MATERIAL={name}, ORIENTATION={set}\n{:.9e}",
+                a.x, a.y, a.z, b.x, b.y, b.z, section.thickness_mm
+            );
+        }
     }
     // Threads: a SPRINGA per segment, k = E A / L0 (the bar at small strain), its own set.
     let first_spring = next_id + 1;
@@ -751,6 +800,47 @@ mod tests {
             checked += 1;
         }
         assert_eq!(checked, summary.equations);
+
+        // Smeared, the threads are M3D4 membranes of one orthotropic material, a set,
+        // an orientation (its local 1 axis the thread) and a section per direction; as
+        // cables they have no CalculiX equivalent: refused, naming the key.
+        let t = tube.tube.as_mut().unwrap();
+        t.fibre_model = crate::fem::fibre::FibreModel::Smeared;
+        let err = inp_from_config(&tube).unwrap_err().to_string();
+        assert!(err.contains("tube.fibre_tension_only"), "{err}");
+        tube.tube.as_mut().unwrap().fibre_tension_only = false;
+        let mesh = build_mesh(&tube).unwrap();
+        let (text, summary) = inp_from_config(&tube).unwrap();
+        assert_eq!(summary.springs, 0);
+        assert_eq!(summary.membranes, mesh.model.membranes.len());
+        assert_eq!(text.matches("*ELASTIC, TYPE=ORTHO").count(), 1);
+        let directions: Vec<[f64; 3]> = mesh.model.membranes.iter().fold(Vec::new(), |mut v, m| {
+            let a = m.section.fibres.unwrap().direction;
+            if !v.contains(&a) {
+                v.push(a);
+            }
+            v
+        });
+        assert!(directions.len() > 10, "{}", directions.len());
+        assert_eq!(
+            text.matches("*ORIENTATION, NAME=FIBRE_").count(),
+            directions.len()
+        );
+        let first = text.find("*ORIENTATION, NAME=FIBRE_1,").unwrap();
+        let row: Vec<f64> = text[first..]
+            .lines()
+            .nth(1)
+            .unwrap()
+            .split(", ")
+            .map(|v| v.parse().unwrap())
+            .collect();
+        let a = directions[0];
+        assert!(
+            (0..3).all(|d| (row[d] - a[d]).abs() < 1e-9),
+            "{row:?} vs {a:?}"
+        );
+        assert!(text
+            .contains("*MEMBRANE SECTION, ELSET=FIBRE_1, MATERIAL=FIBRE, ORIENTATION=FIBRE_1\n"));
     }
 
     #[test]

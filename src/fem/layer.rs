@@ -194,11 +194,11 @@ impl LayerConfig {
 
     /// The layer as a membrane section (thickness, E, ν).
     pub fn section(&self) -> MembraneSection {
-        MembraneSection {
-            thickness_mm: self.thickness_mm,
-            youngs_modulus_mpa: self.youngs_modulus_mpa,
-            poisson_ratio: self.poisson_ratio,
-        }
+        MembraneSection::isotropic(
+            self.thickness_mm,
+            self.youngs_modulus_mpa,
+            self.poisson_ratio,
+        )
     }
 
     /// Meshed as membranes (with or without bending stiffness), not as hexahedra.

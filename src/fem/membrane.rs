@@ -14,7 +14,9 @@
 //! t (½ λ' (tr E)² + μ E:E) with the in-plane Green-Lagrange strain E = ½ (FᵀF − I₂)
 //! (F = ∂x/∂X, 3x2, over the sheet's reference plane) and λ' = E ν / (1 − ν²),
 //! μ = E / 2(1 + ν): the linear-elastic plane-stress sheet at the small strains of a
-//! strain-limiting layer, exact under the actuator's large rotations. Force and tangent
+//! strain-limiting layer, exact under the actuator's large rotations. Threads smeared
+//! over a sheet ([`Fibres`]) carry ½ E t E_ff² along their direction a only (E_ff =
+//! a · E a), tension-only if asked. Force and tangent
 //! are the energy's gradient and Hessian (total Lagrangian; tests check them against
 //! finite differences).
 
@@ -35,11 +37,49 @@ pub struct MembraneSection {
     pub youngs_modulus_mpa: f64,
     /// Poisson ratio.
     pub poisson_ratio: f64,
+    /// `Some`: a family of parallel threads smeared over the sheet, which carries stress
+    /// along them only (E the threads' modulus, the thickness their cross-section per unit
+    /// width, A / spacing; ν unused); `None`: the isotropic sheet.
+    pub fibres: Option<Fibres>,
+}
+
+/// Threads smeared over a membrane: the energy per reference area ½ E t E_ff², with
+/// E_ff = a · E a the Green-Lagrange strain along their reference direction a (a bar's
+/// strain measure, [`super::truss`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Fibres {
+    /// Their direction in the reference configuration (in the sheet's plane), unit.
+    pub direction: [f64; 3],
+    /// They carry no compression (cables).
+    pub tension_only: bool,
 }
 
 impl MembraneSection {
-    /// Plane-stress elasticity in Voigt form (E11, E22, 2 E12) -> (S11, S22, S12), MPa.
-    fn elasticity(&self) -> SMatrix<f64, 3, 3> {
+    /// The isotropic sheet of thickness `t`, modulus `e` and Poisson ratio `nu`.
+    pub fn isotropic(t: f64, e: f64, nu: f64) -> Self {
+        Self {
+            thickness_mm: t,
+            youngs_modulus_mpa: e,
+            poisson_ratio: nu,
+            fibres: None,
+        }
+    }
+
+    /// Tangent elasticity in Voigt form (E11, E22, 2 E12) -> (S11, S22, S12), MPa, over
+    /// the in-plane frame `frame` at the Green strain `strain` (Voigt): the plane-stress
+    /// isotropic sheet, or E m mᵀ along the threads, m = (a₁², a₂², a₁ a₂) (zero for
+    /// tension-only threads shortened).
+    fn elasticity(&self, frame: &[Vector3<f64>; 2], strain: &Vector3<f64>) -> SMatrix<f64, 3, 3> {
+        if let Some(f) = &self.fibres {
+            let a = Vector3::from(f.direction);
+            let a = Vector2::new(a.dot(&frame[0]), a.dot(&frame[1]));
+            let a = a / a.norm().max(1e-300);
+            let m = Vector3::new(a.x * a.x, a.y * a.y, a.x * a.y);
+            if f.tension_only && m.dot(strain) < 0.0 {
+                return SMatrix::<f64, 3, 3>::zeros();
+            }
+            return m * m.transpose() * self.youngs_modulus_mpa;
+        }
         let (e, nu) = (self.youngs_modulus_mpa, self.poisson_ratio);
         let c = e / (1.0 - nu * nu);
         SMatrix::<f64, 3, 3>::new(
@@ -157,10 +197,10 @@ pub fn membrane_stress(
     section: &MembraneSection,
     u: &[Vector3<f64>; 4],
 ) -> Vector3<f64> {
-    let d = section.elasticity();
     let mut s = Vector3::zeros();
     for g in 0..4 {
-        s += d * green_strain(&geom.deformation_gradient(g, u)) * geom.weights[g];
+        let strain = green_strain(&geom.deformation_gradient(g, u));
+        s += section.elasticity(&geom.frame, &strain) * strain * geom.weights[g];
     }
     s / geom.area()
 }
@@ -172,7 +212,6 @@ pub fn membrane_response(
     section: &MembraneSection,
     u: &[Vector3<f64>; 4],
 ) -> (f64, MembraneVector, MembraneMatrix) {
-    let d = section.elasticity();
     let t = section.thickness_mm;
     let mut energy = 0.0;
     let mut force = MembraneVector::zeros();
@@ -180,6 +219,7 @@ pub fn membrane_response(
     for g in 0..4 {
         let f = geom.deformation_gradient(g, u);
         let strain = green_strain(&f);
+        let d = section.elasticity(&geom.frame, &strain);
         let s = d * strain;
         let w = t * geom.weights[g];
         energy += w * 0.5 * strain.dot(&s);
@@ -223,11 +263,7 @@ mod tests {
     use crate::fem::solve::{solve_static, Model, NewtonSettings};
 
     fn paper() -> MembraneSection {
-        MembraneSection {
-            thickness_mm: 0.1,
-            youngs_modulus_mpa: 3000.0,
-            poisson_ratio: 0.3,
-        }
+        MembraneSection::isotropic(0.1, 3000.0, 0.3)
     }
 
     /// A skewed quadrilateral in an inclined plane.
@@ -242,20 +278,87 @@ mod tests {
         .map(|p| r * p + Vector3::new(3.0, -1.0, 2.0))
     }
 
+    /// Kevlar threads smeared over the quad of [`quad`], along its first edge turned by 30°.
+    fn threads(tension_only: bool) -> MembraneSection {
+        let x = quad();
+        let (e1, n) = (
+            (x[1] - x[0]).normalize(),
+            (x[2] - x[0]).cross(&(x[3] - x[1])).normalize(),
+        );
+        let a =
+            nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(n), 0.5236) * e1;
+        MembraneSection {
+            fibres: Some(Fibres {
+                direction: a.into(),
+                tension_only,
+            }),
+            ..MembraneSection::isotropic(0.0177, 31_067.0, 0.0)
+        }
+    }
+
     #[test]
     fn force_and_tangent_are_derivatives_of_the_energy() {
+        for section in [paper(), threads(false), threads(true)] {
+            derivatives_of_the_energy(section);
+        }
+    }
+
+    /// Threads stretched along themselves carry E t E_ff along them and nothing across;
+    /// stretched across they carry nothing; tension-only threads shortened carry nothing.
+    #[test]
+    fn smeared_threads_carry_stress_along_themselves_only() {
         let x = quad();
         let geom = MembraneGeometry::new(&x).unwrap();
-        let section = paper();
+        let section = threads(false);
+        let a = Vector3::from(section.fibres.unwrap().direction);
+        let n = geom.frame[0].cross(&geom.frame[1]);
+        let across = n.cross(&a);
+        for (dir, stretch, tension_only, expect) in [
+            (a, 1.01, false, 0.5 * (1.01f64 * 1.01 - 1.0) * 31_067.0),
+            (a, 0.99, false, 0.5 * (0.99f64 * 0.99 - 1.0) * 31_067.0),
+            (a, 0.99, true, 0.0),
+            (across, 1.02, false, 0.0),
+        ] {
+            // Homogeneous stretch along `dir`: x = X + (λ − 1)(dir · X) dir.
+            let u: [Vector3<f64>; 4] =
+                std::array::from_fn(|k| dir * ((stretch - 1.0) * dir.dot(&x[k])));
+            let section = MembraneSection {
+                fibres: Some(Fibres {
+                    tension_only,
+                    ..section.fibres.unwrap()
+                }),
+                ..section
+            };
+            let s = membrane_stress(&geom, &section, &u);
+            // S = E E_ff a ⊗ a: its component along a, and the trace (nothing else).
+            let al = Vector2::new(a.dot(&geom.frame[0]), a.dot(&geom.frame[1]));
+            let sm = Matrix2::new(s[0], s[2], s[2], s[1]);
+            let along = al.dot(&(sm * al));
+            assert!(
+                (along - expect).abs() < 1e-9 * 31_067.0,
+                "{along} vs {expect}"
+            );
+            assert!(
+                (sm.trace() - expect).abs() < 1e-9 * 31_067.0,
+                "trace {}",
+                sm.trace()
+            );
+        }
+    }
+
+    fn derivatives_of_the_energy(section: MembraneSection) {
+        let x = quad();
+        let geom = MembraneGeometry::new(&x).unwrap();
         let u: [Vector3<f64>; 4] = std::array::from_fn(|a| {
             let t = a as f64;
             Vector3::new(
                 0.03 * (t * 0.7).sin(),
                 0.05 * (t * 1.3).cos(),
                 -0.04 * (t * 0.4 + 0.2).sin(),
-            )
+            ) + 0.1 * (x[a] - x[0])
         });
         let (_, f, k) = membrane_response(&geom, &section, &u);
+        assert!(f.norm() > 0.0);
         let h = 1e-6;
         for dof in 0..12 {
             let mut up = u;

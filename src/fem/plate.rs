@@ -222,11 +222,7 @@ mod tests {
     /// A flat nx x ny grid of membranes in the xy plane, spacing hx, hy; node (i, j)
     /// is i + (nx + 1) j.
     fn grid(nx: usize, ny: usize, hx: f64, hy: f64) -> (Vec<Vector3<f64>>, Vec<MembraneElement>) {
-        let section = MembraneSection {
-            thickness_mm: 0.5,
-            youngs_modulus_mpa: 6500.0,
-            poisson_ratio: 0.22,
-        };
+        let section = MembraneSection::isotropic(0.5, 6500.0, 0.22);
         let id = |i: usize, j: usize| i + (nx + 1) * j;
         let nodes = (0..=ny)
             .flat_map(|j| (0..=nx).map(move |i| Vector3::new(i as f64 * hx, j as f64 * hy, 0.0)))
