@@ -906,7 +906,8 @@ pub struct Part {
 }
 
 /// Least number of elements through every wall (side walls beside the chambers and the
-/// channel, chamber walls, top wall, bottom): one trilinear element through a wall in
+/// channel, chamber walls, top wall, bottom, the roof over the channel under the gaps):
+/// one trilinear element through a wall in
 /// bending is far too stiff (the 2 mm mesh with one element through the 2 mm side walls
 /// was +2.5..+4.5% on the radius); two through, at the mesh size along, converge.
 pub const MIN_WALL_ELEMENTS: usize = 2;
@@ -1031,7 +1032,7 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
             LayerElement::Membrane | LayerElement::Plate => fz.push(layer.membrane_height_mm()),
         }
     }
-    let zs = coordinate_lines(fz, h, &[(0.0, z_channel), (z_top, a)]);
+    let zs = coordinate_lines(fz, h, &[(0.0, z_channel), (z_cavity, z_gap), (z_top, a)]);
     let (nx, ny, nz) = (xs.len() - 1, ys.len() - 1, zs.len() - 1);
     if nx * ny * nz > MAX_ELEMENTS {
         return Err(bad(
