@@ -285,8 +285,10 @@ mod tests {
             (x[1] - x[0]).normalize(),
             (x[2] - x[0]).cross(&(x[3] - x[1])).normalize(),
         );
-        let a =
-            nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(n), 0.5236) * e1;
+        let a = nalgebra::Rotation3::from_axis_angle(
+            &nalgebra::Unit::new_normalize(n),
+            std::f64::consts::FRAC_PI_6,
+        ) * e1;
         MembraneSection {
             fibres: Some(Fibres {
                 direction: a.into(),
