@@ -236,7 +236,9 @@ fn strap_geometry() -> Geometry {
         l: 17.0,
         n: 10.0,
         top_wall: 1.5,
-        roof: 0.5,
+        // The reference's roof (the study gives none): under a 0.5 mm roof the radius
+        // stiffened by 1.4-1.6% at each mesh refinement (docs/src/howto/fem.md).
+        roof: 1.0,
         ..Geometry::default()
     }
 }
