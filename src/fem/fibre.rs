@@ -30,8 +30,9 @@
 //! for `winding = "both"` also left-handed (then the model is mirror-symmetric about
 //! y = 0); or, `fibre_model = "smeared"`, each hand's turns as a sheet on the interface
 //! faces carrying stress along the thread only ([`super::membrane::Fibres`], thickness
-//! A / spacing), which converges with the mesh where the line of bars does not. Markers: evenly spaced on the side face's edge y = R2, z = z0 (the line a
-//! camera beside the actuator sees at the widest point), from the clamp to the tip.
+//! A / spacing), which converges with the mesh where the line of bars does not. Markers:
+//! evenly spaced on the side face's edge y = R2, z = z0 (the line a camera beside the
+//! actuator sees at the widest point), from the clamp to the tip.
 
 use nalgebra::{Vector2, Vector3};
 use serde::{Deserialize, Serialize};
@@ -612,23 +613,25 @@ fn mesh_tube(cfg: &ActuatorConfig, half: bool) -> Result<ActuatorMesh, FemError>
     let mut membranes = Vec::new();
     let mut fibre_membranes = Vec::new();
     let step = (h.min(t.pitch_mm)) * 0.5;
-    if t.fibre_model == FibreModel::Smeared {
-        for (n0, n1) in interface_edges(&sec, t.floor_mm(), kept) {
-            let (p0, p1) = (sec.nodes[n0], sec.nodes[n1]);
-            let tangent = (p1 - p0).normalize();
-            for handed in hands {
-                let section = t.smeared_thread(*handed, tangent);
-                for k in 0..nx {
-                    fibre_membranes.push(membranes.len());
-                    membranes.push(MembraneElement {
-                        nodes: [id(k, n0), id(k + 1, n0), id(k + 1, n1), id(k, n1)],
-                        section,
-                    });
-                }
+    // Each hand as a line of bars or smeared over the interface.
+    let (line_hands, smeared_hands): (&[f64], &[f64]) = match t.fibre_model {
+        FibreModel::Line => (hands, &[]),
+        FibreModel::Smeared => (&[], hands),
+    };
+    for (n0, n1) in interface_edges(&sec, t.floor_mm(), kept) {
+        let tangent = (sec.nodes[n1] - sec.nodes[n0]).normalize();
+        for handed in smeared_hands {
+            let section = t.smeared_thread(*handed, tangent);
+            for k in 0..nx {
+                fibre_membranes.push(membranes.len());
+                membranes.push(MembraneElement {
+                    nodes: [id(k, n0), id(k + 1, n0), id(k + 1, n1), id(k, n1)],
+                    section,
+                });
             }
         }
     }
-    for handed in hands.iter().filter(|_| t.fibre_model == FibreModel::Line) {
+    for handed in line_hands {
         let path = t.thread(*handed, 0.25 * xs[1], l - 0.25 * (l - xs[nx - 1]));
         // On the half model, the runs of the path on y >= 0 (each from and to a point on
         // the plane, where the mirror image's run continues it).
@@ -998,8 +1001,7 @@ mod tests {
             .for_each(|n| held[*n] = true);
         assert!(held.iter().all(|h| *h));
         // Two threads, each about (length / pitch) loops of the interface's perimeter.
-        let (r1, _) = t.radii();
-        let perimeter = std::f64::consts::PI * r1 + 2.0 * t.inner_wall_mm + 2.0 * r1;
+        let perimeter = t.interface_perimeter();
         let along: f64 = mesh
             .model
             .trusses

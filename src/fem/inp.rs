@@ -263,9 +263,9 @@ pub fn inp_from_config(cfg: &ActuatorConfig) -> Result<(String, InpSummary), Fem
         let section = m.membranes[first].section;
         // Smeared threads: a section per direction (a set and an orientation each).
         let mut groups: Vec<(MembraneSection, Vec<usize>)> = Vec::new();
+        let bare = |x: MembraneSection| MembraneSection { fibres: None, ..x };
         for &i in &part.membranes {
             let sec = m.membranes[i].section;
-            let bare = |x: MembraneSection| MembraneSection { fibres: None, ..x };
             if bare(sec) != bare(section) || sec.fibres.is_some() != section.fibres.is_some() {
                 return Err(FemError::Model {
                     why: format!(
