@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::{anyhow, Context, Result};
+use anyhow::Result;
 use bendscope::fem::actuator::ActuatorConfig;
 use bendscope::fit_model::{
     fit_model, parse_free, write_fit_model, FitModelError, FitModelSettings, Measured, Quantity,
@@ -49,17 +49,7 @@ pub struct FitModelArgs {
 fn read_config(path: &Option<PathBuf>, mesh_size: Option<f64>) -> Result<ActuatorConfig> {
     let mut cfg = match path {
         None => ActuatorConfig::default(),
-        Some(path) => {
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("cannot read actuator config {}", path.display()))?;
-            toml::from_str(&text).map_err(|e| {
-                anyhow!(
-                    "{} is not a valid actuator config: {} (see bendscope simulate --print-config)",
-                    path.display(),
-                    e.message()
-                )
-            })?
-        }
+        Some(path) => ActuatorConfig::read(path)?,
     };
     if let Some(h) = mesh_size {
         cfg.mesh.size_mm = h;

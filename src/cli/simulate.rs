@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{anyhow, Context, Result};
+use anyhow::{anyhow, Result};
 use bendscope::fem::actuator::{parse_range, ActuatorConfig};
 use bendscope::fem::analytic::analytic_to;
 use bendscope::fem::family::Family;
@@ -99,17 +99,7 @@ pub enum Model {
 /// The resolved configuration: file, then flags.
 fn resolve(args: &SimulateArgs) -> Result<ActuatorConfig> {
     let mut cfg = match &args.config {
-        Some(path) => {
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("cannot read actuator config {}", path.display()))?;
-            toml::from_str::<ActuatorConfig>(&text).map_err(|e| {
-                anyhow!(
-                    "{} is not a valid actuator config: {} (see bendscope simulate --print-config)",
-                    path.display(),
-                    e.message()
-                )
-            })?
-        }
+        Some(path) => ActuatorConfig::read(path)?,
         None => ActuatorConfig::for_family(args.family.unwrap_or_default()),
     };
     if let Some(f) = args.family {

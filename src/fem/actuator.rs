@@ -666,6 +666,21 @@ pub fn parse_range(text: &str, what: &str) -> Result<Vec<f64>, FemError> {
 }
 
 impl ActuatorConfig {
+    /// The config in the TOML file `path` (as `simulate --print-config` prints one), not
+    /// yet validated.
+    pub fn read(path: &std::path::Path) -> Result<Self, FemError> {
+        let text = std::fs::read_to_string(path).map_err(|e| FemError::Input {
+            why: format!("cannot read actuator config {}: {e}", path.display()),
+        })?;
+        toml::from_str(&text).map_err(|e| FemError::Input {
+            why: format!(
+                "{} is not a valid actuator config: {} (see bendscope simulate --print-config)",
+                path.display(),
+                e.message()
+            ),
+        })
+    }
+
     /// The pressure steps, kPa, checked (non-negative, increasing).
     pub fn pressures_kpa(&self) -> Result<Vec<f64>, FemError> {
         let p = parse_range(&self.load.pressures_kpa, "pressures")?;
@@ -1423,6 +1438,39 @@ fn slave_against(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A config file reads back as written; a missing or malformed one is refused with
+    /// its path named and what to do.
+    #[test]
+    fn a_config_file_reads_back_and_a_bad_one_is_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let cfg = ActuatorConfig::for_family(super::super::family::Family::Strap);
+        let path = dir.path().join("strap.toml");
+        std::fs::write(&path, toml::to_string_pretty(&cfg).unwrap()).unwrap();
+        assert_eq!(ActuatorConfig::read(&path).unwrap(), cfg);
+        let missing = dir.path().join("none.toml");
+        let err = ActuatorConfig::read(&missing).unwrap_err().to_string();
+        assert!(
+            err.starts_with(&format!(
+                "cannot read actuator config {}: ",
+                missing.display()
+            )),
+            "{err}"
+        );
+        std::fs::write(&path, "[geometry]\nchambers = \"nine\"\n").unwrap();
+        let err = ActuatorConfig::read(&path).unwrap_err().to_string();
+        assert!(
+            err.starts_with(&format!(
+                "{} is not a valid actuator config: ",
+                path.display()
+            )),
+            "{err}"
+        );
+        assert!(
+            err.ends_with("(see bendscope simulate --print-config)"),
+            "{err}"
+        );
+    }
 
     #[test]
     fn reference_layout_matches_the_table() {

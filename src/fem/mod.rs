@@ -66,6 +66,12 @@ pub enum FemError {
         /// What is wrong.
         why: String,
     },
+    /// An input file could not be read or is not what it should be.
+    #[error("{why}")]
+    Input {
+        /// What is wrong with which file, and what to do.
+        why: String,
+    },
     /// A result file could not be written.
     #[error("cannot write the results: {why}: check the output folder's space and permissions")]
     Output {
