@@ -896,10 +896,38 @@ pub struct ActuatorMesh {
     /// 0 the main silicone, k `extra_materials[k - 1]`): the gravity loads' and the
     /// exported deck's.
     pub densities_g_cm3: Vec<f64>,
-    /// The bottom wall of the first free chamber: the bottom-face nodes (y = 0) under its
-    /// ends and its centre (ends, then centre); its inflation is the centre's distance
-    /// from the ends' chord.
-    pub bottom_wall: Option<[usize; 3]>,
+    /// Where the bottom wall's inflation is read ([`BottomWall`]).
+    pub bottom_wall: Option<BottomWall>,
+}
+
+/// A bottom wall whose inflation is reported: its centre's distance from the chord of its
+/// ends, positive away from the cavity.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct BottomWall {
+    /// The chord's ends, bottom-face nodes. The same node twice on a half model: the chord
+    /// from it to its mirror image across the symmetry plane y = 0.
+    pub ends: [usize; 2],
+    /// The bottom-face node between the ends.
+    pub centre: usize,
+    /// A node on the cavity's side of the centre (the cavity's floor above it): the
+    /// inflation is positive away from it.
+    pub inside: usize,
+}
+
+impl BottomWall {
+    /// The inflation, mm, with the nodes at `position`.
+    pub fn inflation_mm(&self, position: impl Fn(usize) -> Vector3<f64>) -> f64 {
+        let [a, b] = self.ends.map(&position);
+        let b = if self.ends[0] == self.ends[1] {
+            Vector3::new(b.x, -b.y, b.z)
+        } else {
+            b
+        };
+        let c = position(self.centre);
+        let d = (b - a).normalize();
+        let w = (c - a) - (c - a).dot(&d) * d;
+        w.norm() * w.dot(&(c - position(self.inside))).signum()
+    }
 }
 
 /// A part of the model (a silicone, a layer, a fibre set) and the elements it is made of.
@@ -1349,16 +1377,18 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
     let twist_pair = (tip, at(g.b, 0.0, a));
     let bottom_wall = {
         let (x0, x1) = blocks[1];
-        [
-            at(x0, 0.0, 0.0),
-            at(x1, 0.0, 0.0),
-            at(0.5 * (x0 + x1), 0.0, 0.0),
-        ]
+        let xm = 0.5 * (x0 + x1);
+        BottomWall {
+            ends: [at(x0, 0.0, 0.0), at(x1, 0.0, 0.0)],
+            centre: at(xm, 0.0, 0.0),
+            inside: at(xm, 0.0, g.f),
+        }
     };
     if markers
         .iter()
         .chain(&tip_support)
-        .chain(&bottom_wall)
+        .chain(&bottom_wall.ends)
+        .chain(&[bottom_wall.centre, bottom_wall.inside])
         .chain(&[twist_pair.1])
         .chain(&bottom_line)
         .chain(std::iter::once(&tip))

@@ -315,14 +315,9 @@ fn step_result(
     let silicone = &parts[0];
     let v = solver.position(mesh.twist_pair.1) - solver.position(mesh.twist_pair.0);
     let twist_angle_deg = (-v.y).atan2(v.x.hypot(v.z)).to_degrees();
-    let bottom_inflation_mm = mesh.bottom_wall.map_or(f64::NAN, |[a, b, c]| {
-        let (a, b, c) = (solver.position(a), solver.position(b), solver.position(c));
-        let d = (b - a).normalize();
-        let w = (c - a) - (c - a).dot(&d) * d;
-        // Outward: the chord's normal in the bending plane, -z when straight.
-        let out = Vector3::new(d.z, 0.0, -d.x);
-        w.norm() * w.dot(&out).signum()
-    });
+    let bottom_inflation_mm = mesh
+        .bottom_wall
+        .map_or(f64::NAN, |w| w.inflation_mm(|n| solver.position(n)));
     let blocked_force_n = blocked.then(|| {
         let r = solver.reactions();
         // Support force on the model (+z), doubled on a half model: the tip's push.
