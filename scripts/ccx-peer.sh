@@ -1,0 +1,50 @@
+#!/usr/bin/env bash
+# Builds ccx_peer: CalculiX ccx 2.20 from Debian's own source package (calculix-ccx) with a
+# four-line patch (scripts/calculix/ccx_pressure_stiffness.patch) that adds the
+# follower-pressure load stiffness to the Newton tangent of NLGEOM static steps, and prints
+# its path. Reused once built (about 1-2 minutes on 2 cores).
+#
+# Why: stock ccx computes *DLOAD pressure on the deformed faces (a follower load) but adds
+# the matching load stiffness to the tangent only when a mass matrix is assembled, so its
+# static Newton converges linearly and gives up on soft actuators at larger pressures (the
+# glove's deck at 2 kPa). The patch changes the tangent only, not the residual: where stock
+# ccx converges, ccx_peer's answer is the same. The tests check exported decks with it.
+#
+# Usage: scripts/ccx-peer.sh [OUT_DIR]   (default target/ccx-peer; needs the build packages
+# scripts/setup.sh installs and a deb-src source for Debian, which this adds when missing)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+HERE="$PWD/scripts/calculix"
+OUT="$(realpath -m "${1:-target/ccx-peer}")"
+[ -x "$OUT/ccx_peer" ] && { echo "$OUT/ccx_peer"; exit 0; }
+SUDO=""
+[ "$(id -u)" -eq 0 ] || SUDO="sudo"
+if ! grep -rqs "^Types:.*deb-src\|^deb-src" /etc/apt/sources.list /etc/apt/sources.list.d/; then
+  if [ -f /etc/apt/sources.list.d/debian.sources ]; then
+    sed 's/^Types: deb$/Types: deb-src/' /etc/apt/sources.list.d/debian.sources |
+      $SUDO tee /etc/apt/sources.list.d/debian-src.sources >/dev/null
+  else
+    sed -n 's/^deb /deb-src /p' /etc/apt/sources.list | $SUDO tee /etc/apt/sources.list.d/debian-src.list >/dev/null
+  fi
+  $SUDO apt-get update -q >/dev/null
+fi
+WORK="$(mktemp -d /tmp/ccx-peer.XXXX)"
+trap 'rm -rf "$WORK"' EXIT
+(cd "$WORK" && apt-get source -q calculix-ccx >/dev/null 2>&1) || {
+  echo "ccx-peer: apt-get source calculix-ccx failed (no deb-src source?)" >&2
+  exit 1
+}
+SRC="$(dirname "$(find "$WORK" -name e_c3d.f | head -1)")"
+# The release tarball names its main ccx_2.20.c.
+[ -f "$SRC/CalculiX.c" ] || cp "$SRC"/ccx_2.*.c "$SRC/CalculiX.c"
+cd "$SRC"
+patch -p1 -s <"$HERE/ccx_pressure_stiffness.patch"
+cp "$HERE/Makefile_peer" .
+make -f Makefile_peer -j"$(nproc)" ccx_peer >build.log 2>&1 || {
+  tail -30 build.log >&2
+  exit 1
+}
+mkdir -p "$OUT"
+cp ccx_peer "$OUT/ccx_peer.tmp"
+mv "$OUT/ccx_peer.tmp" "$OUT/ccx_peer"
+echo "$OUT/ccx_peer"
