@@ -238,7 +238,7 @@ fn a_familys_config_is_printed_whole_and_reads_back() {
     for needle in [
         "family = \"strap\"",
         "preset = \"ecoflex0030\"",
-        "gravity_direction = [\n    1.0,\n    0.0,\n    0.0,\n]",
+        "gravity_direction = [1.0, 0.0, 0.0]",
         "[[layer]]",
         "name = \"pla\"",
         "strips = 2",

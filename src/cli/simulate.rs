@@ -139,7 +139,7 @@ pub fn run(args: &SimulateArgs) -> Result<u8> {
         eprintln!("warning: {w}");
     }
     if args.print_config {
-        super::out!("{}", toml::to_string_pretty(&cfg)?);
+        super::out!("{}", cfg.to_toml()?);
         return Ok(EXIT_OK);
     }
     if args.model == Model::Analytic {

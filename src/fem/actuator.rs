@@ -681,6 +681,14 @@ impl ActuatorConfig {
         })
     }
 
+    /// The config as TOML, as `simulate --print-config` prints it and config.toml holds
+    /// it (arrays on one line: `gravity_direction = [0.0, 0.0, -1.0]`).
+    pub fn to_toml(&self) -> Result<String, FemError> {
+        toml::to_string(self).map_err(|e| FemError::Model {
+            why: format!("the config cannot be written as TOML: {e}"),
+        })
+    }
+
     /// The pressure steps, kPa, checked (non-negative, increasing).
     pub fn pressures_kpa(&self) -> Result<Vec<f64>, FemError> {
         let p = parse_range(&self.load.pressures_kpa, "pressures")?;
@@ -1476,7 +1484,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let cfg = ActuatorConfig::for_family(super::super::family::Family::Strap);
         let path = dir.path().join("strap.toml");
-        std::fs::write(&path, toml::to_string_pretty(&cfg).unwrap()).unwrap();
+        std::fs::write(&path, cfg.to_toml().unwrap()).unwrap();
         assert_eq!(ActuatorConfig::read(&path).unwrap(), cfg);
         let missing = dir.path().join("none.toml");
         let err = ActuatorConfig::read(&missing).unwrap_err().to_string();

@@ -162,7 +162,7 @@ pub fn analytic_to(
     let output = |e: &dyn std::fmt::Display| FemError::Output { why: e.to_string() };
     let steps = analytic_ramp(&cfg.geometry, &cfg.material.yeoh()?, &cfg.pressures_kpa()?)?;
     std::fs::create_dir_all(out).map_err(|e| output(&e))?;
-    let text = toml::to_string_pretty(cfg).map_err(|e| output(&e))?;
+    let text = cfg.to_toml()?;
     super::output::remove_earlier_outputs(out)?;
     crate::io::write_atomic(&out.join("config.toml"), text.as_bytes()).map_err(|e| output(&e))?;
     let col = |name: &str, decimals: usize, f: fn(&AnalyticStep) -> f64| {

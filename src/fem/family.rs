@@ -283,7 +283,7 @@ mod tests {
         for f in Family::ALL {
             let cfg = defaults(f);
             cfg.validate().unwrap();
-            let text = toml::to_string_pretty(&cfg).unwrap();
+            let text = cfg.to_toml().unwrap();
             assert_eq!(toml::from_str::<ActuatorConfig>(&text).unwrap(), cfg, "{f}");
             let json = serde_json::to_string(&cfg).unwrap();
             assert_eq!(

@@ -362,7 +362,7 @@ pub fn simulate_to(
     progress: &mut dyn FnMut(&str, &StepResult),
 ) -> Result<Simulation, FemError> {
     std::fs::create_dir_all(out).map_err(output)?;
-    let text = toml::to_string_pretty(cfg).map_err(output)?;
+    let text = cfg.to_toml()?;
     remove_earlier_outputs(out)?;
     write_atomic(&out.join("config.toml"), text.as_bytes()).map_err(output)?;
     let pressures = cfg.pressures_kpa()?;

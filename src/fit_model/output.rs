@@ -48,7 +48,7 @@ pub fn write_fit_model(
     measured: &Measured,
 ) -> Result<(), FitModelError> {
     std::fs::create_dir_all(out.join("plots")).map_err(output)?;
-    let text = toml::to_string_pretty(&fit.config).map_err(output)?;
+    let text = fit.config.to_toml().map_err(output)?;
     let header = format!(
         "# Fitted by bendscope fit-model to {}: {}\n",
         measured.path.display(),

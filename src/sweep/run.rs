@@ -243,7 +243,7 @@ pub fn prepare(plan: &Plan, dir: &Path) -> Result<Prepared, SweepError> {
         for f in STALE {
             let _ = std::fs::remove_file(point.join(f));
         }
-        let text = toml::to_string_pretty(&cfg).map_err(|e| SweepError::io(&point, e))?;
+        let text = cfg.to_toml().map_err(|e| SweepError::io(&point, e))?;
         let path = point.join("config.toml");
         write_atomic(&path, text.as_bytes()).map_err(io_err(&path))?;
         prepared.pending.push(id.clone());
