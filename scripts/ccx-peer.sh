@@ -10,8 +10,8 @@
 # glove's deck at 2 kPa). The patch changes the tangent only, not the residual: where stock
 # ccx converges, ccx_peer's answer is the same. The tests check exported decks with it.
 #
-# Usage: scripts/ccx-peer.sh [OUT_DIR]   (default target/ccx-peer; needs the build packages
-# scripts/setup.sh installs and a deb-src source for Debian, which this adds when missing)
+# Usage: scripts/ccx-peer.sh [OUT_DIR]   (default target/ccx-peer; installs the build
+# packages and adds a deb-src source for Debian when missing; scripts/test.sh runs it)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 HERE="$PWD/scripts/calculix"
@@ -19,6 +19,16 @@ OUT="$(realpath -m "${1:-target/ccx-peer}")"
 [ -x "$OUT/ccx_peer" ] && { echo "$OUT/ccx_peer"; exit 0; }
 SUDO=""
 [ "$(id -u)" -eq 0 ] || SUDO="sudo"
+PKGS=(gfortran libspooles-dev libarpack2-dev liblapack-dev libblas-dev patch dpkg-dev)
+missing=()
+for p in "${PKGS[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "ccx-peer: installing Debian packages: ${missing[*]}" >&2
+  $SUDO apt-get update -q >/dev/null
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -q --no-install-recommends "${missing[@]}" >/dev/null
+fi
 if ! grep -rqs "^Types:.*deb-src\|^deb-src" /etc/apt/sources.list /etc/apt/sources.list.d/; then
   if [ -f /etc/apt/sources.list.d/debian.sources ]; then
     sed 's/^Types: deb$/Types: deb-src/' /etc/apt/sources.list.d/debian.sources |

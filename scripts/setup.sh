@@ -1,7 +1,5 @@
 #!/usr/bin/env bash
-# Idempotent set-up: installs the Debian packages the build needs when missing, builds
-# ccx_peer (scripts/ccx-peer.sh, the tests' CalculiX with the follower-pressure load
-# stiffness) once, then builds bendscope.
+# Idempotent set-up: installs the Debian packages the build needs when missing, then builds.
 # Usage: scripts/setup.sh [--no-build]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -16,7 +14,6 @@ PKGS=(
   chromium
   python3-venv python3-pip
   calculix-ccx
-  gfortran libspooles-dev libarpack2-dev liblapack-dev libblas-dev patch dpkg-dev
 )
 
 missing=()
@@ -30,10 +27,6 @@ if [ ${#missing[@]} -gt 0 ]; then
   $SUDO apt-get update -q
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
 fi
-
-# CalculiX with the follower-pressure load stiffness, for the tests that check exported
-# decks where stock ccx gives up (built once from Debian's source, 1-2 minutes).
-scripts/ccx-peer.sh >/dev/null
 
 if [ "${1:-}" != "--no-build" ]; then
   cargo build --release --locked --bin bendscope

@@ -704,7 +704,7 @@ fn simulate_and_calculix_peer(
     let peer = concat!(env!("CARGO_MANIFEST_DIR"), "/target/ccx-peer/ccx_peer");
     assert!(
         std::path::Path::new(peer).is_file(),
-        "{peer} is missing: run scripts/setup.sh (it builds ccx_peer with scripts/ccx-peer.sh)"
+        "{peer} is missing: run scripts/ccx-peer.sh (scripts/test.sh does)"
     );
     simulate_and_solve_with(peer, args, config)
 }
