@@ -1072,7 +1072,7 @@ mod tests {
         #[test]
         fn pratt_recovers_points_on_an_arc(
             cx in -500.0f64..500.0, cy in -500.0f64..500.0, r in 10.0f64..5000.0,
-            start in 0.0f64..6.28, span_deg in 20.0f64..300.0, n in 3usize..20,
+            start in 0.0f64..std::f64::consts::TAU, span_deg in 20.0f64..300.0, n in 3usize..20,
         ) {
             let span = span_deg.to_radians();
             let p: Vec<_> = (0..n)
@@ -1088,7 +1088,7 @@ mod tests {
 
         #[test]
         fn pratt_is_invariant_to_rotation_and_translation(
-            ang in 0.0f64..6.28, tx in -1000.0f64..1000.0, ty in -1000.0f64..1000.0,
+            ang in 0.0f64..std::f64::consts::TAU, tx in -1000.0f64..1000.0, ty in -1000.0f64..1000.0,
         ) {
             let base = gander();
             let (s, co) = ang.sin_cos();
