@@ -19,16 +19,8 @@ OUT="$(realpath -m "${1:-target/ccx-peer}")"
 [ -x "$OUT/ccx_peer" ] && { echo "$OUT/ccx_peer"; exit 0; }
 SUDO=""
 [ "$(id -u)" -eq 0 ] || SUDO="sudo"
-PKGS=(gfortran libspooles-dev libarpack2-dev liblapack-dev libblas-dev patch dpkg-dev)
-missing=()
-for p in "${PKGS[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
-done
-if [ ${#missing[@]} -gt 0 ]; then
-  echo "ccx-peer: installing Debian packages: ${missing[*]}" >&2
-  $SUDO apt-get update -q >/dev/null
-  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -q --no-install-recommends "${missing[@]}" >/dev/null
-fi
+scripts/apt-need.sh ccx-peer gfortran libspooles-dev libarpack2-dev liblapack-dev libblas-dev \
+  patch dpkg-dev >/dev/null
 if ! grep -rqs "^Types:.*deb-src\|^deb-src" /etc/apt/sources.list /etc/apt/sources.list.d/; then
   if [ -f /etc/apt/sources.list.d/debian.sources ]; then
     sed 's/^Types: deb$/Types: deb-src/' /etc/apt/sources.list.d/debian.sources |

@@ -684,7 +684,7 @@ impl ActuatorConfig {
     /// The config as TOML, as `simulate --print-config` prints it and config.toml holds
     /// it (arrays on one line: `gravity_direction = [0.0, 0.0, -1.0]`).
     pub fn to_toml(&self) -> Result<String, FemError> {
-        toml::to_string(self).map_err(|e| FemError::Model {
+        toml::to_string(self).map_err(|e| FemError::Output {
             why: format!("the config cannot be written as TOML: {e}"),
         })
     }
