@@ -744,13 +744,14 @@ mod tests {
         assert!(text.contains("EALL, GRAV, 9806.650000, 1.000000000, 0.000000000, 0.000000000"));
         assert!(text.contains("*NSET, NSET=SYMMETRY") && summary.springs == 0);
 
-        // The tube, wound one way, its thread a cable: the whole section (wound both ways
+        // The tube, wound one way, its thread a line of cables: the whole section (wound both ways
         // it is a half model, as the actuator above).
         let mut tube = ActuatorConfig::for_family(Family::FibreReinforced);
         tube.tube.as_mut().unwrap().winding = crate::fem::fibre::Winding::OneWay;
         tube.mesh.size_mm = 3.0;
         tube.load.pressures_kpa = "5,10".into();
         tube.load.gravity = false;
+        tube.tube.as_mut().unwrap().fibre_model = crate::fem::fibre::FibreModel::Line;
         tube.tube.as_mut().unwrap().fibre_tension_only = true;
         tube.tube.as_mut().unwrap().length_mm = 40.0;
         let mesh = build_mesh(&tube).unwrap();
