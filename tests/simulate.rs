@@ -881,23 +881,25 @@ fn calculix_agrees_on_the_strap_as_published_with_sheet_and_strips() {
 
 /// The fibre-reinforced tube's threads go out as SPRINGA segments tied to their host
 /// hexahedra by *EQUATIONs: a 40 mm tube, wound one way (it twists; the whole tube) and
-/// both ways (it extends; the half model, u_y = 0 on the plane), 5 and 10 kPa, gravity off,
-/// bulk modulus 100 mu0 of each silicone, 2.5 mm mesh (the default 1.5 mm took ccx 3-7
-/// minutes). The tube stays nearly straight (marker radius 350-860 mm over 30 mm:
-/// ill-conditioned), so its twist, extension and markers are compared. Measured: twist
-/// 1.801 vs 1.786 and 3.966 vs 3.962 deg (0.8%), extension 0.590 vs 0.583% and 1.791 vs
-/// 1.790% (one way), 0.729 vs 0.726% and 2.058 vs 2.058% (both ways), tip 0.02 mm apart.
+/// both ways (it extends; the half model, u_y = 0 on the plane), threads as lines of bars,
+/// 5 and 10 kPa, gravity off, bulk modulus 100 mu0 of each silicone, 2 mm mesh (at 2.5 mm
+/// stock ccx stalls in the half model's first step, ccx_peer in the whole one's; the
+/// default 1.5 mm took ccx 3-7 minutes). The tube stays nearly straight (marker radius
+/// 350-860 mm over 30 mm: ill-conditioned), so its twist, extension and markers are
+/// compared. Measured (the mesh rule of 2026-12-05): twist 1.901 vs 1.915 and 4.239 vs
+/// 4.311 deg (1.7%), extension 0.654 vs 0.684% and 2.016 vs 2.076% (one way), 0.774 vs
+/// 0.793% and 2.278 vs 2.314% (both ways), tips 0.02-0.04 mm apart; ccx 28 + 13 s.
 #[test]
 fn calculix_agrees_on_the_tubes_twist_and_extension_with_threads_as_springs() {
     tube_against_calculix("line", "5,10");
 }
 
-/// Smeared threads (`fibre_model = "smeared"`) go out as M3D4 membranes of an orthotropic
-/// material (`*ELASTIC, TYPE=ORTHO`, the thread's modulus along a `*ORIENTATION` per
-/// direction, 1e-6 of it across): the same tubes at 5 kPa (stock ccx stalls at 10 kPa on
-/// these decks, and patched ccx too). Measured: extension 0.934 vs 0.929% (both ways),
-/// 0.724 vs 0.712% and twist 2.023 vs 1.990 deg (one way; CalculiX's 1e-6 across stiffens
-/// its tube a little); ccx 20 + 54 s.
+/// Smeared threads (`fibre_model = "smeared"`, the default) go out as M3D4 membranes of
+/// an orthotropic material (`*ELASTIC, TYPE=ORTHO`, the thread's modulus along a
+/// `*ORIENTATION` per direction, 1e-6 of it across): the same tubes at 5 kPa (stock ccx
+/// stalls at 10 kPa on these decks, and ccx_peer too). Measured: extension 0.998 vs
+/// 1.016% (both ways), 0.762 vs 0.779% and twist 1.958 vs 1.935 deg (one way); ccx 17 +
+/// 11 s.
 #[test]
 fn calculix_agrees_on_the_tubes_twist_and_extension_with_smeared_threads() {
     tube_against_calculix("smeared", "5");
@@ -913,13 +915,7 @@ fn tube_against_calculix(fibre_model: &str, pressures: &str) {
              [tube.outer_material]\nbulk_modulus_mpa = 8.5\n"
         );
         let (h, reference, steps) = simulate_and_calculix(
-            &[
-                "--pressures",
-                pressures,
-                "--no-gravity",
-                "--mesh-size",
-                "2.5",
-            ],
+            &["--pressures", pressures, "--no-gravity", "--mesh-size", "2"],
             Some(&config),
         );
         assert_eq!(steps.len(), pressures.split(',').count());
@@ -968,16 +964,17 @@ fn tube_against_calculix(fibre_model: &str, pressures: &str) {
 /// A plate layer goes out as S4 shells on the membranes' nodes (CalculiX expands them into
 /// C3D8I through the sheet's thickness, their mid-plane tied to the silicone's nodes): the
 /// bending fibre-reinforced actuator (wound both ways, the family's 0.5 mm, 6.5 GPa
-/// glass-fibre strip in its flat bottom), 60 mm long, 10 and 20 kPa, gravity off, bulk
-/// modulus 100 mu0 of each silicone, 2 mm mesh (the default 1.5 mm: -0.16% / -0.47%, ccx
-/// nearly 7 minutes; at 2.5 mm stock ccx gives up in the first step). Measured: radius
-/// 430.64 / 429.05 mm (-0.37%) and 223.62 / 221.09 mm (-1.13%), tips 0.03 mm apart. The
-/// same strip as membranes bends the tube nearly twice as far (radius 261 mm at 10 kPa: it
-/// wrinkles, docs/src/howto/fem.md).
+/// glass-fibre strip in its flat bottom, threads as lines of bars: ccx stalls on smeared
+/// ones at 10 kPa), 60 mm long, 10 and 20 kPa, gravity off, bulk modulus 100 mu0 of each
+/// silicone, 2 mm mesh (at 2.5 mm stock ccx gives up in the first step). Measured (the
+/// mesh rule of 2026-12-05): radius 434.70 / 426.91 mm (-1.79%) and 228.73 / 224.65 mm
+/// (-1.79%), tips 0.02-0.04 mm apart; ccx 57 s (the rule before, twice the elements
+/// along: -0.37% / -1.13%). The same strip as membranes bends the tube nearly twice as
+/// far (radius 261 mm at 10 kPa: it wrinkles, docs/src/howto/fem.md).
 #[test]
 fn calculix_agrees_on_the_bending_tube_with_its_strip_as_shells() {
     let config = "[geometry]\nfamily = \"fibre-reinforced\"\n[material]\nbulk_modulus_mpa = 6.33\n\
-         [tube]\nlength_mm = 60.0\nbottom_strip = true\n\
+         [tube]\nlength_mm = 60.0\nbottom_strip = true\nfibre_model = \"line\"\n\
          [tube.outer_material]\nbulk_modulus_mpa = 8.5\n";
     let (h, _, steps) = simulate_and_calculix(
         &["--pressures", "10,20", "--no-gravity", "--mesh-size", "2"],
