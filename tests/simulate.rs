@@ -886,9 +886,9 @@ fn calculix_agrees_on_the_strap_as_published_with_sheet_and_strips() {
 /// stock ccx stalls in the half model's first step, ccx_peer in the whole one's; the
 /// default 1.5 mm took ccx 3-7 minutes). The tube stays nearly straight (marker radius
 /// 350-860 mm over 30 mm: ill-conditioned), so its twist, extension and markers are
-/// compared. Measured (the mesh rule of 2026-12-05): twist 1.901 vs 1.915 and 4.239 vs
-/// 4.311 deg (1.7%), extension 0.654 vs 0.684% and 2.016 vs 2.076% (one way), 0.774 vs
-/// 0.793% and 2.278 vs 2.314% (both ways), tips 0.02-0.04 mm apart; ccx 28 + 13 s.
+/// compared. Measured (the mesh rule of 2026-12-05): twist 1.864 vs 1.869 and 4.154 vs
+/// 4.198 deg (1.0%), extension 0.592 vs 0.621% and 1.875 vs 1.933% (one way), 0.695 vs
+/// 0.722% and 2.119 vs 2.172% (both ways), tips 0.01 mm apart; ccx 51 + 21 s.
 #[test]
 fn calculix_agrees_on_the_tubes_twist_and_extension_with_threads_as_springs() {
     tube_against_calculix("line", "5,10");
@@ -897,9 +897,9 @@ fn calculix_agrees_on_the_tubes_twist_and_extension_with_threads_as_springs() {
 /// Smeared threads (`fibre_model = "smeared"`, the default) go out as M3D4 membranes of
 /// an orthotropic material (`*ELASTIC, TYPE=ORTHO`, the thread's modulus along a
 /// `*ORIENTATION` per direction, 1e-6 of it across): the same tubes at 5 kPa (stock ccx
-/// stalls at 10 kPa on these decks, and ccx_peer too). Measured: extension 0.998 vs
-/// 1.016% (both ways), 0.762 vs 0.779% and twist 1.958 vs 1.935 deg (one way); ccx 17 +
-/// 11 s.
+/// stalls at 10 kPa on these decks, and ccx_peer too). Measured: extension 0.934 vs
+/// 0.950% (both ways), 0.717 vs 0.733% and twist 2.044 vs 2.018 deg (one way); ccx 32 +
+/// 17 s.
 #[test]
 fn calculix_agrees_on_the_tubes_twist_and_extension_with_smeared_threads() {
     tube_against_calculix("smeared", "5");
@@ -967,9 +967,8 @@ fn tube_against_calculix(fibre_model: &str, pressures: &str) {
 /// glass-fibre strip in its flat bottom, threads as lines of bars: ccx stalls on smeared
 /// ones at 10 kPa), 60 mm long, 10 and 20 kPa, gravity off, bulk modulus 100 mu0 of each
 /// silicone, 2 mm mesh (at 2.5 mm stock ccx gives up in the first step). Measured (the
-/// mesh rule of 2026-12-05): radius 434.70 / 426.91 mm (-1.79%) and 228.73 / 224.65 mm
-/// (-1.79%), tips 0.02-0.04 mm apart; ccx 57 s (the rule before, twice the elements
-/// along: -0.37% / -1.13%). The same strip as membranes bends the tube nearly twice as
+/// mesh rule of 2026-12-05): radius 437.58 / 433.54 mm (-0.92%) and 229.82 / 227.66 mm
+/// (-0.94%), tips 0.004 mm apart; ccx 49 s (the rule before: -0.37% / -1.13%). The same strip as membranes bends the tube nearly twice as
 /// far (radius 261 mm at 10 kPa: it wrinkles, docs/src/howto/fem.md).
 #[test]
 fn calculix_agrees_on_the_bending_tube_with_its_strip_as_shells() {

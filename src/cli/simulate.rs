@@ -6,7 +6,7 @@ use anyhow::{anyhow, Result};
 use bendscope::fem::actuator::{parse_range, ActuatorConfig};
 use bendscope::fem::analytic::analytic_to;
 use bendscope::fem::family::Family;
-use bendscope::fem::inp::write_inp;
+use bendscope::fem::inp::{caveats, write_inp};
 use bendscope::fem::material::MaterialPreset;
 use bendscope::fem::output::{simulate_to, sweep_to, SimulateOptions, BOTTOM_ELONGATION_LIMIT_PCT};
 use bendscope::fem::FemError;
@@ -150,7 +150,10 @@ pub fn run(args: &SimulateArgs) -> Result<u8> {
     }
     if let Some(path) = &args.export_inp {
         match write_inp(path, &cfg) {
-            Ok(deck) => eprintln!("note: {deck} -> {}", path.display()),
+            Ok(deck) => {
+                eprintln!("note: {deck} -> {}", path.display());
+                caveats(&cfg).iter().for_each(|c| eprintln!("note: {c}"));
+            }
             Err(e @ (FemError::Parameter { .. } | FemError::Model { .. })) => return bad(e),
             Err(e) => return Err(e.into()),
         }

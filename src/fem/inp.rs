@@ -581,6 +581,32 @@ fn join_ids(ids: impl Iterator<Item = usize>) -> String {
     ids.map(|n| n.to_string()).collect::<Vec<_>>().join(", ")
 }
 
+/// What to know before running the deck of `cfg` in CalculiX 2.20, one line each (measured
+/// in tests/simulate.rs and docs/src/howto/fem.md): its C3D8I may lock on silicone at the
+/// default bulk modulus of 1000 mu0, and it stalls on smeared threads' membranes near 10 kPa.
+pub fn caveats(cfg: &ActuatorConfig) -> Vec<String> {
+    let mut out = Vec::new();
+    let stiff = std::iter::once(&cfg.material)
+        .chain(cfg.tube.as_ref().map(|t| &t.outer_material))
+        .filter_map(|m| m.yeoh().ok())
+        .any(|y| y.bulk_modulus > 200.0 * 2.0 * y.c1);
+    if stiff {
+        out.push(
+            "a bulk modulus above 200 mu0, where CalculiX's C3D8I may lock (the reference's default deck, 1000 mu0, stops at 10 kPa in CalculiX; at 100 mu0 it gets to 100 kPa): for CalculiX set about 100 mu0 (--bulk-modulus, or bulk_modulus_mpa in [material] and [tube.outer_material])".into(),
+        );
+    }
+    if cfg
+        .tube
+        .as_ref()
+        .is_some_and(|t| t.fibre_model == super::fibre::FibreModel::Smeared)
+    {
+        out.push(
+            "smeared threads go out as orthotropic M3D4 membranes, on which CalculiX stalls near 10 kPa; [tube] fibre_model = \"line\" exports them as springs it runs to full pressure".into(),
+        );
+    }
+    out
+}
+
 /// Writes the deck of `cfg` to `path` atomically ([`crate::io::write_atomic`]).
 pub fn write_inp(path: &Path, cfg: &ActuatorConfig) -> Result<InpSummary, FemError> {
     let (text, summary) = inp_from_config(cfg)?;
@@ -610,6 +636,24 @@ mod tests {
     /// Normal of a quad (a, b, c, d) by the right-hand rule: (c − a) × (d − b).
     fn normal(x: &[Vector3<f64>], q: [usize; 4]) -> Vector3<f64> {
         (x[q[2]] - x[q[0]]).cross(&(x[q[3]] - x[q[1]]))
+    }
+
+    /// The export names what CalculiX will not do with a deck: the default bulk modulus
+    /// (1000 mu0, C3D8I locks) and smeared threads (it stalls near 10 kPa); a deck at 100
+    /// mu0 with threads as lines gets no note.
+    #[test]
+    fn the_export_notes_what_calculix_stalls_on() {
+        use crate::fem::family::{defaults, Family};
+        assert_eq!(caveats(&defaults(Family::Pneunets)).len(), 1);
+        let mut tube = defaults(Family::FibreReinforced);
+        let notes = caveats(&tube);
+        assert_eq!(notes.len(), 2, "{notes:?}");
+        assert!(notes[0].contains("--bulk-modulus") && notes[1].contains("fibre_model"));
+        let t = tube.tube.as_mut().unwrap();
+        t.fibre_model = crate::fem::fibre::FibreModel::Line;
+        t.outer_material.bulk_modulus_mpa = Some(8.5);
+        tube.material.bulk_modulus_mpa = Some(6.33);
+        assert!(caveats(&tube).is_empty(), "{:?}", caveats(&tube));
     }
 
     fn coarse() -> ActuatorConfig {
