@@ -341,7 +341,8 @@ struct Section {
 
 /// Elements through the inner silicone layer around the arc, at least (smeared threads,
 /// 10-60 kPa without gravity, h = 1.5 mm: 4 instead of 2 moved the extension by +0.14 /
-/// +0.24% at 10 / 60 kPa, for 2.5 times the solve time; docs/src/howto/fem.md, mesh study).
+/// +0.24% at 10 / 60 kPa, for 2.5 times the solve time; docs/src/howto/fem.md, mesh study;
+/// threads as lines moved 2.6 points there, 38.5 -> 41.0%: the line has no limit anyway).
 const INNER_WALL_ELEMENTS: usize = 2;
 
 /// Element length around the arc and across the flat bottom, as a share of the mesh size:
