@@ -9,7 +9,6 @@ use bendscope::fem::family::Family;
 use bendscope::fem::inp::{caveats, write_inp};
 use bendscope::fem::material::MaterialPreset;
 use bendscope::fem::output::{simulate_to, sweep_to, SimulateOptions, BOTTOM_ELONGATION_LIMIT_PCT};
-use bendscope::fem::FemError;
 use clap::Args;
 
 use super::{EXIT_BAD_INPUT, EXIT_NOTHING, EXIT_OK, EXIT_PARTIAL};
@@ -154,7 +153,7 @@ pub fn run(args: &SimulateArgs) -> Result<u8> {
                 eprintln!("note: {deck} -> {}", path.display());
                 caveats(&cfg).iter().for_each(|c| eprintln!("note: {c}"));
             }
-            Err(e @ (FemError::Parameter { .. } | FemError::Model { .. })) => return bad(e),
+            Err(e) if e.is_bad_input() => return bad(e),
             Err(e) => return Err(e.into()),
         }
     }
@@ -239,7 +238,7 @@ fn run_analytic(cfg: &ActuatorConfig, out: &Path) -> Result<u8> {
     let started = std::time::Instant::now();
     let steps = match analytic_to(out, cfg) {
         Ok(s) => s,
-        Err(e @ (FemError::Parameter { .. } | FemError::Model { .. })) => return bad(e),
+        Err(e) if e.is_bad_input() => return bad(e),
         Err(e) => return Err(e.into()),
     };
     let ms = 1e3 * started.elapsed().as_secs_f64();
@@ -278,9 +277,7 @@ fn run_sweep(base: &ActuatorConfig, spec: &str, out: &Path) -> Result<u8> {
     bar.finish_and_clear();
     let sweep = match result {
         Ok(s) => s,
-        Err(e @ (FemError::Parameter { .. } | FemError::Model { .. })) => {
-            return bad(format!("--sweep {name}: {e}"))
-        }
+        Err(e) if e.is_bad_input() => return bad(format!("--sweep {name}: {e}")),
         Err(e) => return Err(e.into()),
     };
     for r in sweep.rows.iter().filter(|r| r.status != "ok") {

@@ -581,6 +581,11 @@ fn join_ids(ids: impl Iterator<Item = usize>) -> String {
     ids.map(|n| n.to_string()).collect::<Vec<_>>().join(", ")
 }
 
+/// Bulk modulus, as a multiple of the initial shear modulus, above which [`caveats`] warns
+/// that CalculiX's C3D8I may lock (it ran the strap's deck at 1000 mu0 but stopped the
+/// reference's at 10 kPa; at 100 mu0 the reference's got to 100 kPa).
+const CALCULIX_BULK_TO_SHEAR: f64 = 200.0;
+
 /// What to know before running the deck of `cfg` in CalculiX 2.20, one line each (measured
 /// in tests/simulate.rs and docs/src/howto/fem.md): its C3D8I may lock on silicone at the
 /// default bulk modulus of 1000 mu0, and it stalls on smeared threads' membranes near 10 kPa.
@@ -589,7 +594,7 @@ pub fn caveats(cfg: &ActuatorConfig) -> Vec<String> {
     let stiff = std::iter::once(&cfg.material)
         .chain(cfg.tube.as_ref().map(|t| &t.outer_material))
         .filter_map(|m| m.yeoh().ok())
-        .any(|y| y.bulk_modulus > 200.0 * 2.0 * y.c1);
+        .any(|y| y.bulk_modulus > CALCULIX_BULK_TO_SHEAR * 2.0 * y.c1);
     if stiff {
         out.push(
             "a bulk modulus above 200 mu0, where CalculiX's C3D8I may lock (the reference's default deck, 1000 mu0, stops at 10 kPa in CalculiX; at 100 mu0 it gets to 100 kPa): for CalculiX set about 100 mu0 (--bulk-modulus, or bulk_modulus_mpa in [material] and [tube.outer_material])".into(),

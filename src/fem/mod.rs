@@ -87,3 +87,11 @@ pub enum FemError {
         why: String,
     },
 }
+
+impl FemError {
+    /// The user's input is at fault (a parameter out of range, a model that cannot be
+    /// built): a one-line message and exit 2, rather than a failed run.
+    pub fn is_bad_input(&self) -> bool {
+        matches!(self, FemError::Parameter { .. } | FemError::Model { .. })
+    }
+}
