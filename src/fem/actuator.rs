@@ -860,7 +860,7 @@ impl ActuatorConfig {
         if !hit {
             return Err(bad(
                 name,
-                "no such parameter (geometry: chambers b i f m p r c g d e l n top_wall roof; material: c1 c2 c3 bulk_modulus_mpa density_g_cm3 tensile_strength_mpa scale; mesh: size_mm; solver: max_iterations tolerance)".into(),
+                format!("no such parameter of this config ({})", numeric_keys(&doc)),
             ));
         }
         doc.try_into()
@@ -868,6 +868,34 @@ impl ActuatorConfig {
                 why: format!("config: {e}"),
             })
     }
+}
+
+/// The numbers of a config's sections, as `section: key key ...; ...` (what
+/// [`ActuatorConfig::with_parameter`] can set: each family's own sections are there, e.g.
+/// `tube` for the fibre-reinforced family).
+fn numeric_keys(doc: &toml::Table) -> String {
+    let mut out = Vec::new();
+    for (section, value) in doc {
+        let Some(table) = value.as_table() else {
+            continue;
+        };
+        let mut keys: Vec<&str> = table
+            .iter()
+            .filter(|(_, v)| v.is_integer() || v.is_float())
+            .map(|(k, _)| k.as_str())
+            .collect();
+        if table.contains_key("preset") {
+            for k in ["c1", "c2", "c3", "bulk_modulus_mpa"] {
+                if !keys.contains(&k) {
+                    keys.push(k);
+                }
+            }
+        }
+        if !keys.is_empty() {
+            out.push(format!("{section}: {}", keys.join(" ")));
+        }
+    }
+    out.join("; ")
 }
 
 /// The meshed half actuator and the nodes results are read at.
@@ -1591,11 +1619,31 @@ mod tests {
             let err = cfg.validate().unwrap_err().to_string();
             assert!(err.contains(name) && err.contains(expect), "{name}: {err}");
         }
-        assert!(base
-            .with_parameter("zz", 1.0)
-            .unwrap_err()
-            .to_string()
-            .contains("no such parameter"));
+        let err = base.with_parameter("zz", 1.0).unwrap_err().to_string();
+        assert!(
+            err.contains("no such parameter")
+                && err.contains("geometry: ")
+                && err.contains(" chambers ")
+                && err.contains(" c2 ")
+                && err.contains("size_mm")
+                && !err.contains("pitch_mm"),
+            "{err}"
+        );
+        // The list is the config's own: the tube's parameters where there is a tube, and
+        // each of them sets.
+        let tube = ActuatorConfig::for_family(Family::FibreReinforced);
+        let err = tube.with_parameter("zz", 1.0).unwrap_err().to_string();
+        assert!(err.contains("tube: ") && err.contains("pitch_mm"), "{err}");
+        let listed = err.split_once('(').unwrap().1.trim_end_matches(')');
+        for key in listed
+            .split(';')
+            .flat_map(|s| s.split_once(':').unwrap().1.split_whitespace())
+        {
+            assert!(
+                tube.with_parameter(key, 2.0).is_ok(),
+                "{key} listed but not set"
+            );
+        }
         let neg = ActuatorConfig {
             load: LoadConfig {
                 pressures_kpa: "-5,10".into(),

@@ -152,6 +152,23 @@ pub fn analytic_ramp(
         .collect()
 }
 
+/// The analytic model of a config's actuator at each pressure: its [geometry]'s chambers
+/// in its material. Refused for the fibre-reinforced family: the chamber model is of
+/// PneuNets chambers (the glove's and the strap's too, their layers left out), and the
+/// tube has none (its [geometry] is not read).
+pub fn analytic_config(
+    cfg: &super::actuator::ActuatorConfig,
+    pressures_kpa: &[f64],
+) -> Result<Vec<AnalyticStep>, FemError> {
+    if cfg.geometry.family == super::family::Family::FibreReinforced {
+        return Err(FemError::Parameter {
+            name: "family".into(),
+            why: "the analytic model is of PneuNets chambers and the fibre-reinforced tube has none: use --model fem".into(),
+        });
+    }
+    analytic_ramp(&cfg.geometry, &cfg.material.yeoh()?, pressures_kpa)
+}
+
 /// Runs the analytic model over `cfg`'s ramp and writes `config.toml` and `steps.csv`
 /// (pressure_kpa, radius_mm, curvature_per_m, bending_angle_deg: the columns of the FEM's
 /// steps.csv it can fill; then axial_stress_mpa and axial_strain) into `out`.
@@ -160,7 +177,7 @@ pub fn analytic_to(
     cfg: &super::actuator::ActuatorConfig,
 ) -> Result<Vec<AnalyticStep>, FemError> {
     let output = |e: &dyn std::fmt::Display| FemError::Output { why: e.to_string() };
-    let steps = analytic_ramp(&cfg.geometry, &cfg.material.yeoh()?, &cfg.pressures_kpa()?)?;
+    let steps = analytic_config(cfg, &cfg.pressures_kpa()?)?;
     std::fs::create_dir_all(out).map_err(|e| output(&e))?;
     let text = cfg.to_toml()?;
     super::output::remove_earlier_outputs(out)?;
@@ -202,6 +219,25 @@ mod tests {
         assert_eq!(uniaxial_stretch(&m, 0.0).unwrap(), 1.0);
         assert!(uniaxial_stretch(&m, 1e9).is_err());
         assert!(uniaxial_stretch(&m, f64::NAN).is_err());
+    }
+
+    #[test]
+    fn the_tube_has_no_chamber_model() {
+        use crate::fem::{actuator::ActuatorConfig, family::Family};
+        let tube = ActuatorConfig::for_family(Family::FibreReinforced);
+        let err = analytic_config(&tube, &[10.0]).unwrap_err();
+        assert!(err.is_bad_input(), "{err}");
+        assert!(err.to_string().contains("family"), "{err}");
+        let dir = tempfile::tempdir().unwrap();
+        assert!(analytic_to(dir.path(), &tube).is_err());
+        assert_eq!(
+            std::fs::read_dir(dir.path()).unwrap().count(),
+            0,
+            "nothing written"
+        );
+        // The glove's chambers have a model (its paper layer left out).
+        let glove = ActuatorConfig::for_family(Family::Glove);
+        assert!(analytic_config(&glove, &[10.0]).unwrap()[0].bending_angle_deg > 0.0);
     }
 
     #[test]

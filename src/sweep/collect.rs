@@ -16,7 +16,7 @@ use std::path::{Path, PathBuf};
 
 use super::run::{point_dir, read_manifest, read_point_config, read_status, PointState};
 use super::SweepError;
-use crate::fem::analytic::analytic_ramp;
+use crate::fem::analytic::analytic_config;
 use crate::table::{write_csv, Column, Table};
 
 /// The FEM results kept per pressure: the steps.csv columns.
@@ -133,10 +133,10 @@ pub fn collect(dir: &Path) -> Result<Collected, SweepError> {
                 .and_then(|t| cells_at(t, &["force_n"], *p_kpa));
             fem[k][RESULT_COLUMNS.len()].push(f.map(|mut r| r.remove(0)).unwrap_or_default());
         }
-        let model = cfg.as_ref().filter(|_| m.analytic).and_then(|c| {
-            let yeoh = c.material.yeoh().ok()?;
-            analytic_ramp(&c.geometry, &yeoh, &kpa).ok()
-        });
+        let model = cfg
+            .as_ref()
+            .filter(|_| m.analytic)
+            .and_then(|c| analytic_config(c, &kpa).ok());
         for (k, cells) in analytic.iter_mut().enumerate() {
             let s = model.as_ref().map(|v| v[k]);
             cells[0].push(s.map_or(f64::NAN, |s| s.bending_angle_deg));
