@@ -453,7 +453,11 @@ mod tests {
         let half_et = 0.5 * 31_067.0 * 0.0177;
         let exact = half_et * kappa * kappa * 4.0 * a * b * ax.powi(4) * b * b / 3.0;
         let parasitic = half_et * kappa * kappa * 4.0 * a * b * (ax * ay).powi(2) * a * a / 3.0;
-        assert!((parasitic / exact - 161.0).abs() < 1.0, "{}", parasitic / exact);
+        assert!(
+            (parasitic / exact - 161.0).abs() < 1.0,
+            "{}",
+            parasitic / exact
+        );
         let expect = exact + SHEAR_AT_POINTS.powi(2) * parasitic;
         // Green-Lagrange's quadratic terms are κ² smaller.
         assert!(
