@@ -152,10 +152,10 @@ pub fn analytic_ramp(
         .collect()
 }
 
-/// The analytic model of a config's actuator at each pressure: its [geometry]'s chambers
+/// The analytic model of a config's actuator at each pressure: its `[geometry]`'s chambers
 /// in its material. Refused for the fibre-reinforced family: the chamber model is of
 /// PneuNets chambers (the glove's and the strap's too, their layers left out), and the
-/// tube has none (its [geometry] is not read).
+/// tube has none (its `[geometry]` is not read).
 pub fn analytic_config(
     cfg: &super::actuator::ActuatorConfig,
     pressures_kpa: &[f64],

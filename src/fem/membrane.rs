@@ -16,7 +16,7 @@
 //! μ = E / 2(1 + ν): the linear-elastic plane-stress sheet at the small strains of a
 //! strain-limiting layer, exact under the actuator's large rotations. Threads smeared
 //! over a sheet ([`Fibres`]) carry ½ E t E_ff² along their direction a only (E_ff =
-//! a · E a; its shear part from the element's centre: [`point_strain`]), tension-only if
+//! a · E a; its shear part from the element's centre: `point_strain`), tension-only if
 //! asked. Force and tangent
 //! are the energy's gradient and Hessian (total Lagrangian; tests check them against
 //! finite differences).
@@ -199,10 +199,32 @@ fn gradient_at(
     f
 }
 
-/// The strain a section's energy is evaluated with at Gauss point `g` (Voigt), its
-/// gradient rows B_a (3x3 per node: ∂(E11, E22, 2E12)/∂u_a,i) and the gradients
-/// (dN/dX) of each row's second derivative: the Green-Lagrange strain at the point, except
-/// that threads ([`Fibres`]) take the shear 2 E12 from the centre.
+/// A membrane's strain at a Gauss point as its energy sees it ([`point_strain`]).
+struct PointStrain {
+    /// (E11, E22, 2 E12).
+    strain: Vector3<f64>,
+    /// B_a (3x3 per node): ∂(E11, E22, 2E12)/∂u_a,i.
+    b: [SMatrix<f64, 3, 3>; 4],
+    /// dN_a/dX at the point (the normal strains' second derivatives).
+    grads: [Vector2<f64>; 4],
+    /// The gradients of the shear's two parts, each with its weight (point, centre).
+    shear: [([Vector2<f64>; 4], f64); 2],
+}
+
+/// The share of the threads' shear strain taken at the Gauss point, the rest at the
+/// centre ([`point_strain`]): the parasitic shear's energy scales as its square. The
+/// tube's default ramp (gravity, 10-60 kPa, h = 1.5 mm): with the whole shear at the
+/// centre (0) the sag is 16.831 / 25.686 deg at 10 / 60 kPa, within 0.02% of the mesh
+/// 0.75 mm along, but Newton fails 5 increments of the first moves (283 linear solves;
+/// with the whole shear at the points, 1, 1 failure and 149 solves); 0.2 gives 16.812 /
+/// 25.603 deg (-0.11 / -0.32%), 3 failures, 226 solves; 0.3 -0.27 / -0.72%, 221 solves.
+const SHEAR_AT_POINTS: f64 = 0.2;
+
+/// The strain a section's energy is evaluated with at Gauss point `g`, its gradient and
+/// the gradients of its second derivative ([`PointStrain`]): the Green-Lagrange strain at
+/// the point, except
+/// that threads ([`Fibres`]) take their shear 2 E12 mostly from the centre (all but
+/// [`SHEAR_AT_POINTS`] of it).
 ///
 /// Why the centre's shear for threads: a bilinear quad bent in its plane (the tube's wall
 /// bending as a beam: the axial strain varies around the tube) shows a shear it should
@@ -212,31 +234,14 @@ fn gradient_at(
 /// 1.0 / 0.75 / 0.5 mm along, and 18.31 / 18.32 / 18.33 with the threads taken out; with
 /// the shear at the centre 15.77 / 15.78 / 15.79. The centre's shear is exact for any
 /// uniform strain (the patch test holds); the quad's mode that it does not see keeps
-/// [`SHEAR_AT_POINTS`] of the point's shear, besides the silicone underneath (all of it
-/// at the centre, Newton failed twice as many increments).
-/// The gradients of the shear's two parts, each with its weight (point, centre).
-type ShearGradients = [([Vector2<f64>; 4], f64); 2];
-
-/// The share of the threads' shear strain taken at the Gauss point, the rest at the
-/// centre ([`point_strain`]): the parasitic shear's energy scales as its square. The
-/// tube's default ramp (gravity, 10-60 kPa, h = 1.5 mm): with the whole shear at the
-/// centre (0) the sag is 16.831 / 25.686 deg at 10 / 60 kPa, within 0.02% of the mesh
-/// 0.75 mm along, but Newton fails 6 first increments (283 linear solves against 149 at
-/// the points, 1); 0.2 gives 16.812 / 25.603 deg (-0.11 / -0.32%) in 226 solves; 0.3
-/// -0.27 / -0.72% in 221.
-const SHEAR_AT_POINTS: f64 = 0.2;
-
+/// [`SHEAR_AT_POINTS`] of the point's shear, besides the silicone underneath (with all
+/// of it at the centre Newton failed more increments).
 fn point_strain(
     geom: &MembraneGeometry,
     section: &MembraneSection,
     g: usize,
     u: &[Vector3<f64>; 4],
-) -> (
-    Vector3<f64>,
-    [SMatrix<f64, 3, 3>; 4],
-    [Vector2<f64>; 4],
-    ShearGradients,
-) {
+) -> PointStrain {
     let grads = &geom.grads[g];
     let f = gradient_at(&geom.frame, grads, u);
     let mut strain = green_strain(&f);
@@ -265,7 +270,12 @@ fn point_strain(
         }
         shear = [(*grads, beta), (*c, 1.0 - beta)];
     }
-    (strain, b, *grads, shear)
+    PointStrain {
+        strain,
+        b,
+        grads: *grads,
+        shear,
+    }
 }
 
 /// Green-Lagrange strain (Voigt: E11, E22, 2 E12) of an in-plane deformation gradient.
@@ -286,7 +296,7 @@ pub fn membrane_stress(
 ) -> Vector3<f64> {
     let mut s = Vector3::zeros();
     for g in 0..4 {
-        let (strain, ..) = point_strain(geom, section, g, u);
+        let strain = point_strain(geom, section, g, u).strain;
         s += section.elasticity(&geom.frame, &strain) * strain * geom.weights[g];
     }
     s / geom.area()
@@ -304,7 +314,12 @@ pub fn membrane_response(
     let mut force = MembraneVector::zeros();
     let mut k = MembraneMatrix::zeros();
     for g in 0..4 {
-        let (strain, b, grads, shear) = point_strain(geom, section, g, u);
+        let PointStrain {
+            strain,
+            b,
+            grads,
+            shear,
+        } = point_strain(geom, section, g, u);
         let d = section.elasticity(&geom.frame, &strain);
         let s = d * strain;
         let w = t * geom.weights[g];
