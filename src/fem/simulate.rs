@@ -235,7 +235,7 @@ pub fn run_ramp(
         ) {
             Ok(report) => {
                 let stresses = solver.element_stresses();
-                let result = step_result(
+                let mut result = step_result(
                     mesh,
                     &solver,
                     &stresses,
@@ -243,6 +243,12 @@ pub fn run_ramp(
                     report.iterations,
                     settings.blocked,
                 )?;
+                // The twist continues from the last step's past ±180 deg (steps turn the end
+                // by far less than 180 deg each).
+                if let Some(last) = ramp.steps.last() {
+                    result.twist_angle_deg =
+                        continued_twist(last.twist_angle_deg, result.twist_angle_deg);
+                }
                 on_step(
                     &result,
                     &StepFields {
@@ -267,6 +273,35 @@ pub fn run_ramp(
         }
     }
     Ok(ramp)
+}
+
+/// Rotation of the free end's face about the actuator's axis, degrees, in (-180, 180]:
+/// the face's vertical (`twist_pair`, bottom to top) read off the bending plane, its
+/// sideways part (-y) against its part in the x-z plane, whose sign says whether the face
+/// has turned past 90 deg: that part points up (along the axis at the end, from the bottom
+/// line's last segment, turned by 90 deg towards +z) or down. Past 90 deg the reading
+/// without the sign (earlier) folded back (46.6 / -1.5 deg at 50 / 60 kPa for the twisting
+/// tube, turned ~133 / ~181 deg); [`run_ramp`] carries it on past 180 deg.
+fn twist_angle_deg(mesh: &ActuatorMesh, solver: &Solver) -> f64 {
+    let v = solver.position(mesh.twist_pair.1) - solver.position(mesh.twist_pair.0);
+    let line = &mesh.bottom_line;
+    let axis = match line.len() {
+        n if n >= 2 => solver.position(line[n - 1]) - solver.position(line[n - 2]),
+        _ => Vector3::x(),
+    };
+    twist_of(&v, &axis)
+}
+
+/// [`twist_angle_deg`] of the end face's vertical `v` at the end's axis `axis`.
+fn twist_of(v: &Vector3<f64>, axis: &Vector3<f64>) -> f64 {
+    let up = Vector3::new(-axis.z, 0.0, axis.x);
+    let side = if v.dot(&up) < 0.0 { -1.0 } else { 1.0 };
+    (-v.y).atan2(side * v.x.hypot(v.z)).to_degrees()
+}
+
+/// A twist read in (-180, 180] carried on from the step before (whole turns added).
+fn continued_twist(last_deg: f64, now_deg: f64) -> f64 {
+    now_deg + 360.0 * ((last_deg - now_deg) / 360.0).round()
 }
 
 /// The markers' current positions in the filmed side plane (x, z), mm: what a step's
@@ -313,8 +348,7 @@ fn step_result(
     // The main silicone is the mesh's first part (a strain-limiting layer is far stiffer
     // and stronger: reported as its own part).
     let silicone = &parts[0];
-    let v = solver.position(mesh.twist_pair.1) - solver.position(mesh.twist_pair.0);
-    let twist_angle_deg = (-v.y).atan2(v.x.hypot(v.z)).to_degrees();
+    let twist_angle_deg = twist_angle_deg(mesh, solver);
     let bottom_inflation_mm = mesh
         .bottom_wall
         .map_or(f64::NAN, |w| w.inflation_mm(|n| solver.position(n)));
@@ -398,6 +432,33 @@ pub fn part_stresses(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The end face's vertical turned by φ about the end's axis, the actuator bent by 50 deg
+    /// (the axis down the x-z plane) and straight: φ read back over (-180, 180], the same
+    /// as the reading without the sign below 90 deg, and carried on past ±180.
+    #[test]
+    fn the_twist_is_read_past_90_degrees_and_carried_past_180() {
+        for bend in [0.0f64, -50.0] {
+            let b = bend.to_radians();
+            let axis = Vector3::new(b.cos(), 0.0, b.sin());
+            let up = Vector3::new(-b.sin(), 0.0, b.cos());
+            for phi in [0.0f64, 30.0, -60.0, 89.0, 120.0, -150.0, 179.0] {
+                let p = phi.to_radians();
+                // Rotation by φ about the axis takes up to cos φ up − sin φ y (right-handed).
+                let v = (up * p.cos() - Vector3::y() * p.sin()) * 11.0 + axis * 0.3;
+                let got = twist_of(&v, &axis);
+                assert!((got - phi).abs() < 2.0, "bend {bend}, {phi}: {got}");
+                if phi.abs() < 90.0 {
+                    let before = (-v.y).atan2(v.x.hypot(v.z)).to_degrees();
+                    assert_eq!(got, before);
+                }
+            }
+        }
+        assert_eq!(continued_twist(170.0, -175.0), 185.0);
+        assert_eq!(continued_twist(-170.0, 175.0), -185.0);
+        assert_eq!(continued_twist(400.0, 50.0), 410.0);
+        assert_eq!(continued_twist(15.0, 35.0), 35.0);
+    }
     use crate::fem::actuator::{build_mesh, ActuatorConfig, LoadConfig, MeshConfig};
 
     fn coarse(gravity: bool) -> ActuatorMesh {
