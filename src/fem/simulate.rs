@@ -41,7 +41,7 @@ pub struct StepResult {
     /// bottom is on the inside of the bend and usually shortens).
     pub bottom_elongation_pct: f64,
     /// Rotation of the free end's face about the actuator's axis, degrees, right-handed
-    /// about +x (0 by symmetry on a half model).
+    /// about +x (0 by symmetry on a half model); over a ramp, carried on past ±180.
     pub twist_angle_deg: f64,
     /// Length change of the polyline through the markers, % (axial extension).
     pub extension_pct: f64,
