@@ -597,7 +597,7 @@ pub fn caveats(cfg: &ActuatorConfig) -> Vec<String> {
         .any(|y| y.bulk_modulus > CALCULIX_BULK_TO_SHEAR * 2.0 * y.c1);
     if stiff {
         out.push(
-            "a bulk modulus above 200 mu0, where CalculiX's C3D8I may lock (the reference's default deck, 1000 mu0, stops at 10 kPa in CalculiX; at 100 mu0 it gets to 100 kPa): for CalculiX set about 100 mu0 (--bulk-modulus, or bulk_modulus_mpa in [material] and [tube.outer_material])".into(),
+            format!("a bulk modulus above {CALCULIX_BULK_TO_SHEAR} mu0, where CalculiX's C3D8I may lock (the reference's default deck, 1000 mu0, stops at 10 kPa in CalculiX; at 100 mu0 it gets to 100 kPa): for CalculiX set about 100 mu0 (--bulk-modulus, or bulk_modulus_mpa in [material] and [tube.outer_material])"),
         );
     }
     if cfg

@@ -178,14 +178,10 @@ impl MembraneGeometry {
     pub fn area(&self) -> f64 {
         self.weights.iter().sum()
     }
-
-    /// In-plane deformation gradient F = ∂x/∂X (3x2, columns along e₁, e₂) at Gauss
-    /// point `g` from the nodal displacements.
-    pub fn deformation_gradient(&self, g: usize, u: &[Vector3<f64>; 4]) -> [Vector3<f64>; 2] {
-        gradient_at(&self.frame, &self.grads[g], u)
-    }
 }
 
+/// In-plane deformation gradient F = ∂x/∂X (3x2, columns along e₁, e₂) where the
+/// shape functions have gradients `grads`, from the nodal displacements.
 fn gradient_at(
     frame: &[Vector3<f64>; 2],
     grads: &[Vector2<f64>; 4],
@@ -258,9 +254,8 @@ fn point_strain(
     } else {
         1.0
     };
-    let mut shear = [(*grads, 1.0), (geom.centre, 0.0)];
+    let c = &geom.centre;
     if beta < 1.0 {
-        let c = &geom.centre;
         let fc = gradient_at(&geom.frame, c, u);
         strain[2] = beta * strain[2] + (1.0 - beta) * fc[0].dot(&fc[1]);
         for (a, ba) in b.iter_mut().enumerate() {
@@ -268,8 +263,8 @@ fn point_strain(
                 ba.row(2) * beta + (fc[0] * c[a][1] + fc[1] * c[a][0]).transpose() * (1.0 - beta);
             ba.set_row(2, &row);
         }
-        shear = [(*grads, beta), (*c, 1.0 - beta)];
     }
+    let shear = [(*grads, beta), (*c, 1.0 - beta)];
     PointStrain {
         strain,
         b,
