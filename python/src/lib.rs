@@ -326,7 +326,7 @@ fn simulate(
     }
     let text = json!({
         "summary": s,
-        "config_warnings": cfg.material.warnings(),
+        "config_warnings": cfg.warnings(),
         "failure": failure,
     })
     .to_string();

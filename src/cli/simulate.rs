@@ -134,7 +134,7 @@ pub fn run(args: &SimulateArgs) -> Result<u8> {
         Ok(c) => c,
         Err(e) => return bad(format!("{e:#}")),
     };
-    for w in cfg.material.warnings() {
+    for w in cfg.warnings() {
         eprintln!("warning: {w}");
     }
     if args.print_config {

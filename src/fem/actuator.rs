@@ -99,6 +99,9 @@ impl Default for Geometry {
     }
 }
 
+/// Most chambers a geometry may have (each is a block of the mesh).
+pub const MAX_CHAMBERS: usize = 1000;
+
 fn bad(name: &str, why: String) -> FemError {
     FemError::Parameter {
         name: name.to_string(),
@@ -173,6 +176,12 @@ impl Geometry {
         }
         if !(self.roof.is_finite() && self.roof >= 0.0) {
             return Err(bad("roof", format!("{} mm: must be >= 0", self.roof)));
+        }
+        if self.chambers > MAX_CHAMBERS {
+            return Err(bad(
+                "chambers",
+                format!("{}: use at most {MAX_CHAMBERS}", self.chambers),
+            ));
         }
         if self.chambers < 2 {
             return Err(bad(
@@ -450,10 +459,7 @@ pub struct ActuatorConfig {
     pub solver: SolverConfig,
     /// Strain-limiting layers in the base (`[layer]` for one, `[[layer]]` for several;
     /// none in the reference actuator).
-    #[serde(
-        deserialize_with = "one_or_many",
-        skip_serializing_if = "Vec::is_empty"
-    )]
+    #[serde(skip_serializing_if = "Vec::is_empty")]
     pub layer: Vec<LayerConfig>,
     /// Frictionless contact between the facing walls of neighbouring chambers
     /// (`[contact]`; off by default).
@@ -472,11 +478,14 @@ impl Serialize for ActuatorConfig {
 
 impl<'de> Deserialize<'de> for ActuatorConfig {
     fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        use serde::de::Error;
-        let user = serde_json::Value::deserialize(d)?;
+        use serde::de::{DeserializeSeed, Error};
+        // The user's document, a non-finite number refused by its key (JSON has no NaN:
+        // read as a JSON value it would become null, "not given", and the default).
+        let user = UserValue(Vec::new()).deserialize(d)?;
         let family = match user.get("geometry").and_then(|g| g.get("family")) {
             None => Family::default(),
-            Some(v) => Family::deserialize(v).map_err(D::Error::custom)?,
+            Some(v) => Family::deserialize(v)
+                .map_err(|e| D::Error::custom(format!("[geometry] family: {e}")))?,
         };
         let mut doc = serde_json::to_value(Self::for_family(family)).map_err(D::Error::custom)?;
         // `bottom_strip = false` without layers of the file's own: the family's strip
@@ -499,11 +508,301 @@ impl<'de> Deserialize<'de> for ActuatorConfig {
                 _ => {}
             }
         }
+        check_layer_tables(&user, &doc, family).map_err(D::Error::custom)?;
+        let defaults = doc.clone();
         merge_over(&mut doc, user);
         strip_nulls(&mut doc);
-        ActuatorConfig::deserialize(doc).map_err(D::Error::custom)
+        // `[layer]` (one table) is a list of one layer.
+        if let Some(o) = doc.as_object_mut() {
+            if let Some(one @ serde_json::Value::Object(_)) = o.get_mut("layer") {
+                *one = serde_json::Value::Array(vec![one.take()]);
+            }
+        }
+        let mut track = serde_path_to_error::Track::new();
+        let checked =
+            ActuatorConfig::deserialize(serde_path_to_error::Deserializer::new(&doc, &mut track));
+        checked.map_err(|e| D::Error::custom(type_error(&track.path(), &e, &doc, &defaults)))
     }
 }
+
+/// One step of a key's path in a config document: a table's key or a list's entry.
+#[derive(Debug, Clone, PartialEq)]
+enum Step {
+    Key(String),
+    Entry(usize),
+}
+
+/// The key at `path` as a config file writes it: `[geometry] b`, `[layer.2] thickness_mm`
+/// (list entries numbered from 1), `[load] gravity_direction entry 1`.
+fn key_text(path: &[Step]) -> String {
+    let Some(k) = path.iter().rposition(|s| matches!(s, Step::Key(_))) else {
+        return "the config".into();
+    };
+    let mut table = String::new();
+    for s in &path[..k] {
+        match s {
+            Step::Key(name) if table.is_empty() => table.push_str(name),
+            Step::Key(name) => {
+                table.push('.');
+                table.push_str(name);
+            }
+            Step::Entry(i) => table.push_str(&format!(".{}", i + 1)),
+        }
+    }
+    let Step::Key(key) = &path[k] else {
+        return "the config".into();
+    };
+    let mut out = if table.is_empty() {
+        key.clone()
+    } else {
+        format!("[{table}] {key}")
+    };
+    for s in &path[k + 1..] {
+        if let Step::Entry(i) = s {
+            out.push_str(&format!(" entry {}", i + 1));
+        }
+    }
+    out
+}
+
+/// What a finite value of the key `key` is, for the message refusing a NaN or inf.
+fn finite_hint(section: &str, key: &str) -> &'static str {
+    if key == "gravity_direction" {
+        "give a direction, e.g. [0, 0, -1]"
+    } else if key.ends_with("_mm") || section == "geometry" {
+        "give a size in mm"
+    } else if key.ends_with("_mpa") || ["c1", "c2", "c3"].contains(&key) {
+        "give a value in MPa"
+    } else if key.ends_with("_kpa") {
+        "give a pressure in kPa"
+    } else if key.ends_with("_g_cm3") {
+        "give a density in g/cm3"
+    } else {
+        "give a finite number"
+    }
+}
+
+/// Reads a config document as a JSON value, refusing a NaN or an infinity with its key
+/// named (`.0` is the path so far).
+struct UserValue(Vec<Step>);
+
+impl UserValue {
+    fn with(&self, step: Step) -> UserValue {
+        let mut path = self.0.clone();
+        path.push(step);
+        UserValue(path)
+    }
+}
+
+impl<'de> serde::de::DeserializeSeed<'de> for UserValue {
+    type Value = serde_json::Value;
+    fn deserialize<D: serde::Deserializer<'de>>(self, d: D) -> Result<Self::Value, D::Error> {
+        d.deserialize_any(self)
+    }
+}
+
+impl<'de> serde::de::Visitor<'de> for UserValue {
+    type Value = serde_json::Value;
+
+    fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str("an actuator config value")
+    }
+
+    fn visit_bool<E: serde::de::Error>(self, v: bool) -> Result<Self::Value, E> {
+        Ok(v.into())
+    }
+
+    fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<Self::Value, E> {
+        Ok(v.into())
+    }
+
+    fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<Self::Value, E> {
+        Ok(v.into())
+    }
+
+    fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<Self::Value, E> {
+        serde_json::Number::from_f64(v)
+            .map(serde_json::Value::Number)
+            .ok_or_else(|| {
+                let key = self.0.iter().rev().find_map(|s| match s {
+                    Step::Key(k) => Some(k.as_str()),
+                    Step::Entry(_) => None,
+                });
+                let section = match self.0.first() {
+                    Some(Step::Key(s)) => s.as_str(),
+                    _ => "",
+                };
+                let written = if v.is_nan() { "nan".to_string() } else { v.to_string() };
+                E::custom(format!(
+                    "{} = {written}: not a finite number: {}, or leave the key out for the family's default",
+                    key_text(&self.0),
+                    finite_hint(section, key.unwrap_or(""))
+                ))
+            })
+    }
+
+    fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<Self::Value, E> {
+        Ok(v.into())
+    }
+
+    fn visit_string<E: serde::de::Error>(self, v: String) -> Result<Self::Value, E> {
+        Ok(v.into())
+    }
+
+    fn visit_unit<E: serde::de::Error>(self) -> Result<Self::Value, E> {
+        Ok(serde_json::Value::Null)
+    }
+
+    fn visit_none<E: serde::de::Error>(self) -> Result<Self::Value, E> {
+        Ok(serde_json::Value::Null)
+    }
+
+    fn visit_some<D: serde::Deserializer<'de>>(self, d: D) -> Result<Self::Value, D::Error> {
+        d.deserialize_any(self)
+    }
+
+    fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<Self::Value, A::Error> {
+        let mut out = Vec::new();
+        while let Some(v) = seq.next_element_seed(self.with(Step::Entry(out.len())))? {
+            out.push(v);
+        }
+        Ok(serde_json::Value::Array(out))
+    }
+
+    fn visit_map<A: serde::de::MapAccess<'de>>(self, mut map: A) -> Result<Self::Value, A::Error> {
+        let mut out = serde_json::Map::new();
+        while let Some(k) = map.next_key::<String>()? {
+            let v = map.next_value_seed(self.with(Step::Key(k.clone())))?;
+            out.insert(k, v);
+        }
+        Ok(serde_json::Value::Object(out))
+    }
+}
+
+/// The value at `path` in a JSON document.
+fn value_at<'a>(doc: &'a serde_json::Value, path: &[Step]) -> Option<&'a serde_json::Value> {
+    path.iter().try_fold(doc, |v, s| match s {
+        Step::Key(k) => v.get(k.as_str()),
+        Step::Entry(i) => v.get(*i),
+    })
+}
+
+/// A type error of the merged config in the user's words: the key, the value given, what
+/// is expected with an example (the family's own value where it has one), instead of
+/// serde's Rust type names (`expected usize`).
+fn type_error(
+    path: &serde_path_to_error::Path,
+    err: &serde_json::Error,
+    doc: &serde_json::Value,
+    defaults: &serde_json::Value,
+) -> String {
+    use serde_path_to_error::Segment;
+    let steps: Vec<Step> = path
+        .iter()
+        .filter_map(|s| match s {
+            Segment::Map { key } => Some(Step::Key(key.clone())),
+            Segment::Seq { index } => Some(Step::Entry(*index)),
+            _ => None,
+        })
+        .collect();
+    let message = err.to_string();
+    let key = key_text(&steps);
+    let field = steps.iter().rev().find_map(|s| match s {
+        Step::Key(k) => Some(k.clone()),
+        Step::Entry(_) => None,
+    });
+    let example = field
+        .as_ref()
+        .zip(value_at(defaults, &steps))
+        .map(|(f, v)| format!(" (e.g. {f} = {v})"))
+        .unwrap_or_default();
+    let given = value_at(doc, &steps)
+        .map(|v| format!(" = {v}"))
+        .unwrap_or_default();
+    let expected = message.rsplit_once(", expected ").map(|(_, e)| e);
+    let plain = match expected {
+        Some("usize" | "u64" | "u32" | "u16" | "u8") => "expected a whole number >= 0",
+        Some("i64" | "i32" | "i16" | "i8" | "isize") => "expected a whole number",
+        Some("f64" | "f32") => "expected a number",
+        Some("a boolean") => "expected true or false",
+        _ => "",
+    };
+    if steps.is_empty() {
+        message
+    } else if plain.is_empty() {
+        format!("{key}{given}: {message}")
+    } else {
+        format!("{key}{given}: {plain}{example}")
+    }
+}
+
+/// Checks the `[layer]` / `[[layer]]` tables of `user` against the family's layers in
+/// `doc`. A single `[layer]` table updates a family's only layer; on a family with
+/// several it cannot say which, and is refused naming them; on a family with none, and
+/// in every `[[layer]]` table (which replace the family's layers), a new layer gives
+/// what it has no default for: its thickness and modulus.
+fn check_layer_tables(
+    user: &serde_json::Value,
+    doc: &serde_json::Value,
+    family: Family,
+) -> Result<(), String> {
+    use serde_json::Value;
+    let family_layers: Vec<&str> = doc
+        .get("layer")
+        .and_then(Value::as_array)
+        .map(|a| {
+            a.iter()
+                .map(|l| l.get("name").and_then(Value::as_str).unwrap_or("?"))
+                .collect()
+        })
+        .unwrap_or_default();
+    let needs = |t: &serde_json::Map<String, Value>, table: &str| -> Result<(), String> {
+        let missing: Vec<&str> = NEW_LAYER_KEYS
+            .iter()
+            .copied()
+            .filter(|k| t.get(*k).is_none_or(Value::is_null))
+            .collect();
+        if missing.is_empty() {
+            return Ok(());
+        }
+        Err(format!(
+            "{table} is a new layer and gives no {}: a layer has no default material or size; give {} (e.g. paper: thickness_mm = 0.1, youngs_modulus_mpa = 3000)",
+            missing.join(" or "),
+            NEW_LAYER_KEYS.join(" and ")
+        ))
+    };
+    match user.get("layer") {
+        Some(Value::Object(t)) => match family_layers.as_slice() {
+            [_] => Ok(()),
+            [] => needs(
+                t,
+                &format!("[layer] (the {family} family has no layer of its own)"),
+            ),
+            names => Err(format!(
+                "[layer]: the {family} family has {} layers ({}) and a single [layer] table cannot say which one it changes: write a [[layer]] table for each (see bendscope simulate --family {family} --print-config), or name one as layer.NAME.field in a sweep or fit (e.g. layer.{}.thickness_mm)",
+                names.len(),
+                names.join(", "),
+                names[0]
+            )),
+        },
+        Some(Value::Array(items)) => items
+            .iter()
+            .enumerate()
+            .try_for_each(|(k, item)| match item {
+                Value::Object(t) => needs(t, &format!("[[layer]] {}", k + 1)),
+                _ => Ok(()),
+            }),
+        _ => Ok(()),
+    }
+}
+
+/// What a new layer must give: no default thickness or modulus is right for an unnamed
+/// sheet.
+const NEW_LAYER_KEYS: [&str; 2] = ["thickness_mm", "youngs_modulus_mpa"];
+
+/// Names of the model's own parts, which a layer cannot take (its stress columns would
+/// clash with theirs).
+const RESERVED_PART_NAMES: [&str; 3] = ["silicone", "outer", "fibre"];
 
 /// Merges `user` over `base`: objects key by key, anything else replaces; an object
 /// over an array of one object merges into that object (`[layer]` over one layer).
@@ -539,20 +838,13 @@ fn strip_nulls(v: &mut serde_json::Value) {
     }
 }
 
-/// `[layer]` (one table) or `[[layer]]` (an array of tables).
-fn one_or_many<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<LayerConfig>, D::Error> {
-    use serde::de::Error;
-    match serde_json::Value::deserialize(d)? {
-        v @ serde_json::Value::Array(_) => serde_json::from_value(v).map_err(D::Error::custom),
-        v => Ok(vec![serde_json::from_value(v).map_err(D::Error::custom)?]),
-    }
-}
-
 /// Loads of a simulation.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct LoadConfig {
-    /// Pressure steps, kPa: "start:stop:step" or a comma-separated list.
+    /// Pressure steps, kPa: "start:stop:step" or a comma-separated list (a list of
+    /// numbers, `[20, 40]`, reads as "20,40").
+    #[serde(deserialize_with = "pressures_text")]
     pub pressures_kpa: String,
     /// Gravity on.
     pub gravity: bool,
@@ -560,6 +852,31 @@ pub struct LoadConfig {
     /// from the bottom face); [0, 0, -1]: lying bottom down; [1, 0, 0]: hanging from the
     /// clamp.
     pub gravity_direction: [f64; 3],
+}
+
+/// `pressures_kpa` as its text ("10:60:10", "20,40") or a list of numbers (`[20, 40]`,
+/// as the acquire protocol writes pressures), which reads as "20,40".
+fn pressures_text<'de, D: serde::Deserializer<'de>>(d: D) -> Result<String, D::Error> {
+    struct Text;
+    impl<'de> serde::de::Visitor<'de> for Text {
+        type Value = String;
+        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            f.write_str(
+                "pressures as \"start:stop:step\" (\"10:60:10\"), \"a,b,c\" or a list [20, 40]",
+            )
+        }
+        fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<String, E> {
+            Ok(v.to_string())
+        }
+        fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<String, A::Error> {
+            let mut out = Vec::new();
+            while let Some(v) = seq.next_element::<f64>()? {
+                out.push(format!("{v}"));
+            }
+            Ok(out.join(","))
+        }
+    }
+    d.deserialize_any(Text)
 }
 
 impl Default for LoadConfig {
@@ -698,8 +1015,14 @@ impl ActuatorConfig {
                 format!("{v} kPa: pressures must be >= 0 (gauge pressure in the cavities)"),
             ));
         }
-        if p.windows(2).any(|w| w[1] <= w[0]) {
-            return Err(bad("pressures", "pressures must increase".into()));
+        if let Some(w) = p.windows(2).find(|w| w[1] <= w[0]) {
+            return Err(bad(
+                "pressures",
+                format!(
+                    "{} kPa after {} kPa: pressures must increase (e.g. 20,40 or 10:60:10)",
+                    w[1], w[0]
+                ),
+            ));
         }
         Ok(p)
     }
@@ -758,6 +1081,7 @@ impl ActuatorConfig {
         if !(h.is_finite() && h > 0.0) {
             return Err(bad("mesh size", format!("{h} mm: must be positive")));
         }
+        self.check_element_count()?;
         if self.solver.max_iterations == 0 {
             return Err(bad("max_iterations", "must be at least 1".into()));
         }
@@ -771,6 +1095,55 @@ impl ActuatorConfig {
         Ok(())
     }
 
+    /// Warnings about values that are valid but suspect: the material's
+    /// ([`MaterialConfig::warnings`]) and a key the family ignores, set to other than
+    /// its default (the fibre-reinforced tube's shape is its `[tube]`, not `[geometry]`).
+    pub fn warnings(&self) -> Vec<String> {
+        let mut out = self.material.warnings();
+        if self.geometry.family == Family::FibreReinforced {
+            let given = serde_json::to_value(&self.geometry).unwrap_or_default();
+            let default = serde_json::to_value(Self::for_family(self.geometry.family).geometry)
+                .unwrap_or_default();
+            if let (Some(given), Some(default)) = (given.as_object(), default.as_object()) {
+                for (key, v) in given {
+                    if default.get(key) != Some(v) {
+                        out.push(format!(
+                            "[geometry] {key} = {v} is ignored by the {} family (its shape is [tube]): remove it",
+                            self.geometry.family
+                        ));
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// Refuses a mesh size whose mesh would exceed [`MAX_ELEMENTS`], from the count alone
+    /// (nothing allocated), naming the smallest size that fits.
+    fn check_element_count(&self) -> Result<(), FemError> {
+        let h = self.mesh.size_mm;
+        let count = element_estimate(self, h);
+        if count <= MAX_ELEMENTS as f64 {
+            return Ok(());
+        }
+        let what = match smallest_mesh_size(self) {
+            Some(fit) => format!("use a mesh size of at least {fit} mm"),
+            None => "no mesh size fits: make the actuator smaller".into(),
+        };
+        // 1e-300 written out would be 300 zeros.
+        let size = if (1e-4..1e6).contains(&h) {
+            h.to_string()
+        } else {
+            format!("{h:e}")
+        };
+        Err(bad(
+            "mesh size",
+            format!(
+                "{size} mm would make about {count:.1e} elements, more than the {MAX_ELEMENTS} this solver is sized for: {what}"
+            ),
+        ))
+    }
+
     /// The family's whole default configuration ([`super::family::defaults`]).
     pub fn for_family(family: Family) -> Self {
         family::defaults(family)
@@ -779,6 +1152,32 @@ impl ActuatorConfig {
     /// Checks every layer against the base and the others: each fits in the base and the
     /// width; solid layers do not overlap.
     fn validate_layers(&self) -> Result<(), FemError> {
+        // A layer's name suffixes its result columns and names it in `layer.NAME.field`.
+        for (k, layer) in self.layer.iter().enumerate() {
+            let name = layer.name.as_str();
+            let which = format!("layer {}", k + 1);
+            if name.trim().is_empty() || name.contains(['.', ',', '"']) {
+                return Err(bad(
+                    &format!("layer.name ({which})"),
+                    format!("'{name}': give the layer a name without dots or commas (it suffixes its result columns), e.g. name = \"paper\""),
+                ));
+            }
+            if RESERVED_PART_NAMES.contains(&name) {
+                return Err(bad(
+                    &format!("layer.name ({which})"),
+                    format!(
+                        "'{name}' is the name of a part of the model ({}): rename the layer",
+                        RESERVED_PART_NAMES.join(", ")
+                    ),
+                ));
+            }
+            if let Some(first) = self.layer[..k].iter().position(|l| l.name == name) {
+                return Err(bad(
+                    &format!("layer.name ({which})"),
+                    format!("'{name}' is also layer {}'s name: give every layer its own name (its result columns and layer.NAME.field need it)", first + 1),
+                ));
+            }
+        }
         if self.geometry.family == Family::FibreReinforced {
             // The strip is checked against the tube ([`super::fibre::validate_strips`]).
             return Ok(());
@@ -828,45 +1227,73 @@ impl ActuatorConfig {
         Ok(())
     }
 
-    /// Sets one parameter by name (a field of any section, e.g. `f`, `chambers`, `c2`,
-    /// `bulk_modulus_mpa`, `size_mm`) to a number, for sweeps.
+    /// Sets one parameter by name to a number, for sweeps: a field of any section (`f`,
+    /// `chambers`, `c2`, `bulk_modulus_mpa`, `size_mm`), or a dotted path naming its
+    /// section (`geometry.f`, `tube.outer_material.c1`, `layer.paper.thickness_mm`,
+    /// `layer.2.youngs_modulus_mpa`).
     pub fn with_parameter(&self, name: &str, value: f64) -> Result<Self, FemError> {
         let mut doc = toml::Table::try_from(self).map_err(|e| FemError::Model {
             why: format!("config: {e}"),
         })?;
-        let mut hit = false;
-        for (_, section) in doc.iter_mut() {
-            let Some(table) = section.as_table_mut() else {
-                continue;
-            };
-            if let Some(old) = table.get(name).cloned() {
-                let new = if old.is_integer() || name == "chambers" {
-                    if value.fract() != 0.0 || value < 0.0 {
-                        return Err(bad(name, format!("{value}: must be a whole number")));
-                    }
-                    toml::Value::Integer(value as i64)
-                } else {
-                    toml::Value::Float(value)
-                };
-                table.insert(name.to_string(), new);
-                hit = true;
-            } else if ["c1", "c2", "c3", "bulk_modulus_mpa"].contains(&name)
-                && table.contains_key("preset")
-            {
-                table.insert(name.to_string(), toml::Value::Float(value));
-                hit = true;
+        let hit = match name.rsplit_once('.') {
+            Some((sections, field)) => {
+                let path: Vec<&str> = sections.split('.').collect();
+                let table = config_table_at(&mut doc, &path).map_err(|e| bad(name, e))?;
+                set_number(table, name, field, value)?
             }
-        }
+            None => {
+                let mut hit = false;
+                for (_, section) in doc.iter_mut() {
+                    if let Some(table) = section.as_table_mut() {
+                        hit |= set_number(table, name, name, value)?;
+                    }
+                }
+                hit
+            }
+        };
         if !hit {
             return Err(bad(
                 name,
-                format!("no such parameter of this config ({})", numeric_keys(&doc)),
+                format!(
+                    "no such parameter of this config; a layer's is layer.NAME.field ({})",
+                    numeric_keys(&doc)
+                ),
             ));
         }
         doc.try_into()
             .map_err(|e: toml::de::Error| FemError::Model {
-                why: format!("config: {e}"),
+                why: format!("config: {}", e.message()),
             })
+    }
+}
+
+/// Sets `field` of `table` to `value` (an integer where the field is one) if the table
+/// has that number (or is a material, whose coefficients are optional); false if not.
+fn set_number(
+    table: &mut toml::Table,
+    name: &str,
+    field: &str,
+    value: f64,
+) -> Result<bool, FemError> {
+    match table.get(field) {
+        Some(old) if old.is_integer() || field == "chambers" => {
+            if !(value.fract() == 0.0 && value >= 0.0 && value < i64::MAX as f64) {
+                return Err(bad(name, format!("{value}: must be a whole number >= 0")));
+            }
+            table.insert(field.to_string(), toml::Value::Integer(value as i64));
+            Ok(true)
+        }
+        Some(old) if old.is_float() => {
+            table.insert(field.to_string(), toml::Value::Float(value));
+            Ok(true)
+        }
+        None if ["c1", "c2", "c3", "bulk_modulus_mpa"].contains(&field)
+            && table.contains_key("preset") =>
+        {
+            table.insert(field.to_string(), toml::Value::Float(value));
+            Ok(true)
+        }
+        _ => Ok(false),
     }
 }
 
@@ -1015,6 +1442,117 @@ pub(crate) fn coordinate_lines(mut features: Vec<f64>, h: f64, walls: &[(f64, f6
     out
 }
 
+/// The number of intervals [`coordinate_lines`] cuts, counted without building them: a
+/// float, which neither overflows nor allocates however small `h` is (infinite when the
+/// count is).
+pub(crate) fn coordinate_line_count(features: &[f64], h: f64, walls: &[(f64, f64)]) -> f64 {
+    let mut features = features.to_vec();
+    features.sort_by(f64::total_cmp);
+    features.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+    let is_wall = |a: f64, b: f64| {
+        walls
+            .iter()
+            .any(|(lo, hi)| (a - lo).abs() < 1e-9 && (b - hi).abs() < 1e-9)
+    };
+    features
+        .windows(2)
+        .map(|w| {
+            let parts = ((w[1] - w[0]) / h - 1e-9).ceil().max(1.0);
+            if is_wall(w[0], w[1]) {
+                parts.max(MIN_WALL_ELEMENTS as f64)
+            } else {
+                parts
+            }
+        })
+        .sum()
+}
+
+/// Coordinates every line of the PneuNets grid goes through, with the intervals that are
+/// walls (at least [`MIN_WALL_ELEMENTS`] across), along x, y and z.
+fn grid_features(cfg: &ActuatorConfig) -> [(Vec<f64>, Vec<(f64, f64)>); 3] {
+    let g = &cfg.geometry;
+    let blocks = g.blocks();
+    let cavities: Vec<(f64, f64)> = blocks
+        .iter()
+        .map(|(a, b)| (0.5 * (a + b) - 0.5 * g.e, 0.5 * (a + b) + 0.5 * g.e))
+        .collect();
+    let (ch0, ch1) = (0.5 * (g.b - g.r), 0.5 * (g.b + g.r));
+    let (z_channel, z_cavity) = (g.f, g.f + g.m);
+    let (z_gap, z_top, a) = (z_cavity + g.roof, z_cavity + g.n, g.height());
+    let mut fx = vec![0.0, g.b, ch0, ch1];
+    for ((b0, b1), (c0, c1)) in blocks.iter().zip(&cavities) {
+        fx.extend([*b0, *b1, *c0, *c1, 0.5 * (b0 + b1)]);
+    }
+    let x_walls: Vec<(f64, f64)> = blocks
+        .iter()
+        .zip(&cavities)
+        .flat_map(|((b0, b1), (c0, c1))| [(*b0, *c0), (*c1, *b1)])
+        .collect();
+    let mut fy = vec![0.0, 0.5 * g.p, 0.5 * g.l, 0.5 * g.i];
+    for layer in &cfg.layer {
+        for (y0, y1) in layer.half_y_ranges(g.i) {
+            fy.extend([y0, y1]);
+        }
+    }
+    let y_walls = vec![(0.5 * g.l, 0.5 * g.i), (0.5 * g.p, 0.5 * g.i)];
+    let mut fz = vec![0.0, z_channel, z_cavity, z_gap, g.marker_z(), z_top, a];
+    for layer in &cfg.layer {
+        match layer.element {
+            LayerElement::Solid => {
+                fz.extend([layer.height_mm, layer.height_mm + layer.thickness_mm])
+            }
+            LayerElement::Membrane | LayerElement::Plate => fz.push(layer.membrane_height_mm()),
+        }
+    }
+    let z_walls = vec![(0.0, z_channel), (z_cavity, z_gap), (z_top, a)];
+    [(fx, x_walls), (fy, y_walls), (fz, z_walls)]
+}
+
+/// The number of elements (hexahedra, and the tube's thread segments) a mesh of size `h`
+/// mm of `cfg` would have, counted without building it (a float: no overflow).
+pub fn element_estimate(cfg: &ActuatorConfig, h: f64) -> f64 {
+    match (&cfg.tube, cfg.geometry.family) {
+        (Some(t), Family::FibreReinforced) => super::fibre::element_estimate(cfg, t, h),
+        _ => grid_features(cfg)
+            .iter()
+            .map(|(f, w)| coordinate_line_count(f, h, w))
+            .product(),
+    }
+}
+
+/// The smallest mesh size, mm, rounded up to two significant digits, whose mesh of `cfg`
+/// has at most [`MAX_ELEMENTS`] elements (None: not even one element per feature fits).
+pub fn smallest_mesh_size(cfg: &ActuatorConfig) -> Option<f64> {
+    let fits = |h: f64| element_estimate(cfg, h) <= MAX_ELEMENTS as f64;
+    let mut hi = 1e4;
+    if !fits(hi) {
+        return None;
+    }
+    let mut lo = 1e-6;
+    if fits(lo) {
+        return Some(lo);
+    }
+    // The count falls as the size grows (ceil steps aside): bisect in log size.
+    for _ in 0..60 {
+        let mid = (lo * hi).sqrt();
+        if fits(mid) {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    let exponent = hi.log10().floor() - 1.0;
+    let step = 10f64.powf(exponent);
+    // Printed with as many decimals as the two digits need (0.45, not 0.45000000000000007).
+    let decimals = (-exponent).max(0.0) as usize;
+    let round = |v: f64| format!("{v:.decimals$}").parse::<f64>().unwrap_or(v);
+    let mut k = (hi / step).ceil();
+    while !fits(round(k * step)) && k < 1000.0 {
+        k += 1.0;
+    }
+    Some(round(k * step))
+}
+
 fn index_of(lines: &[f64], v: f64) -> usize {
     lines
         .iter()
@@ -1085,40 +1623,18 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
     let (z_channel, z_cavity) = (g.f, g.f + g.m);
     let (z_gap, z_top, a) = (z_cavity + g.roof, z_cavity + g.n, g.height());
 
-    let mut fx = vec![0.0, g.b, ch0, ch1];
-    for ((b0, b1), (c0, c1)) in blocks.iter().zip(&cavities) {
-        fx.extend([*b0, *b1, *c0, *c1, 0.5 * (b0 + b1)]);
-    }
-    let x_walls: Vec<(f64, f64)> = blocks
-        .iter()
-        .zip(&cavities)
-        .flat_map(|((b0, b1), (c0, c1))| [(*b0, *c0), (*c1, *b1)])
-        .collect();
-    let xs = coordinate_lines(fx, h, &x_walls);
-    let mut fy = vec![0.0, 0.5 * g.p, 0.5 * g.l, 0.5 * g.i];
-    for layer in &cfg.layer {
-        for (y0, y1) in layer.half_y_ranges(g.i) {
-            fy.extend([y0, y1]);
-        }
-    }
-    let ys = coordinate_lines(fy, h, &[(0.5 * g.l, 0.5 * g.i), (0.5 * g.p, 0.5 * g.i)]);
-    let mut fz = vec![0.0, z_channel, z_cavity, z_gap, g.marker_z(), z_top, a];
-    for layer in &cfg.layer {
-        match layer.element {
-            LayerElement::Solid => {
-                fz.extend([layer.height_mm, layer.height_mm + layer.thickness_mm])
-            }
-            LayerElement::Membrane | LayerElement::Plate => fz.push(layer.membrane_height_mm()),
-        }
-    }
-    let zs = coordinate_lines(fz, h, &[(0.0, z_channel), (z_cavity, z_gap), (z_top, a)]);
+    let [(fx, wx), (fy, wy), (fz, wz)] = grid_features(cfg);
+    let xs = coordinate_lines(fx, h, &wx);
+    let ys = coordinate_lines(fy, h, &wy);
+    let zs = coordinate_lines(fz, h, &wz);
     let (nx, ny, nz) = (xs.len() - 1, ys.len() - 1, zs.len() - 1);
-    if nx * ny * nz > MAX_ELEMENTS {
+    // validate() bounded the count (element_estimate); this is the count itself.
+    if nx.saturating_mul(ny).saturating_mul(nz) > MAX_ELEMENTS {
         return Err(bad(
             "mesh size",
             format!(
                 "{h} mm gives {} cells, more than the {MAX_ELEMENTS} this solver is sized for: use a larger mesh size",
-                nx * ny * nz
+                nx.saturating_mul(ny).saturating_mul(nz)
             ),
         ));
     }
@@ -1536,6 +2052,330 @@ mod tests {
             err.ends_with("(see bendscope simulate --print-config)"),
             "{err}"
         );
+    }
+
+    /// The message of reading `text` as a config, or of validating what it reads as.
+    fn refusal(text: &str) -> String {
+        match toml::from_str::<ActuatorConfig>(text) {
+            Err(e) => e.message().to_string(),
+            Ok(cfg) => match cfg.validate() {
+                Err(e) => e.to_string(),
+                Ok(()) => format!("accepted: {text}"),
+            },
+        }
+    }
+
+    /// A NaN or inf is refused by its key when the config is read, never replaced by the
+    /// family's default (it was: JSON turned it into null, "not given").
+    #[test]
+    fn a_nan_or_inf_is_refused_by_its_key_never_replaced_by_the_default() {
+        let tube = "[geometry]\nfamily = \"fibre-reinforced\"\n";
+        for (text, needle) in [
+            ("[geometry]\nb = nan\n".to_string(), "[geometry] b = nan: not a finite number: give a size in mm, or leave the key out"),
+            ("[geometry]\nb = inf\n".into(), "[geometry] b = inf: not a finite number"),
+            ("[geometry]\nb = -inf\n".into(), "[geometry] b = -inf: not a finite number"),
+            ("[material]\nc1 = nan\n".into(), "[material] c1 = nan: not a finite number: give a value in MPa"),
+            ("[mesh]\nsize_mm = nan\n".into(), "[mesh] size_mm = nan: not a finite number"),
+            ("[load]\ngravity_direction = [nan, 0, 0]\n".into(), "[load] gravity_direction entry 1 = nan: not a finite number"),
+            (format!("{tube}[tube]\npitch_mm = nan\n"), "[tube] pitch_mm = nan: not a finite number"),
+            (format!("{tube}[tube.outer_material]\nc1 = nan\n"), "[tube.outer_material] c1 = nan"),
+            ("[geometry]\nfamily = \"glove\"\n[[layer]]\nname = \"p\"\nthickness_mm = 0.1\nyoungs_modulus_mpa = nan\n".into(), "[layer.1] youngs_modulus_mpa = nan"),
+        ] {
+            let e = toml::from_str::<ActuatorConfig>(&text).unwrap_err();
+            assert!(e.message().contains(needle), "{text}: {}", e.message());
+        }
+        // JSON has no NaN: its null still means "not given".
+        let json: ActuatorConfig = serde_json::from_str(r#"{"material": {"c1": null}}"#).unwrap();
+        assert_eq!(json.material.c1, None);
+        // A sweep or fit setting a NaN meets the same check.
+        let e = ActuatorConfig::default()
+            .with_parameter("f", f64::NAN)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("[geometry] f = nan: not a finite number"), "{e}");
+    }
+
+    /// Every size, modulus and count where a positive value is meant: nan and inf are
+    /// refused as the config is read, -1 and 0 as it is validated, each naming its key.
+    #[test]
+    fn every_key_refuses_nan_inf_negative_and_zero_by_name() {
+        let geometry = [
+            "b", "i", "f", "m", "p", "r", "c", "g", "d", "e", "l", "n", "top_wall",
+        ];
+        let material = [
+            "c1",
+            "bulk_modulus_mpa",
+            "density_g_cm3",
+            "tensile_strength_mpa",
+            "scale",
+        ];
+        let tube = [
+            "inner_radius_mm",
+            "inner_wall_mm",
+            "outer_wall_mm",
+            "length_mm",
+            "clamp_mm",
+            "end_cap_mm",
+            "pitch_mm",
+            "fibre_diameter_mm",
+            "fibre_modulus_mpa",
+            "fibre_strength_mpa",
+        ];
+        let mut cases: Vec<(String, String, String)> = Vec::new();
+        for k in geometry {
+            cases.push(("[geometry]\n".into(), k.into(), k.into()));
+        }
+        for k in material {
+            cases.push(("[material]\n".into(), k.into(), k.into()));
+        }
+        cases.push(("[mesh]\n".into(), "size_mm".into(), "mesh size".into()));
+        for k in tube {
+            cases.push((
+                "[geometry]\nfamily = \"fibre-reinforced\"\n[tube]\n".into(),
+                k.into(),
+                format!("tube.{k}"),
+            ));
+        }
+        for k in ["thickness_mm", "youngs_modulus_mpa"] {
+            cases.push((
+                "[geometry]\nfamily = \"glove\"\n[layer]\n".into(),
+                k.into(),
+                format!("layer.{k}"),
+            ));
+        }
+        for (head, key, name) in &cases {
+            for v in ["nan", "inf"] {
+                let e = refusal(&format!("{head}{key} = {v}\n"));
+                assert!(
+                    e.contains(&format!("] {key} = {v}: not a finite number")),
+                    "{key} = {v}: {e}"
+                );
+            }
+            for v in ["-1.0", "0.0"] {
+                let e = refusal(&format!("{head}{key} = {v}\n"));
+                assert!(
+                    e.starts_with(&format!("parameter {name}: ")),
+                    "{key} = {v}: {e}"
+                );
+            }
+        }
+    }
+
+    /// A type error names the key, the value and what is expected, with the family's
+    /// value as the example; a list of pressures reads as the comma-separated form.
+    #[test]
+    fn a_type_error_names_the_key_and_says_what_is_expected() {
+        for (text, needle) in [
+            ("[geometry]\nchambers = -3\n", "[geometry] chambers = -3: expected a whole number >= 0 (e.g. chambers = 9)"),
+            ("[geometry]\nchambers = 9.5\n", "[geometry] chambers = 9.5: expected a whole number >= 0 (e.g. chambers = 9)"),
+            ("[load]\ngravity = \"yes\"\n", "[load] gravity = \"yes\": expected true or false (e.g. gravity = true)"),
+            ("[load]\npressures_kpa = true\n", "[load] pressures_kpa = true: invalid type: boolean `true`, expected pressures as \"start:stop:step\""),
+            ("[geometry]\nfamily = \"strap\"\n[[layer]]\nname = \"a\"\nthickness_mm = 0.1\nyoungs_modulus_mpa = 9\nstrips = \"two\"\n", "[layer.1] strips = \"two\": expected a whole number >= 0"),
+        ] {
+            let e = refusal(text);
+            assert!(e.contains(needle), "{text}: {e}");
+        }
+        let list: ActuatorConfig = toml::from_str("[load]\npressures_kpa = [20, 40.5]\n").unwrap();
+        assert_eq!(list.load.pressures_kpa, "20,40.5");
+        assert_eq!(list.pressures_kpa().unwrap(), [20.0, 40.5]);
+        let e = refusal("[load]\npressures_kpa = \"40,20\"\n");
+        assert!(
+            e.contains("20 kPa after 40 kPa: pressures must increase"),
+            "{e}"
+        );
+    }
+
+    /// A single [layer] table updates a family's only layer; on the strap (two layers) it
+    /// is refused naming them; on a family with none a new layer must give its thickness
+    /// and modulus, as must every [[layer]] table.
+    #[test]
+    fn a_single_layer_table_updates_only_a_familys_only_layer() {
+        let e = refusal("[geometry]\nfamily = \"strap\"\n[layer]\nthickness_mm = 0.2\n");
+        assert!(
+            e.contains("[layer]: the strap family has 2 layers (pla, fabric)")
+                && e.contains("write a [[layer]] table for each")
+                && e.contains("layer.pla.thickness_mm"),
+            "{e}"
+        );
+        let e = refusal("[layer]\nthickness_mm = 0.2\n");
+        assert!(
+            e.contains("[layer] (the pneunets family has no layer of its own) is a new layer and gives no youngs_modulus_mpa")
+                && e.contains("give thickness_mm and youngs_modulus_mpa"),
+            "{e}"
+        );
+        let e = refusal(
+            "[geometry]\nfamily = \"strap\"\n[[layer]]\nname = \"a\"\nyoungs_modulus_mpa = 9\n",
+        );
+        assert!(
+            e.contains("[[layer]] 1 is a new layer and gives no thickness_mm"),
+            "{e}"
+        );
+        let one: ActuatorConfig =
+            toml::from_str("[layer]\nthickness_mm = 0.1\nyoungs_modulus_mpa = 3000\n").unwrap();
+        assert_eq!(one.layer.len(), 1);
+        assert_eq!(
+            (one.layer[0].thickness_mm, one.layer[0].youngs_modulus_mpa),
+            (0.1, 3000.0)
+        );
+        one.validate().unwrap();
+    }
+
+    /// Layer names suffix result columns and address layers: empty, duplicate and the
+    /// model's own part names are refused before any solve.
+    #[test]
+    fn layer_names_must_be_given_and_distinct() {
+        let strap = ActuatorConfig::for_family(Family::Strap);
+        for (name, needle) in [
+            (
+                "",
+                "parameter layer.name (layer 2): '': give the layer a name",
+            ),
+            (
+                "pla",
+                "parameter layer.name (layer 2): 'pla' is also layer 1's name",
+            ),
+            (
+                "silicone",
+                "parameter layer.name (layer 2): 'silicone' is the name of a part",
+            ),
+            (
+                "a.b",
+                "parameter layer.name (layer 2): 'a.b': give the layer a name without dots",
+            ),
+        ] {
+            let mut cfg = strap.clone();
+            cfg.layer[1].name = name.into();
+            let e = cfg.validate().unwrap_err().to_string();
+            assert!(e.starts_with(needle), "{name}: {e}");
+        }
+    }
+
+    /// A mesh size whose mesh would not fit is refused from its count alone, quickly and
+    /// before anything is allocated, for every family, with the smallest size that fits
+    /// (which is accepted); the count is the built mesh's.
+    #[test]
+    fn a_mesh_too_fine_to_fit_is_refused_before_anything_is_built() {
+        for family in Family::ALL {
+            let base = ActuatorConfig::for_family(family);
+            for h in [1e-9, 1e-300, 5e-324, 1e-7, 0.05] {
+                let cfg = ActuatorConfig {
+                    mesh: MeshConfig {
+                        size_mm: h,
+                        ..base.mesh.clone()
+                    },
+                    ..base.clone()
+                };
+                let start = std::time::Instant::now();
+                let e = build_mesh(&cfg).unwrap_err().to_string();
+                assert!(
+                    start.elapsed().as_secs_f64() < 1.0,
+                    "{family} {h}: {:?}",
+                    start.elapsed()
+                );
+                let fit: f64 = e
+                    .strip_suffix(" mm")
+                    .and_then(|s| s.rsplit_once("use a mesh size of at least "))
+                    .and_then(|(_, v)| v.parse().ok())
+                    .unwrap_or_else(|| panic!("{family} {h}: {e}"));
+                assert!(
+                    e.starts_with("parameter mesh size: ") && e.contains("more than the 400000"),
+                    "{e}"
+                );
+                let at = |size_mm| ActuatorConfig {
+                    mesh: MeshConfig {
+                        size_mm,
+                        ..base.mesh.clone()
+                    },
+                    ..base.clone()
+                };
+                at(fit)
+                    .validate()
+                    .unwrap_or_else(|e| panic!("{family}: {fit} mm suggested: {e}"));
+                assert!(
+                    at(0.9 * fit).validate().is_err(),
+                    "{family}: {fit} is not the smallest"
+                );
+            }
+        }
+        let e = ActuatorConfig::default()
+            .with_parameter("size_mm", 1e-300)
+            .unwrap()
+            .validate();
+        assert!(e
+            .unwrap_err()
+            .to_string()
+            .contains("1e-300 mm would make about"));
+        for (family, h) in [(Family::Pneunets, 4.0), (Family::FibreReinforced, 4.0)] {
+            let cfg = ActuatorConfig {
+                mesh: MeshConfig {
+                    size_mm: h,
+                    ..MeshConfig::default()
+                },
+                ..ActuatorConfig::for_family(family)
+            };
+            let mesh = build_mesh(&cfg).unwrap();
+            let built = (mesh.model.elements.len()
+                + mesh.model.membranes.len()
+                + mesh.model.trusses.len()) as f64;
+            let estimate = element_estimate(&cfg, h);
+            assert!(
+                estimate >= built && estimate < 2.5 * built,
+                "{family}: {estimate} vs {built}"
+            );
+        }
+    }
+
+    /// A thread pitch below the thread's diameter (overlapping turns) is refused naming
+    /// both; the thread's segments count in the mesh bound.
+    #[test]
+    fn a_pitch_below_the_thread_diameter_is_refused() {
+        let tube = "[geometry]\nfamily = \"fibre-reinforced\"\n[tube]\n";
+        for pitch in ["0.01", "0.2", "0.29"] {
+            for model in ["line", "smeared"] {
+                let e = refusal(&format!(
+                    "{tube}fibre_model = \"{model}\"\npitch_mm = {pitch}\n"
+                ));
+                assert!(
+                    e.starts_with(&format!("parameter tube.pitch_mm: {pitch} mm is less than the thread's diameter (fibre_diameter_mm = 0.3 mm)")),
+                    "{e}"
+                );
+            }
+        }
+        let e = refusal(&format!("{tube}pitch_mm = 0\n"));
+        assert!(
+            e.starts_with("parameter tube.pitch_mm: 0: must be positive"),
+            "{e}"
+        );
+        // A long line-thread tube at a fine pitch: the threads alone exceed the bound.
+        let e = refusal(&format!(
+            "{tube}fibre_model = \"line\"\npitch_mm = 0.3\nlength_mm = 2000\n"
+        ));
+        assert!(e.starts_with("parameter mesh size: "), "{e}");
+    }
+
+    /// A key the family ignores, set to other than its default, is a warning; the
+    /// family's printed config gives none.
+    #[test]
+    fn a_key_the_family_ignores_is_a_warning() {
+        let tube = ActuatorConfig::for_family(Family::FibreReinforced);
+        assert_eq!(tube.warnings(), Vec::<String>::new());
+        let five: ActuatorConfig =
+            toml::from_str("[geometry]\nfamily = \"fibre-reinforced\"\nchambers = 5\n").unwrap();
+        assert_eq!(
+            five.warnings(),
+            ["[geometry] chambers = 5 is ignored by the fibre-reinforced family (its shape is [tube]): remove it"]
+        );
+        // A layer's parameter is set by its dotted name (simulate --sweep, optimize).
+        let glove = ActuatorConfig::for_family(Family::Glove);
+        let thick = glove
+            .with_parameter("layer.paper.thickness_mm", 0.2)
+            .unwrap();
+        assert_eq!(thick.layer[0].thickness_mm, 0.2);
+        let e = glove
+            .with_parameter("layer.card.thickness_mm", 0.2)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("no entry 'card' in 'layer'"), "{e}");
     }
 
     #[test]

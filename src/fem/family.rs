@@ -271,7 +271,7 @@ mod tests {
         assert_eq!((thicker.geometry.f, thicker.geometry.b), (7.0, 116.0));
         // [[layer]] replaces the family's layers.
         let one: ActuatorConfig =
-            toml::from_str("[geometry]\nfamily = \"strap\"\n[[layer]]\nname = \"paper\"\nthickness_mm = 0.1\nheight_mm = 0.5\n")
+            toml::from_str("[geometry]\nfamily = \"strap\"\n[[layer]]\nname = \"paper\"\nthickness_mm = 0.1\nyoungs_modulus_mpa = 3000\nheight_mm = 0.5\n")
                 .unwrap();
         assert_eq!(one.layer.len(), 1);
         // A config without a family is the reference actuator, as before families.

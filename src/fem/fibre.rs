@@ -41,7 +41,8 @@ use nalgebra::{Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 
 use super::actuator::{
-    coordinate_lines, gravity_loads, ActuatorConfig, ActuatorMesh, BottomWall, MaterialConfig, Part,
+    coordinate_line_count, coordinate_lines, gravity_loads, ActuatorConfig, ActuatorMesh,
+    BottomWall, MaterialConfig, Part,
 };
 use super::inp::C3D8_FACES;
 use super::layer::LayerElement;
@@ -192,6 +193,15 @@ impl TubeConfig {
                 return Err(bad(name, format!("{v}: must be positive")));
             }
         }
+        if self.pitch_mm < self.fibre_diameter_mm {
+            return Err(bad(
+                "pitch_mm",
+                format!(
+                    "{} mm is less than the thread's diameter (fibre_diameter_mm = {} mm): neighbouring turns would overlap; use a pitch of at least {} mm",
+                    self.pitch_mm, self.fibre_diameter_mm, self.fibre_diameter_mm
+                ),
+            ));
+        }
         if self.clamp_mm < self.end_cap_mm {
             return Err(bad(
                 "clamp_mm",
@@ -291,7 +301,7 @@ impl TubeConfig {
 
     /// Thread `handed` (+1 right, -1 left) as a polyline from x = `x0` to `x1`.
     fn thread(&self, handed: f64, x0: f64, x1: f64) -> Vec<Vector3<f64>> {
-        const PER_TURN: usize = 96;
+        const PER_TURN: usize = THREAD_POINTS_PER_TURN;
         let lp = self.interface_loop(PER_TURN);
         let turns = (x1 - x0) / self.pitch_mm;
         let n = (turns * PER_TURN as f64).ceil() as usize;
@@ -362,6 +372,54 @@ const ALONG_SHARE: f64 = 2.0 / 3.0;
 /// Element length through the bottom wall, as a share of the mesh size: the flat bottom
 /// bends across.
 const FINE_SHARE: f64 = 0.5;
+
+/// Points per turn of a thread's polyline ([`TubeConfig::thread`]).
+const THREAD_POINTS_PER_TURN: usize = 96;
+
+/// The number of elements of the tube's mesh at size `h` mm (the hexahedra of every
+/// cross-section quad along the tube, the threads' segments, or their smeared
+/// membranes), counted as [`section`] and [`mesh_tube`] build them but without building
+/// anything: a float, which neither overflows nor allocates however small `h` is.
+pub(crate) fn element_estimate(cfg: &ActuatorConfig, t: &TubeConfig, h: f64) -> f64 {
+    let parts = |len: f64, least: f64| (len / h - 1e-9).ceil().max(least);
+    let mut nu = parts(2.0 * t.inner_radius_mm / AROUND_SHARE, 4.0);
+    nu += nu % 2.0;
+    let nv = nu / 2.0;
+    let lr = parts(t.inner_wall_mm, INNER_WALL_ELEMENTS as f64) + parts(t.outer_wall_mm, 1.0);
+    let z0 = t.floor_mm();
+    let mut zf = vec![0.0, t.outer_wall_mm, z0];
+    if t.bottom_strip {
+        zf.extend(cfg.layer.iter().map(|l| l.membrane_height_mm()));
+    }
+    let nb = coordinate_line_count(&zf, FINE_SHARE * h, &[(0.0, z0)]);
+    let quads = nu * nv + 2.0 * nu * lr + nb * (2.0 * lr + nu);
+    let l = t.length_mm;
+    let free = l - t.clamp_mm;
+    let mut fx = vec![0.0, t.end_cap_mm, t.clamp_mm, l - t.end_cap_mm, l];
+    fx.extend((1..=t.markers).map(|k| t.clamp_mm + free * (k as f64 - 0.5) / t.markers as f64));
+    let nx = coordinate_line_count(&fx, ALONG_SHARE * h, &[]);
+    let hands = match t.winding {
+        Winding::Both => 2.0,
+        Winding::OneWay => 1.0,
+    };
+    let threads = match t.fibre_model {
+        // The polyline's points and the segments it is cut into (no longer than half the
+        // smaller of the mesh size and the pitch).
+        FibreModel::Line => {
+            let turns = l / t.pitch_mm;
+            let length = turns * t.interface_perimeter().hypot(t.pitch_mm);
+            hands * (turns * THREAD_POINTS_PER_TURN as f64 + length / (0.5 * h.min(t.pitch_mm)))
+        }
+        // A membrane per interface edge (about the section's perimeter) along the tube.
+        FibreModel::Smeared => hands * nx * (2.0 * nu + 2.0 * lr + nu),
+    };
+    // Wound both ways, the half y >= 0 is meshed.
+    let share = match t.winding {
+        Winding::Both => 0.5,
+        Winding::OneWay => 1.0,
+    };
+    share * (nx * quads + threads)
+}
 
 fn lines(a: f64, b: f64, parts: usize) -> Vec<f64> {
     (0..=parts)

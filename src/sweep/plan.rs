@@ -315,6 +315,20 @@ impl Plan {
             let integer = lookup(&doc, &f.name).is_some_and(|v| v.is_integer());
             let levels = match (&design, &f.levels, f.range) {
                 (DesignKind::Factorial, Some(l), _) if !l.is_empty() => {
+                    // A NaN or inf level is no design (the point would run something else).
+                    if let Some(v) = l
+                        .iter()
+                        .find_map(|v| v.as_float().filter(|f| !f.is_finite()))
+                    {
+                        return Err(plan_err(
+                            path,
+                            format!(
+                                "factor {}: level {} is not a finite number: give finite levels, e.g. levels = [2, 4]",
+                                f.name,
+                                if v.is_nan() { "nan".to_string() } else { v.to_string() }
+                            ),
+                        ));
+                    }
                     FactorLevels::Levels(l.clone())
                 }
                 (DesignKind::Factorial, _, _) => {
@@ -474,6 +488,50 @@ levels = [8, 9]
         assert_eq!((fit[0].initial, fit[0].lower), (4000.0, 2000.0));
         let c = crate::fit_model::params::with_values(&strap, &fit, &[3000.0]).unwrap();
         assert_eq!(c.layer[0].youngs_modulus_mpa, 3000.0);
+    }
+
+    /// A NaN or inf level, or a mesh size whose mesh would not fit, is refused when the
+    /// plan is read, naming the factor or the size; a NaN set through a layer's dotted
+    /// name is refused, never run as a default layer.
+    #[test]
+    fn a_non_finite_level_or_an_unbounded_mesh_is_refused_when_the_plan_is_read() {
+        for (from, to, needle) in [
+            (
+                "[4, 6.5]",
+                "[nan, 6.5]",
+                "factor geometry.f: level nan is not a finite number",
+            ),
+            (
+                "[4, 6.5]",
+                "[4, -inf]",
+                "factor geometry.f: level -inf is not a finite number",
+            ),
+            (
+                "mesh_size_mm = 5",
+                "mesh_size_mm = 1e-9",
+                "mesh size: 1e-9 mm would make about",
+            ),
+            (
+                "mesh_size_mm = 5",
+                "mesh_size_mm = nan",
+                "mesh size: NaN mm: must be positive",
+            ),
+        ] {
+            let e = parse(&TWO.replace(from, to)).unwrap_err().to_string();
+            assert!(e.contains(needle), "{to}: {e}");
+        }
+        use crate::fem::family::{defaults, Family};
+        let glove = defaults(Family::Glove);
+        let e = config_with(
+            &glove,
+            "layer.paper.youngs_modulus_mpa",
+            &toml::Value::Float(f64::NAN),
+        )
+        .unwrap_err();
+        assert!(
+            e.contains("[layer.1] youngs_modulus_mpa = nan: not a finite number"),
+            "{e}"
+        );
     }
 
     #[test]
