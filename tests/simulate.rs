@@ -190,6 +190,22 @@ fn nonsense_parameters_get_one_line_naming_them() {
         .assert_bad_input(&["bulk_modulus_mpa"]);
     Run::new(dir.path(), &["simulate", "--sweep", "zz=1:2:1"])
         .assert_bad_input(&["no such parameter"]);
+    // A mesh too fine to fit is refused from its count, before anything is allocated (it
+    // allocated 21 GB), on every family.
+    for family in ["pneunets", "strap", "fibre-reinforced"] {
+        Run::new(
+            dir.path(),
+            &["simulate", "--family", family, "--mesh-size", "1e-9"],
+        )
+        .assert_bad_input(&[
+            "mesh size: 1e-9 mm would make about",
+            "use a mesh size of at least",
+        ]);
+    }
+    // A NaN is refused by its key, never run as the family's default.
+    std::fs::write(dir.path().join("nan.toml"), "[geometry]\nb = nan\n").unwrap();
+    Run::new(dir.path(), &["simulate", "--config", "nan.toml"])
+        .assert_bad_input(&["nan.toml", "[geometry] b = nan: not a finite number"]);
     std::fs::write(dir.path().join("wide.toml"), "[geometry]\nl = 15.0\n").unwrap();
     Run::new(dir.path(), &["simulate", "--config", "wide.toml"])
         .assert_bad_input(&["parameter l", "narrower"]);

@@ -395,7 +395,8 @@ impl SolidElement {
 /// element speed-ups (scripts/bench-simulate.sh).
 pub const DEFAULT_MESH_SIZE_MM: f64 = 1.5;
 
-/// Largest mesh accepted (elements); a finer one would not fit a workstation's memory.
+/// Largest mesh accepted (elements, counted by [`element_estimate`] before anything is
+/// built); a finer one would not fit a workstation's memory.
 pub const MAX_ELEMENTS: usize = 400_000;
 
 impl Default for MeshConfig {
@@ -989,12 +990,20 @@ impl ActuatorConfig {
         let text = std::fs::read_to_string(path).map_err(|e| FemError::Input {
             why: format!("cannot read actuator config {}: {e}", path.display()),
         })?;
-        toml::from_str(&text).map_err(|e| FemError::Input {
-            why: format!(
-                "{} is not a valid actuator config: {} (see bendscope simulate --print-config)",
-                path.display(),
-                e.message()
-            ),
+        toml::from_str(&text).map_err(|e| {
+            // A message that names its own --print-config needs no second one.
+            let see = if e.message().contains("--print-config") {
+                ""
+            } else {
+                " (see bendscope simulate --print-config)"
+            };
+            FemError::Input {
+                why: format!(
+                    "{} is not a valid actuator config: {}{see}",
+                    path.display(),
+                    e.message()
+                ),
+            }
         })
     }
 
@@ -1130,6 +1139,11 @@ impl ActuatorConfig {
             Some(fit) => format!("use a mesh size of at least {fit} mm"),
             None => "no mesh size fits: make the actuator smaller".into(),
         };
+        let about = if count.is_finite() {
+            format!("about {count:.1e} elements")
+        } else {
+            "too many elements to count".to_string()
+        };
         // 1e-300 written out would be 300 zeros.
         let size = if (1e-4..1e6).contains(&h) {
             h.to_string()
@@ -1139,7 +1153,7 @@ impl ActuatorConfig {
         Err(bad(
             "mesh size",
             format!(
-                "{size} mm would make about {count:.1e} elements, more than the {MAX_ELEMENTS} this solver is sized for: {what}"
+                "{size} mm would make {about}, more than the {MAX_ELEMENTS} this solver is sized for: {what}"
             ),
         ))
     }
@@ -1467,9 +1481,13 @@ pub(crate) fn coordinate_line_count(features: &[f64], h: f64, walls: &[(f64, f64
         .sum()
 }
 
+/// Along one axis: the coordinates the grid lines go through, and the intervals that are
+/// walls.
+type AxisFeatures = (Vec<f64>, Vec<(f64, f64)>);
+
 /// Coordinates every line of the PneuNets grid goes through, with the intervals that are
 /// walls (at least [`MIN_WALL_ELEMENTS`] across), along x, y and z.
-fn grid_features(cfg: &ActuatorConfig) -> [(Vec<f64>, Vec<(f64, f64)>); 3] {
+fn grid_features(cfg: &ActuatorConfig) -> [AxisFeatures; 3] {
     let g = &cfg.geometry;
     let blocks = g.blocks();
     let cavities: Vec<(f64, f64)> = blocks
@@ -2304,7 +2322,7 @@ mod tests {
         assert!(e
             .unwrap_err()
             .to_string()
-            .contains("1e-300 mm would make about"));
+            .contains("1e-300 mm would make too many elements to count"));
         for (family, h) in [(Family::Pneunets, 4.0), (Family::FibreReinforced, 4.0)] {
             let cfg = ActuatorConfig {
                 mesh: MeshConfig {
