@@ -320,7 +320,7 @@ fn why_not_an_item(session: &Path, file: &str) -> String {
     let path = session.join(file);
     let nested = file.contains(['/', '\\']);
     match std::fs::metadata(&path) {
-        Ok(_) if nested => "a path into a subfolder: nested paths are not supported: put the video, photo or photo folder in the session folder itself and name it without a folder".into(),
+        Ok(_) if nested => "no such video, photo or photo folder in the session folder itself: nested paths are not supported: put it in the session folder and name it without a folder".into(),
         Ok(m) if !m.is_file() && !m.is_dir() => "not a regular file (a pipe, socket or device): copy the video or photo into the session folder".into(),
         Ok(m) if m.is_file() => {
             let ext = path
