@@ -1096,7 +1096,7 @@ fn most_common_rejection(frames: &[FrameRecord]) -> Option<String> {
         if s.contains("outside the roi") {
             "check the roi in bendscope.toml (undistorted pixels; `bendscope inspect` shows the markers' positions)"
         } else if s.starts_with("0 markers found") {
-            "no blob of the marker colour: set [detect] colour in bendscope.toml (red, green, blue, yellow or dark; default red) and check the lighting; `bendscope inspect` shows what passes the thresholds"
+            "no blob of the marker colour: set [detect] colour in bendscope.toml (red, green, blue, yellow or dark; default red), check the lighting and expected_markers; `bendscope inspect` shows what passes the thresholds"
         } else if s.contains("markers found") {
             "check the lighting, the HSV thresholds ([detect] colour, hue_min, ...; `bendscope inspect` shows what passes) and expected_markers in bendscope.toml"
         } else if s.contains("pressure log") {
