@@ -47,8 +47,9 @@ pub const DEFAULT_MAX_AREA_PX: u32 = 20_000;
 /// and its surroundings for coverage weighting; below it, binary centroids are used.
 pub const MIN_COVERAGE_CONTRAST: f64 = 30.0;
 
-/// The marker colours with a preset band (`[detect] colour = ...`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+/// The marker colours with a preset band (`[detect] colour = ...`, any case: `"Green"`
+/// is green, as `--family` takes any case).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum MarkerColour {
     /// Hue 170..10 (wrapping at 0/180), S >= 100, V >= 60.
@@ -62,6 +63,60 @@ pub enum MarkerColour {
     Yellow,
     /// Any hue, V <= 80: black or dark dots on a light actuator.
     Dark,
+}
+
+/// Reads one of `names` (lowercase) in any case as `T`: a `[detect]` name written
+/// `"Green"` or `"LEFT"` is accepted, an unknown one is refused listing the names.
+fn any_case<'de, D, T: Copy>(d: D, what: &str, names: &[(&str, T)]) -> Result<T, D::Error>
+where
+    D: serde::Deserializer<'de>,
+{
+    let s = String::deserialize(d)?;
+    let lower = s.trim().to_ascii_lowercase();
+    names
+        .iter()
+        .find(|(n, _)| *n == lower)
+        .map(|(_, v)| *v)
+        .ok_or_else(|| {
+            let list: Vec<&str> = names.iter().map(|(n, _)| *n).collect();
+            serde::de::Error::custom(format!(
+                "unknown {what} `{s}`: use one of {}",
+                list.join(", ")
+            ))
+        })
+}
+
+impl<'de> Deserialize<'de> for MarkerColour {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use MarkerColour::*;
+        any_case(
+            d,
+            "colour",
+            &[
+                ("red", Red),
+                ("green", Green),
+                ("blue", Blue),
+                ("yellow", Yellow),
+                ("dark", Dark),
+            ],
+        )
+    }
+}
+
+impl<'de> Deserialize<'de> for ClampSide {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use ClampSide::*;
+        any_case(
+            d,
+            "clamp_side",
+            &[
+                ("left", Left),
+                ("right", Right),
+                ("top", Top),
+                ("bottom", Bottom),
+            ],
+        )
+    }
 }
 
 impl MarkerColour {
@@ -271,8 +326,9 @@ impl From<DetectSettings> for DetectConfig {
     }
 }
 
-/// Which image side the clamped end of the actuator is nearest to.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
+/// Which image side the clamped end of the actuator is nearest to (any case in
+/// `[detect] clamp_side`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
 pub enum ClampSide {
     /// Clamp at the left of the frame.
@@ -1281,11 +1337,26 @@ mod tests {
         // Red's two-band form is the wrapping band.
         let red = read("hue_max_low = 8\nhue_min_high = 172\n").unwrap();
         assert_eq!((red.hsv.hue_min, red.hsv.hue_max), (172, 8));
+        // Any case, as `--family` takes it.
+        for text in ["colour = \"Green\"\ns_min = 60\n", "colour = \"GREEN\"\ns_min = 60\n"] {
+            assert_eq!(read(text).unwrap(), green, "{text}");
+        }
+        assert_eq!(
+            read("clamp_side = \"Right\"\n").unwrap().clamp_side,
+            ClampSide::Right
+        );
         let dark = read("colour = \"dark\"\nv_max = 70\n").unwrap();
         assert!(dark.hsv.every_hue() && dark.hsv.v_max == 70);
         for (text, needle) in [
             ("hue_min = 200\nhue_max = 10\n", "200 is outside 0..180"),
-            ("colour = \"purple\"\n", "unknown variant `purple`"),
+            (
+                "colour = \"purple\"\n",
+                "unknown colour `purple`: use one of red, green, blue, yellow, dark",
+            ),
+            (
+                "clamp_side = \"middle\"\n",
+                "unknown clamp_side `middle`: use one of left, right, top, bottom",
+            ),
             ("hue_max_low = 8\nhue_max = 9\n", "keep one form"),
             (
                 "colour = \"blue\"\nhue_max_low = 8\n",

@@ -622,18 +622,22 @@ pub fn fit_plane_robust(points: &[nalgebra::Point3<f64>], band: f64) -> Result<P
 /// Distinct x values (pressures) the power law y = a x^b + c needs: one per parameter.
 pub const POWER_LAW_MIN_DISTINCT_X: usize = 3;
 
-/// x values closer than this share of the largest |x| are the same pressure.
+/// Neighbouring x values closer than this share of the larger of the two are the same
+/// pressure.
 pub const DISTINCT_X_REL: f64 = 1e-9;
 
-/// The distinct values of `x` (sorted; values within [`DISTINCT_X_REL`] of the largest
-/// |x| are one).
+/// The distinct values of `x` (sorted; neighbours within [`DISTINCT_X_REL`] of the larger
+/// |x| of the two are one). The tolerance is relative to each pair, not to the largest
+/// value, so that one huge pressure (a typo such as 1e12) does not merge all the others.
 pub fn distinct_values(x: &[f64]) -> Vec<f64> {
     let mut v: Vec<f64> = x.to_vec();
     v.sort_by(f64::total_cmp);
-    let tol = DISTINCT_X_REL * v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
     let mut out: Vec<f64> = Vec::with_capacity(v.len());
     for x in v {
-        if out.last().is_none_or(|l| x - l > tol) {
+        if out
+            .last()
+            .is_none_or(|l| x - l > DISTINCT_X_REL * x.abs().max(l.abs()))
+        {
             out.push(x);
         }
     }
@@ -1064,6 +1068,11 @@ mod tests {
         assert_eq!(distinct_values(&x), vec![20.0, 50.0, 80.0]);
         let f = fit_power_law(&x, &x.map(law)).unwrap();
         assert!((f.eval(35.0) - law(35.0)).abs() < 1e-6 * law(35.0), "{f:?}");
+        // One huge pressure (a typo) does not merge the others into one.
+        assert_eq!(
+            distinct_values(&[20.0, 35.0, 50.0, 65.0, 1e12]),
+            vec![20.0, 35.0, 50.0, 65.0, 1e12]
+        );
     }
 
     proptest! {

@@ -99,8 +99,23 @@ pub fn load_frame(
             .into_iter()
             .map(|v| path.join(v))
             .chain(session_photos(path))
-            .next()
-            .ok_or_else(|| bad("no video or photo in the folder: give a video or image".into()))?;
+            .next();
+        let first = match first {
+            Some(f) => f,
+            // An RGB-D session: its recording, or its first colour frame.
+            None => match crate::rgbd::rgbd_frames(path).map_err(|e| bad(e.to_string()))? {
+                Some(crate::rgbd::RgbdFrames::Bag(bag)) => bag,
+                Some(crate::rgbd::RgbdFrames::PngFolders) => session_photos(&path.join("color"))
+                    .into_iter()
+                    .nth(usize::try_from(frame).unwrap_or(usize::MAX))
+                    .ok_or_else(|| bad(format!("color/ has no frame {frame}: give a smaller --frame")))?,
+                None => {
+                    return Err(bad(
+                        "no video, photo or RealSense recording in the folder: give a video or image".into(),
+                    ))
+                }
+            },
+        };
         (first, path.to_path_buf())
     } else {
         let parent = path.parent().map(Path::to_path_buf).unwrap_or_default();
@@ -113,11 +128,31 @@ pub fn load_frame(
         Some(p) => SessionConfig::read(p).map_err(|e| bad(e.to_string()))?,
         None => SessionConfig::default(),
     };
-    let mut source = open_source(&media, 1, true).map_err(bad)?;
     let name = media
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
+    if media
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("bag"))
+    {
+        let mut bag = crate::rgbd::bag::BagRecording::open(&media).map_err(|e| bad(e.to_string()))?;
+        let n = bag.frames.len();
+        let k = usize::try_from(frame).ok().filter(|k| *k < n).ok_or_else(|| {
+            bad(format!(
+                "{name} has {n} colour frames, no frame {frame}: give a smaller --frame"
+            ))
+        })?;
+        let (rgb, _) = bag.read_frame(k).map_err(bad)?;
+        return Ok((rgb, format!("{name}, frame {k}"), settings));
+    }
+    // The first colour frame of an RGB-D PNG session was picked above.
+    let frame = if media.parent().is_some_and(|p| p.ends_with("color")) {
+        0
+    } else {
+        frame
+    };
+    let mut source = open_source(&media, 1, true).map_err(bad)?;
     loop {
         match source.next() {
             Next::Frame(f) if f.index >= frame => {

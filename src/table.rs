@@ -18,8 +18,10 @@
 //! - every cell is read as text (no type inference): the caller asks for a number with
 //!   [`Table::f64_at`], whose error names the file, the line and the column;
 //! - header names are trimmed and looked up case-insensitively;
-//! - rows shorter than the header read as empty cells, cells beyond the header are
-//!   ignored.
+//! - rows shorter than the header read as empty cells; a row with more (non-blank)
+//!   fields than the header is an error at its line (in a comma-separated file most
+//!   often a decimal comma: `GX010101.MP4,20,5`), as is a row split by another separator
+//!   than the header's.
 //!
 //! polars splits records on line ends outside quotes, counting every `"` (a quote inside
 //! an unquoted field flips the state too). [`Table::parse`] does the same small scan
@@ -230,6 +232,16 @@ fn line_of_offset(bytes: &[u8], offset: usize) -> usize {
     1 + breaks - crlf
 }
 
+/// One record as [`normalize_quotes`] returns it.
+struct Normalized {
+    /// The record as polars should read it.
+    text: String,
+    /// Number of fields.
+    fields: usize,
+    /// 1-based number of the last field that is not blank (0 when all are).
+    filled: usize,
+}
+
 /// Checks the quoting of one record (RFC 4180) with fields separated by `sep` and returns
 /// it as polars should read it: a field is either unquoted and free of `"`, or quoted
 /// (inner quotes doubled), with optional spaces (or tabs, when tabs do not separate the
@@ -240,12 +252,14 @@ fn line_of_offset(bytes: &[u8], offset: usize) -> usize {
 /// [`records`]) still counts it, so one stray quote silently merges the lines after it;
 /// and it rejects text after a closing quote with a message about data types. Both are
 /// reported here instead, at their line.
-fn normalize_quotes(rec: &str, sep: u8) -> Result<String, (usize, &'static str)> {
+fn normalize_quotes(rec: &str, sep: u8) -> Result<Normalized, (usize, &'static str)> {
     let b = rec.as_bytes();
     let blank = |c: &u8| *c == b' ' || (*c == b'\t' && sep != b'\t');
     let mut out = String::with_capacity(rec.len());
+    let (mut fields, mut filled) = (0, 0);
     let mut i = 0;
     loop {
+        fields += 1;
         let start = i;
         while b.get(i).is_some_and(blank) {
             i += 1;
@@ -270,11 +284,14 @@ fn normalize_quotes(rec: &str, sep: u8) -> Result<String, (usize, &'static str)>
                 }
             }
             out.push_str(&rec[open..i]);
+            if i - open > 2 {
+                filled = fields;
+            }
             while b.get(i).is_some_and(blank) {
                 i += 1;
             }
             match b.get(i) {
-                None => return Ok(out),
+                None => return Ok(Normalized { text: out, fields, filled }),
                 Some(c) if *c == sep => {
                     out.push(char::from(sep));
                     i += 1;
@@ -300,13 +317,85 @@ fn normalize_quotes(rec: &str, sep: u8) -> Result<String, (usize, &'static str)>
                 }
             }
             out.push_str(&rec[start..i]);
+            if !rec[start..i].trim().is_empty() {
+                filled = fields;
+            }
             if i >= b.len() {
-                return Ok(out);
+                return Ok(Normalized { text: out, fields, filled });
             }
             out.push(char::from(sep));
             i += 1;
         }
     }
+}
+
+/// Longest excerpt of a record quoted in a message.
+const MAX_QUOTED_RECORD: usize = 60;
+
+/// `text` trimmed, cut to [`MAX_QUOTED_RECORD`] characters (with `...`), for a message.
+fn excerpt(text: &str) -> String {
+    let text = text.trim();
+    match text.char_indices().nth(MAX_QUOTED_RECORD) {
+        Some((end, _)) => format!("{}...", &text[..end]),
+        None => text.to_string(),
+    }
+}
+
+/// Number of `byte`s in `text` outside double quotes.
+fn count_unquoted(text: &str, byte: u8) -> usize {
+    let mut quoted = false;
+    text.bytes()
+        .filter(|b| {
+            if *b == b'"' {
+                quoted = !quoted;
+            }
+            !quoted && *b == byte
+        })
+        .count()
+}
+
+/// What is wrong with the shape of data record `raw` (normalized: `rec`) under a header
+/// `header` of `header_fields` fields separated by `sep`, if anything:
+///
+/// - more non-blank fields than the header: an error rather than cells dropped, since in
+///   a comma-separated file it is most often a decimal comma (`GX010101.MP4,20,5` is
+///   20.5 kPa, not 20); trailing blank cells (`a,b,` as some spreadsheets save rows) are
+///   fine;
+/// - one field only where the header has several and the row holds another separator
+///   (a semicolon header over comma rows): the file mixes separators.
+fn row_shape_problem(
+    sep: Separator,
+    header: &str,
+    header_fields: usize,
+    raw: &str,
+    rec: &Normalized,
+) -> Option<String> {
+    if rec.filled > header_fields {
+        let what = format!(
+            "this row has {} fields where the header `{}` has {header_fields} (`{}`)",
+            rec.filled,
+            excerpt(header),
+            excerpt(raw)
+        );
+        return Some(match sep {
+            Separator::Comma => format!(
+                "{what}: decimal comma? use a semicolon separator or a decimal point (quote a text field that holds a comma: \"a, b\")"
+            ),
+            _ => format!("{what}: remove the extra cells or name their column in the header"),
+        });
+    }
+    if rec.fields == 1 && header_fields > 1 {
+        let other = [Separator::Comma, Separator::Semicolon, Separator::Tab]
+            .into_iter()
+            .find(|s| *s != sep && count_unquoted(raw, s.byte()) > 0)?;
+        return Some(format!(
+            "the header is {}-separated but this row is {}-separated (`{}`): use one separator in the whole file",
+            sep.name(),
+            other.name(),
+            excerpt(raw)
+        ));
+    }
+    None
 }
 
 /// Reads `text` (records already cleaned: one per line, LF, fields separated by `sep`)
@@ -379,14 +468,25 @@ impl Table {
         })?;
         let sep = separator.byte();
         let mut cleaned = String::with_capacity(text.len() + recs.len());
-        for r in &recs {
+        let mut header_fields = 0;
+        for (k, r) in recs.iter().enumerate() {
             let rec = normalize_quotes(r.text, sep).map_err(|(offset, why)| TableError {
                 path: path.to_path_buf(),
                 line: Some(r.line + line_of_offset(r.text.as_bytes(), offset) - 1),
                 column: None,
                 why: why.into(),
             })?;
-            cleaned.push_str(&rec);
+            if k == 0 {
+                header_fields = rec.fields;
+            } else if let Some(why) = row_shape_problem(separator, first.text, header_fields, r.text, &rec) {
+                return Err(TableError {
+                    path: path.to_path_buf(),
+                    line: Some(r.line),
+                    column: None,
+                    why,
+                });
+            }
+            cleaned.push_str(&rec.text);
             cleaned.push('\n');
         }
         let rows = polars_rows(cleaned, sep).map_err(|e| {
@@ -800,13 +900,57 @@ mod tests {
     }
 
     #[test]
-    fn short_rows_read_empty_and_extra_cells_are_ignored() {
-        let t = parse("a,b,c\n1\n1,2,3,4,5\n");
-        assert_eq!(t.len(), 2);
+    fn short_rows_read_empty_and_trailing_blank_cells_are_ignored() {
+        let t = parse("a,b,c\n1\n1,2,3,, \n4,5,6,\"\"\n");
+        assert_eq!(t.len(), 3);
         assert_eq!((t.cell(0, 0), t.cell(0, 1), t.cell(0, 2)), ("1", "", ""));
         assert_eq!(t.cell(1, 2), "3");
+        assert_eq!(t.cell(2, 2), "6");
         assert_eq!(t.cell(9, 9), "");
         assert_eq!(t.line(9), 0);
+    }
+
+    #[test]
+    fn rows_with_more_fields_than_the_header_are_errors_at_their_line() {
+        // A decimal comma in a comma-separated file (`20,5` is 20.5, not 20 and a stray 5).
+        for (text, line, fields, header) in [
+            ("video,pressure_kpa\nGX010101.MP4,20.5\n\nGX010102.MP4,35,5\n", 4, 3, 2),
+            ("file,pressure_bar\nA.MP4,0,2\n", 2, 3, 2),
+            ("strain_pct,stress_kpa\n0,0\n10,20,5\n", 3, 3, 2),
+            ("a,b\n1,2,,x\n", 2, 4, 2),
+        ] {
+            let e = Table::parse(text.as_bytes(), Path::new("pressures.csv")).unwrap_err();
+            assert_eq!(e.line, Some(line), "{text:?}: {e}");
+            let msg = e.to_string();
+            assert!(msg.starts_with(&format!("pressures.csv: line {line}: this row has {fields} fields where the header")), "{msg}");
+            assert!(msg.contains(&format!("has {header} (`")), "{msg}");
+            assert!(msg.contains("decimal comma? use a semicolon separator or a decimal point"), "{msg}");
+            assert!(!msg.contains('\n'), "{msg}");
+        }
+        // In a semicolon file the extra cells are named, without the decimal-comma hint.
+        let e = Table::parse(b"a;b\n1;2;3\n", Path::new("x.csv")).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "x.csv: line 2: this row has 3 fields where the header `a;b` has 2 (`1;2;3`): remove the extra cells or name their column in the header"
+        );
+        // A quoted comma is text, not a field.
+        assert_eq!(parse("a,b\n\"1,5\",2\n").cell(0, 0), "1,5");
+    }
+
+    #[test]
+    fn rows_split_by_another_separator_than_the_header_are_errors() {
+        for (text, what) in [
+            ("video;pressure_kpa\nGX010101.MP4,20\n", "the header is semicolon-separated but this row is comma-separated (`GX010101.MP4,20`)"),
+            ("video,pressure_kpa\nGX010101.MP4;20\n", "the header is comma-separated but this row is semicolon-separated"),
+            ("a\tb\n1;5\n", "the header is tab-separated but this row is semicolon-separated"),
+        ] {
+            let e = Table::parse(text.as_bytes(), Path::new("x.csv")).unwrap_err();
+            assert_eq!(e.line, Some(2), "{e}");
+            assert!(e.to_string().contains(what), "{e}");
+            assert!(e.to_string().ends_with("use one separator in the whole file"), "{e}");
+        }
+        // A one-column row of a several-column table is fine without another separator.
+        assert_eq!(parse("a;b\nx\n").cell(0, 0), "x");
     }
 
     #[test]

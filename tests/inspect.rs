@@ -100,4 +100,32 @@ fn inspect_refuses_what_it_cannot_read() {
     );
     run.assert_bad_input(&["has no frame 100000", "--frame"]);
     assert!(!dir.path().join("inspect.html").exists());
+    // A negative frame: what a frame number is, not the parser's words.
+    let run = Run::new(dir.path(), &["inspect", video.to_str().unwrap(), "--frame", "-1"]);
+    assert_eq!(run.code, 2, "{run}");
+    assert!(
+        run.stderr.contains("`-1` is not a frame number: give 0 (the first frame) or more"),
+        "{run}"
+    );
+    assert!(!run.stderr.contains("invalid digit"), "{run}");
+    // -o naming a folder: the folder is named.
+    let out = dir.path().join("pages");
+    std::fs::create_dir(&out).unwrap();
+    Run::new(
+        dir.path(),
+        &["inspect", video.to_str().unwrap(), "-o", out.to_str().unwrap()],
+    )
+    .assert_bad_input(&[out.to_str().unwrap(), "is a folder", "pages/inspect.html"]);
+}
+
+#[test]
+fn inspect_reads_a_realsense_recording() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = Run::new(
+        dir.path(),
+        &["inspect", fixture("bags/baseline").to_str().unwrap(), "--frame", "2"],
+    );
+    assert_eq!(run.code, 0, "{run}");
+    assert!(run.stdout.contains("recording.bag, frame 2"), "{run}");
+    assert!(dir.path().join("inspect.html").is_file());
 }

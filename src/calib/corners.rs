@@ -141,13 +141,29 @@ pub fn detect_views(
 fn load_gray(source: &ViewSource) -> Result<Mat, String> {
     match source {
         ViewSource::Image(path) => {
+            // Read here rather than by OpenCV's imread, which prints its own warning on
+            // stderr for a file it cannot open and reports a permission problem as a
+            // missing or corrupt file.
+            let bytes = std::fs::read(path).map_err(|e| match e.kind() {
+                std::io::ErrorKind::PermissionDenied => {
+                    "permission denied: make the file readable (chmod a+r)".to_string()
+                }
+                std::io::ErrorKind::NotFound => "no such file: check the name".to_string(),
+                _ => format!("cannot read the file ({e})"),
+            })?;
+            if bytes.is_empty() {
+                return Err("empty or truncated (copy it again from the camera)".into());
+            }
             // A truncated JPEG or PNG: the decoders would print their own warning on
             // stderr and return half a picture (then "no board found").
-            if let Some(why) = std::fs::read(path).ok().and_then(|b| truncation(&b)) {
+            if let Some(why) = truncation(&bytes) {
                 return Err(format!("truncated ({why}): copy it again from the camera"));
             }
-            let m = imgcodecs::imread(path, imgcodecs::IMREAD_GRAYSCALE)
-                .map_err(|e| format!("unreadable image ({})", e.message))?;
+            let m = imgcodecs::imdecode(
+                &opencv::core::Vector::<u8>::from_slice(&bytes),
+                imgcodecs::IMREAD_GRAYSCALE,
+            )
+            .map_err(|e| format!("unreadable image ({})", e.message))?;
             if m.empty() {
                 return Err("not a readable image (corrupt or not an image file)".to_string());
             }
@@ -160,7 +176,7 @@ fn load_gray(source: &ViewSource) -> Result<Mat, String> {
 
 /// Why `bytes`, a JPEG or PNG file, is cut short (it ends before its end marker), or
 /// `None` when it is complete or another kind of file.
-fn truncation(bytes: &[u8]) -> Option<&'static str> {
+pub(crate) fn truncation(bytes: &[u8]) -> Option<&'static str> {
     const PNG: &[u8] = b"\x89PNG\r\n\x1a\n";
     if bytes.starts_with(&[0xFF, 0xD8, 0xFF]) {
         jpeg_truncation(bytes)

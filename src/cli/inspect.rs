@@ -18,7 +18,7 @@ pub struct InspectArgs {
     #[arg(value_name = "SESSION|VIDEO|IMAGE")]
     pub input: PathBuf,
     /// Frame number of a video (0 = the first).
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, value_parser = frame_number, allow_hyphen_values = true)]
     pub frame: u64,
     /// Settings (default: the session's or the file's folder's bendscope.toml).
     #[arg(long, value_name = "FILE")]
@@ -28,11 +28,27 @@ pub struct InspectArgs {
     pub output: PathBuf,
 }
 
+/// `--frame` as a frame number, with a message that says what one is.
+fn frame_number(s: &str) -> Result<u64, String> {
+    s.trim()
+        .parse::<u64>()
+        .map_err(|_| format!("`{s}` is not a frame number: give 0 (the first frame) or more"))
+}
+
 /// Runs `bendscope inspect`.
 pub fn run(args: &InspectArgs) -> Result<u8> {
+    let out = &args.output;
+    if out.is_dir() {
+        anyhow::bail!(
+            "{}: is a folder: give the page's file name, e.g. -o {}",
+            out.display(),
+            out.join("inspect.html").display()
+        );
+    }
     let (frame, source, config) = load_frame(&args.input, args.frame, args.config.as_deref())?;
     let i = inspect_frame(&frame, source, &config.detect);
-    write_atomic(&args.output, inspect_html(&i)?.as_bytes())?;
+    write_atomic(out, inspect_html(&i)?.as_bytes())
+        .map_err(|e| anyhow::anyhow!("{}: cannot write the page ({e})", out.display()))?;
     out!(
         "{}: {} mask px, {} blobs with the session's settings; wrote {}",
         i.source,

@@ -42,9 +42,30 @@ pub struct ProcessArgs {
     pub force: bool,
 }
 
+/// Seconds between progress lines when stderr is not a terminal (a log file, a pipe):
+/// the bar is hidden there, and a long video would otherwise show nothing for minutes.
+const PROGRESS_LINE_EVERY_S: u64 = 10;
+
 /// Progress bars and warning lines on stderr.
 struct Bars {
     bar: Option<indicatif::ProgressBar>,
+    /// The item being measured.
+    item: String,
+    /// When a progress line was last printed (stderr not a terminal).
+    last_line: std::time::Instant,
+    /// Whether stderr is a terminal (where the bar shows).
+    tty: bool,
+}
+
+impl Bars {
+    fn new() -> Self {
+        Self {
+            bar: None,
+            item: String::new(),
+            last_line: std::time::Instant::now(),
+            tty: std::io::IsTerminal::is_terminal(&std::io::stderr()),
+        }
+    }
 }
 
 impl Progress for Bars {
@@ -52,8 +73,24 @@ impl Progress for Bars {
         self.bar = Some(super::progress_bar(total, what));
     }
     fn item(&mut self, name: &str) {
+        self.item = name.to_string();
         if let Some(b) = &self.bar {
             b.set_message(name.to_string());
+        }
+    }
+    fn frames(&mut self, done: u64, expected: u64) {
+        let of = if expected > 0 {
+            format!(" of ~{expected}")
+        } else {
+            String::new()
+        };
+        if self.tty {
+            if let Some(b) = &self.bar {
+                b.set_message(format!("{} frame {done}{of}", self.item));
+            }
+        } else if self.last_line.elapsed().as_secs() >= PROGRESS_LINE_EVERY_S {
+            self.last_line = std::time::Instant::now();
+            eprintln!("progress: {}: frame {done}{of}", self.item);
         }
     }
     fn advance(&mut self, n: u64) {
@@ -87,7 +124,7 @@ pub fn run(args: &ProcessArgs) -> Result<u8> {
         if let Some(n) = note {
             eprintln!("note: {n}");
         }
-        match measure_session(session, &out, &settings, &mut Bars { bar: None }) {
+        match measure_session(session, &out, &settings, &mut Bars::new()) {
             Ok(s) => {
                 measured += s.measured;
                 failed += s.failed;

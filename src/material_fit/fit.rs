@@ -450,4 +450,18 @@ mod tests {
         std::fs::write(&p, "strain_pct,stress_kpa\n0,0\n10,50\n300,200\n900,600\n").unwrap();
         assert!(TensileData::read(&p).unwrap().warnings.is_empty());
     }
+
+    #[test]
+    fn decimal_commas_in_a_comma_separated_file_are_refused_at_their_line() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("t.csv");
+        std::fs::write(&p, "strain_pct,stress_kpa\n0,0\n10,20,5\n50,50,1\n").unwrap();
+        let e = TensileData::read(&p).unwrap_err().to_string();
+        assert!(
+            e.ends_with("t.csv: line 3: this row has 3 fields where the header `strain_pct,stress_kpa` has 2 (`10,20,5`): decimal comma? use a semicolon separator or a decimal point (quote a text field that holds a comma: \"a, b\")"),
+            "{e}"
+        );
+        std::fs::write(&p, "strain_pct;stress_kpa\n0;0\n10;20,5\n").unwrap();
+        assert!((TensileData::read(&p).unwrap().stress_mpa[1] - 0.0205).abs() < 1e-12);
+    }
 }

@@ -168,6 +168,7 @@ pub fn measure_frame<S: PixelSource>(
                 expected: expected_markers,
                 specks: d.specks,
                 too_large: d.too_large,
+                outside_roi: 0,
             },
         );
     }
@@ -203,6 +204,7 @@ pub fn measure_frame<S: PixelSource>(
                 expected: expected_markers,
                 specks: d.specks,
                 too_large: d.too_large,
+                outside_roi: found - inside.len(),
             },
         );
     }

@@ -225,6 +225,43 @@ pub fn write_markers_csv(
     Ok(())
 }
 
+/// Least motion of marker 1 over the measured frames, mm (RMS distance from its mean
+/// position), before [`clamp_end_warning`] speaks: below it the clamp's marker is still.
+pub const CLAMP_MOTION_MIN_MM: f64 = 1.0;
+/// How many times more marker 1 must move than the last marker for
+/// [`clamp_end_warning`] to speak.
+pub const CLAMP_MOTION_RATIO: f64 = 2.0;
+
+/// RMS distance, mm, of marker `k` of `frames` from its mean position.
+fn marker_motion_mm(frames: &[&FrameRecord], k: usize) -> f64 {
+    let points: Vec<Vector3<f64>> = frames.iter().map(|f| position(&f.markers[k])).collect();
+    let mean = points.iter().sum::<Vector3<f64>>() / points.len() as f64;
+    (points.iter().map(|p| (p - mean).norm_squared()).sum::<f64>() / points.len() as f64).sqrt()
+}
+
+/// A warning when marker 1, taken as the clamped end, moves over the measured `frames`
+/// (across pressures) while the last marker, taken as the tip, stays put: the actuator
+/// is clamped at the other end than `clamp_side` says, and every tip value describes
+/// the clamp. Frames of the most common marker count are compared.
+pub fn clamp_end_warning<'a>(frames: impl IntoIterator<Item = &'a FrameRecord>) -> Option<String> {
+    let frames: Vec<&FrameRecord> = frames
+        .into_iter()
+        .filter(|f| f.status.is_ok() && f.markers.len() >= 2)
+        .filter(|f| f.markers.iter().all(|p| p.x_mm.is_finite() && p.y_mm.is_finite()))
+        .collect();
+    let n = frames.first()?.markers.len();
+    let frames: Vec<&FrameRecord> = frames.into_iter().filter(|f| f.markers.len() == n).collect();
+    if frames.len() < 2 {
+        return None;
+    }
+    let (first, last) = (marker_motion_mm(&frames, 0), marker_motion_mm(&frames, n - 1));
+    (first > CLAMP_MOTION_MIN_MM && first > CLAMP_MOTION_RATIO * last).then(|| {
+        format!(
+            "marker 1 (taken as the clamped end) moves {first:.1} mm (rms) over the measured frames while marker {n} (taken as the tip) moves {last:.1} mm: the actuator looks clamped at the other end, so the tip values describe the clamp: set [detect] clamp_side in bendscope.toml to the side the clamp is on (left, right, top, bottom)"
+        )
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::super::records::FrameStatus;
@@ -291,6 +328,31 @@ mod tests {
             (t.angle_deg - (70.0f64 / 50.0).to_degrees()).abs() < 1e-6,
             "{t:?}"
         );
+    }
+
+    #[test]
+    fn a_moving_first_marker_and_a_still_tip_are_warned_as_the_wrong_clamp_end() {
+        // Clamped at (0, 0) on the left, bending more with each pressure.
+        let frames: Vec<FrameRecord> = [1e9, 400.0, 200.0, 120.0]
+            .iter()
+            .map(|&r| frame(&arc((0.0, 0.0), 0.0, r, 6, 15.0), None))
+            .collect();
+        assert_eq!(clamp_end_warning(&frames), None);
+        // The same frames numbered from the tip: marker 1 moves, marker 6 does not.
+        let reversed: Vec<FrameRecord> = frames
+            .iter()
+            .map(|f| {
+                let mut f = f.clone();
+                f.markers.reverse();
+                f
+            })
+            .collect();
+        let w = clamp_end_warning(&reversed).unwrap();
+        assert!(w.starts_with("marker 1 (taken as the clamped end) moves "), "{w}");
+        assert!(w.contains("while marker 6 (taken as the tip) moves 0.0 mm"), "{w}");
+        assert!(w.contains("set [detect] clamp_side"), "{w}");
+        // One pressure only: nothing to compare.
+        assert_eq!(clamp_end_warning(&reversed[..1]), None);
     }
 
     #[test]

@@ -161,6 +161,9 @@ pub trait Progress {
     fn item(&mut self, _name: &str) {}
     /// `n` steps done.
     fn advance(&mut self, _n: u64) {}
+    /// Within the current item (a video): `done` frames measured of about `expected`
+    /// (0 when unknown). Called for every frame: a long video shows where it is.
+    fn frames(&mut self, _done: u64, _expected: u64) {}
     /// The stage is done.
     fn finish(&mut self) {}
     /// A line for the user (a warning or a note), already naming its file.
@@ -341,6 +344,37 @@ pub fn measure_session(
     })
 }
 
+/// Lines printed for one kind of session issue (one message) before the rest are
+/// counted in one line.
+pub const ISSUE_LINES_PER_KIND: usize = 5;
+
+/// The stderr lines of a session's `issues`: each kind (one message) for its first
+/// [`ISSUE_LINES_PER_KIND`] rows, then the rest counted in one line, so that a manifest
+/// of thousands of rows naming missing videos gives a few lines, not one per row (every
+/// row is still in per_video.csv).
+fn issue_lines(issues: &[crate::session::SessionIssue]) -> Vec<String> {
+    let mut lines = Vec::new();
+    let mut kinds: Vec<(&str, usize)> = Vec::new();
+    let mut kind_of: std::collections::HashMap<&str, usize> = std::collections::HashMap::new();
+    for issue in issues {
+        let k = *kind_of.entry(issue.message.as_str()).or_insert_with(|| {
+            kinds.push((issue.message.as_str(), 0));
+            kinds.len() - 1
+        });
+        kinds[k].1 += 1;
+        if kinds[k].1 <= ISSUE_LINES_PER_KIND {
+            lines.push(issue_line(issue));
+        }
+    }
+    for (message, n) in kinds.iter().filter(|(_, n)| *n > ISSUE_LINES_PER_KIND) {
+        lines.push(format!(
+            "warning: {} more rows or files: {message} (all are listed in per_video.csv)",
+            n - ISSUE_LINES_PER_KIND
+        ));
+    }
+    lines
+}
+
 /// A session issue as a stderr line: `warning: FILE (line N): message`.
 fn issue_line(issue: &crate::session::SessionIssue) -> String {
     let line = issue
@@ -444,6 +478,9 @@ fn measure_session_into(
     let smoothed = match (config.smooth_s, &layout) {
         (Some(s), Layout::Ramp(..) | Layout::Rgbd(..)) => {
             for item in &mut items {
+                if let Some(w) = smooth::smooth_window_warning(&item.frames, s) {
+                    notes.push(format!("warning: {}: {w}", item.file));
+                }
                 smooth::smooth_recording(&mut item.frames, s);
             }
             true
@@ -458,6 +495,10 @@ fn measure_session_into(
     let mut videos: Vec<VideoRecord> = Vec::new();
     let mut frames: Vec<FrameRecord> = Vec::new();
     let mut report_warnings: Vec<String> = Vec::new();
+    if let Some(w) = markers::clamp_end_warning(items.iter().flat_map(|i| &i.frames)) {
+        notes.push(format!("warning: {w}"));
+        report_warnings.push(w);
+    }
     let (mut measured, mut failed) = (0, 0);
     for item in items {
         let record = item.record();
@@ -499,8 +540,10 @@ fn measure_session_into(
         }
         frames.extend(item.frames);
     }
+    for line in issue_lines(&skipped) {
+        notes.push(line);
+    }
     for issue in &skipped {
-        notes.push(issue_line(issue));
         videos.push(VideoRecord::skipped(&issue.file, issue.message.clone()));
         failed += 1;
     }
@@ -633,7 +676,7 @@ impl<'a> VideoRun<'a> {
             let result = match cached {
                 Some(c) => ItemResult::from_cache(entry, c),
                 None => {
-                    let r = self.measure_video(entry, start);
+                    let r = self.measure_video(entry, start, &mut *notes.progress);
                     if r.storage_full {
                         notes.progress.finish();
                         return Err(PipelineError::NoSpace {
@@ -1050,8 +1093,12 @@ fn most_common_rejection(frames: &[FrameRecord]) -> Option<String> {
         *counts.entry(f.status.to_string()).or_default() += 1;
     }
     let hint = |s: &str| {
-        if s.contains("markers found") {
-            "check the lighting, the HSV thresholds and expected_markers in bendscope.toml"
+        if s.contains("outside the roi") {
+            "check the roi in bendscope.toml (undistorted pixels; `bendscope inspect` shows the markers' positions)"
+        } else if s.starts_with("0 markers found") {
+            "no blob of the marker colour: set [detect] colour in bendscope.toml (red, green, blue, yellow or dark; default red), check the lighting and expected_markers; `bendscope inspect` shows what passes the thresholds"
+        } else if s.contains("markers found") {
+            "check the lighting, the HSV thresholds ([detect] colour, hue_min, ...; `bendscope inspect` shows what passes) and expected_markers in bendscope.toml"
         } else if s.contains("pressure log") {
             "check that the log covers the recording"
         } else if s.contains("depth") {
@@ -1075,8 +1122,11 @@ impl VideoRun<'_> {
         &self,
         entry: &ManifestEntry,
         start: Option<nalgebra::Point2<f64>>,
+        progress: &mut dyn Progress,
     ) -> ItemResult {
         let (session, out, config, log) = (self.session, self.out, self.config, self.log);
+        // Frames measured of this item, for progress.
+        let mut done = 0u64;
         let mut tracker = Tracker::new(match start {
             Some(p) => ChainStart::Near(p),
             None => ChainStart::Side(config.detect.clamp_side),
@@ -1109,6 +1159,8 @@ impl VideoRun<'_> {
                 }
             };
             let (w, h) = source.size();
+            // Frames expected: those of the chapters before and this one's.
+            let expected = done + source.frames_expected();
             let prepared = self
                 .calib
                 .for_resolution(w, h)
@@ -1233,6 +1285,8 @@ impl VideoRun<'_> {
                 result
                     .frames
                     .push(frame_record(&entry.file, index, time_s, pressure_kpa, m));
+                done += 1;
+                progress.frames(done, expected.max(done));
                 last_time = f.time_s;
                 last_index = f.index;
                 source.recycle(f.pixels);
@@ -1392,4 +1446,32 @@ fn measure_rgbd(
         ));
     }
     Ok(result)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::session::SessionIssue;
+
+    #[test]
+    fn many_rows_with_one_problem_are_summarised_after_the_first_few() {
+        let issue = |i: usize, message: &str| SessionIssue {
+            file: format!("V{i}.MP4"),
+            line: Some(i + 2),
+            message: message.into(),
+        };
+        let mut issues: Vec<SessionIssue> = (0..1000).map(|i| issue(i, "no such video")).collect();
+        issues.insert(3, issue(9999, "listed twice"));
+        let lines = issue_lines(&issues);
+        assert_eq!(lines.len(), ISSUE_LINES_PER_KIND + 2, "{lines:#?}");
+        assert_eq!(lines[0], "warning: V0.MP4 (line 2): no such video");
+        assert_eq!(lines[3], "warning: V9999.MP4 (line 10001): listed twice");
+        assert_eq!(
+            lines.last().unwrap(),
+            &format!(
+                "warning: {} more rows or files: no such video (all are listed in per_video.csv)",
+                1000 - ISSUE_LINES_PER_KIND
+            )
+        );
+    }
 }

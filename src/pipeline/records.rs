@@ -22,6 +22,9 @@ pub enum FrameStatus {
         specks: usize,
         /// Blobs dropped as too large.
         too_large: usize,
+        /// Blobs of the marker colour left out because they lie outside the `roi`.
+        #[serde(default)]
+        outside_roi: usize,
     },
     /// More red blobs than markers, and no subset looks like the actuator's marker line.
     NoMarkerChain {
@@ -65,10 +68,14 @@ impl fmt::Display for FrameStatus {
                 expected,
                 specks,
                 too_large,
+                outside_roi,
             } => {
                 write!(f, "{found} markers found, {expected} expected")?;
                 if specks + too_large > 0 {
                     write!(f, " ({specks} specks, {too_large} too large dropped)")?;
+                }
+                if *outside_roi > 0 {
+                    write!(f, " ({outside_roi} outside the roi)")?;
                 }
                 Ok(())
             }
@@ -331,6 +338,7 @@ mod tests {
             expected: 8,
             specks: 0,
             too_large: 0,
+            outside_roi: 0,
         };
         assert_eq!(s.to_string(), "9 markers found, 8 expected");
         let s = FrameStatus::MarkerCount {
@@ -338,10 +346,22 @@ mod tests {
             expected: 8,
             specks: 2,
             too_large: 1,
+            outside_roi: 0,
         };
         assert_eq!(
             s.to_string(),
             "7 markers found, 8 expected (2 specks, 1 too large dropped)"
+        );
+        let s = FrameStatus::MarkerCount {
+            found: 0,
+            expected: 8,
+            specks: 0,
+            too_large: 0,
+            outside_roi: 8,
+        };
+        assert_eq!(
+            s.to_string(),
+            "0 markers found, 8 expected (8 outside the roi)"
         );
         assert_eq!(FrameStatus::Ok.to_string(), "ok");
         assert_eq!(

@@ -94,6 +94,26 @@ pub fn smooth_recording(frames: &mut [FrameRecord], smooth_s: f64) {
     }
 }
 
+/// A warning when `smooth_s` is longer than the time the measured `frames` of one
+/// recording span: the window then holds the whole recording, and the `*_smooth`
+/// columns are one blend of every pressure rather than a filtered track.
+pub fn smooth_window_warning(frames: &[FrameRecord], smooth_s: f64) -> Option<String> {
+    let times = frames
+        .iter()
+        .filter(|f| f.status.is_ok() && f.time_s.is_finite())
+        .map(|f| f.time_s);
+    let (lo, hi) = times.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), t| {
+        (lo.min(t), hi.max(t))
+    });
+    let span = hi - lo;
+    (span.is_finite() && smooth_s > span).then(|| {
+        format!(
+            "smooth_s = {smooth_s} s is longer than the {span:.2} s the measured frames span: the *_smooth columns blend the whole recording; give a window well below it (e.g. smooth_s = {:.2})",
+            span / 10.0
+        )
+    })
+}
+
 /// Radius (mm), curvature (1/m) and bending angle (deg) of smoothed markers: a Pratt
 /// circle in the plane, or the 3D circle for RGB-D, as for the raw markers.
 fn fit_smoothed(points: &[[f64; 3]], depth: bool) -> (f64, f64, f64) {
@@ -123,6 +143,20 @@ fn fit_smoothed(points: &[[f64; 3]], depth: bool) -> (f64, f64, f64) {
 mod tests {
     use super::super::records::FrameStatus;
     use super::*;
+
+    #[test]
+    fn a_window_longer_than_the_recording_is_warned() {
+        let frames: Vec<FrameRecord> = (0..40)
+            .map(|i| FrameRecord::rejected("v", i, i as f64 / 30.0, 0.0, FrameStatus::Ok))
+            .collect();
+        assert_eq!(smooth_window_warning(&frames, 1.0), None);
+        let w = smooth_window_warning(&frames, 1e9).unwrap();
+        assert!(
+            w.starts_with("smooth_s = 1000000000 s is longer than the 1.30 s the measured frames span"),
+            "{w}"
+        );
+        assert!(w.ends_with("(e.g. smooth_s = 0.13)"), "{w}");
+    }
 
     #[test]
     fn a_quadratic_is_kept_and_noise_averaged() {

@@ -49,6 +49,11 @@ pub enum Next {
 pub trait FrameSource {
     /// Frame size, px, known before the first frame.
     fn size(&self) -> (u32, u32);
+    /// Frames it is expected to deliver (from the container; 0 when unknown), for
+    /// progress.
+    fn frames_expected(&self) -> u64 {
+        0
+    }
     /// The next frame.
     fn next(&mut self) -> Next;
     /// Gives back pixels the caller is done with, to be decoded into again.
@@ -78,6 +83,7 @@ enum Decoded {
 pub struct VideoSource {
     name: String,
     size: (u32, u32),
+    frames_expected: u64,
     rx: Receiver<Decoded>,
     back: SyncSender<Pixels>,
     problems: Vec<String>,
@@ -89,16 +95,17 @@ impl VideoSource {
     /// whole-frame undistortion), else as decoded (YUV planes for 8-bit 4:2:0).
     pub fn open(path: &Path, stride: u64, want_rgb: bool) -> Result<Self, String> {
         let name = file_name(path);
-        let (info_tx, info_rx) = sync_channel::<Result<(u32, u32), String>>(1);
+        let (info_tx, info_rx) = sync_channel::<Result<(u32, u32, u64), String>>(1);
         let (tx, rx) = sync_channel::<Decoded>(FRAMES_AHEAD);
         let (back, back_rx) = sync_channel::<Pixels>(3);
         let path = path.to_path_buf();
         let thread =
             std::thread::spawn(move || decode(&path, stride, want_rgb, info_tx, tx, back_rx));
         match info_rx.recv() {
-            Ok(Ok(size)) => Ok(Self {
+            Ok(Ok((w, h, frames))) => Ok(Self {
                 name,
-                size,
+                size: (w, h),
+                frames_expected: frames.div_ceil(stride.max(1)),
                 rx,
                 back,
                 problems: vec![],
@@ -122,7 +129,7 @@ fn decode(
     path: &Path,
     stride: u64,
     want_rgb: bool,
-    info_tx: SyncSender<Result<(u32, u32), String>>,
+    info_tx: SyncSender<Result<(u32, u32, u64), String>>,
     tx: SyncSender<Decoded>,
     back_rx: Receiver<Pixels>,
 ) -> (VideoInfo, DecodeStats) {
@@ -133,7 +140,8 @@ fn decode(
             return (empty_info(), DecodeStats::default());
         }
     };
-    let _ = info_tx.send(Ok((reader.info().width, reader.info().height)));
+    let info = reader.info();
+    let _ = info_tx.send(Ok((info.width, info.height, info.frame_count_estimate)));
     loop {
         let recycled = back_rx.try_recv().ok();
         let next = if want_rgb {
@@ -181,6 +189,10 @@ fn file_name(path: &Path) -> String {
 impl FrameSource for VideoSource {
     fn size(&self) -> (u32, u32) {
         self.size
+    }
+
+    fn frames_expected(&self) -> u64 {
+        self.frames_expected
     }
 
     fn next(&mut self) -> Next {
@@ -391,14 +403,34 @@ impl FrameSource for BagSource {
 
 /// Reads a photo with its EXIF orientation applied (a phone stores portrait photos
 /// landscape with a rotation tag).
+///
+/// A file that is empty, or a JPEG or PNG cut short before its end marker, is refused as
+/// truncated: the JPEG decoder would fill the missing part with grey and the photo be
+/// measured (or its markers missed) without a word. Errors are one line.
 pub fn read_photo(path: &Path) -> Result<image::RgbImage, String> {
     use image::ImageDecoder as _;
     let name = file_name(path);
     let fail = |e: image::ImageError| {
+        let e = e.to_string().split_whitespace().collect::<Vec<_>>().join(" ");
         format!("{name}: not a photo bendscope can read ({e}): use JPEG, PNG or TIFF")
     };
-    let reader = image::ImageReader::open(path)
-        .map_err(|e| format!("{name}: cannot open ({e})"))?
+    let bytes = std::fs::read(path).map_err(|e| match e.kind() {
+        std::io::ErrorKind::PermissionDenied => {
+            format!("{name}: permission denied: make the file readable (chmod a+r)")
+        }
+        _ => format!("{name}: cannot read ({e})"),
+    })?;
+    if bytes.is_empty() {
+        return Err(format!(
+            "{name}: empty or truncated (copy it again from the camera)"
+        ));
+    }
+    if let Some(why) = crate::calib::corners::truncation(&bytes) {
+        return Err(format!(
+            "{name}: truncated ({why}): copy it again from the camera"
+        ));
+    }
+    let reader = image::ImageReader::new(std::io::Cursor::new(bytes))
         .with_guessed_format()
         .map_err(|e| format!("{name}: cannot read ({e})"))?;
     let mut decoder = reader.into_decoder().map_err(fail)?;
@@ -506,5 +538,49 @@ pub fn open_source(
         Ok(Box::new(PhotoSource::open(path)?))
     } else {
         Ok(Box::new(VideoSource::open(path, stride, want_rgb)?))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 64x48 JPEG of a gradient (big enough that its scan holds most of the file).
+    fn jpeg_bytes() -> Vec<u8> {
+        let img = image::RgbImage::from_fn(64, 48, |x, y| {
+            image::Rgb([(x * 4) as u8, (y * 5) as u8, ((x + y) * 2) as u8])
+        });
+        let mut buf = std::io::Cursor::new(Vec::new());
+        img.write_to(&mut buf, image::ImageFormat::Jpeg).unwrap();
+        buf.into_inner()
+    }
+
+    #[test]
+    fn empty_and_truncated_photos_are_refused_in_one_line() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("p1.jpg");
+        let full = jpeg_bytes();
+        std::fs::write(&p, &full).unwrap();
+        assert_eq!(read_photo(&p).unwrap().dimensions(), (64, 48));
+        std::fs::write(&p, b"").unwrap();
+        assert_eq!(
+            read_photo(&p).unwrap_err(),
+            "p1.jpg: empty or truncated (copy it again from the camera)"
+        );
+        // Cut to 82% and 49%: the decoder would return a grey-filled picture.
+        for share in [0.82, 0.49] {
+            let cut = (full.len() as f64 * share) as usize;
+            std::fs::write(&p, &full[..cut]).unwrap();
+            let e = read_photo(&p).unwrap_err();
+            assert!(
+                e.starts_with("p1.jpg: truncated (") && e.ends_with("): copy it again from the camera"),
+                "{share}: {e}"
+            );
+        }
+        // Not an image at all: one line, however the decoder words it.
+        std::fs::write(&p, b"\xFF\xD8\xFF\xE0\x00\x10JFIF\x00\x01\x01\x00\x00\x01\x00\x01\x00\x00\xFF\xD9").unwrap();
+        let e = read_photo(&p).unwrap_err();
+        assert!(e.starts_with("p1.jpg: not a photo bendscope can read"), "{e}");
+        assert!(!e.contains('\n'), "{e}");
     }
 }

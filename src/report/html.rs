@@ -185,12 +185,12 @@ figure img,figure svg{{max-width:900px;height:auto}}</style></head><body>\n<h1>{
         );
     }
     h.push_str("<h2>Overlays</h2>\n<p>One measured frame per video, undistorted: mask outline (green), markers from the clamp (yellow) to the tip (blue), fitted circle (magenta).</p>\n");
-    let mut shown: Vec<&str> = Vec::new();
+    // A set: a session may list many thousands of rows (skipped ones included).
+    let mut shown: std::collections::HashSet<&str> = std::collections::HashSet::new();
     for v in r.videos {
-        if shown.contains(&v.file.as_str()) {
+        if !shown.insert(v.file.as_str()) {
             continue;
         }
-        shown.push(&v.file);
         if let Some(img) = overlay_img(r.out, &v.file) {
             h.push_str(&img);
             h.push('\n');

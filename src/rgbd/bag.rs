@@ -257,8 +257,13 @@ fn visit_chunk(
     mut f: impl FnMut(u32, u32, &[u8]) -> Result<(), String>,
 ) -> Result<(), String> {
     let bad = |e: String| {
+        let e = if e.contains("out of bounds") {
+            "cut short".to_string()
+        } else {
+            e
+        };
         format!(
-            "chunk at byte {pos} unreadable ({e}): the file is corrupt: copy the recording again"
+            "truncated or corrupt recording: the chunk at byte {pos} cannot be read ({e}): copy the recording again, or record again"
         )
     };
     let mut records = bag.chunk_records();
@@ -340,10 +345,13 @@ impl BagRecording {
         let mut topics: BTreeMap<u32, (String, String)> = BTreeMap::new();
         let mut chunks: Vec<u64> = Vec::new();
         for r in bag.index_records() {
-            match r.map_err(|e| {
-                fail(format!(
-                    "index unreadable ({e}): the file is corrupt: copy the recording again"
-                ))
+            // rosbag's own text ("out of bounds") says nothing to a user: a bag whose
+            // index cannot be read was cut short or joined to another file.
+            match r.map_err(|_| {
+                fail(
+                    "truncated or corrupt recording: its index cannot be read (an incomplete copy, or files joined): copy the recording again, or record again"
+                        .into(),
+                )
             })? {
                 IndexRecord::Connection(c) => {
                     topics.insert(c.id, (c.topic.to_string(), c.tp.to_string()));
@@ -871,5 +879,31 @@ mod tests {
         );
         let e = BagRecording::open(&p).err().unwrap().to_string();
         assert!(e.starts_with(&p.display().to_string()), "{e}");
+    }
+
+    #[test]
+    fn a_bag_cut_slightly_short_or_joined_to_itself_is_a_truncated_or_corrupt_recording() {
+        let bag = std::fs::read(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/fixtures/bags/baseline/recording.bag"
+        ))
+        .unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("x.bag");
+        for (what, bytes) in [
+            ("cut 1% short", bag[..bag.len() * 99 / 100].to_vec()),
+            ("joined to itself", [bag.as_slice(), bag.as_slice()].concat()),
+        ] {
+            std::fs::write(&p, &bytes).unwrap();
+            let e = match BagRecording::open(&p) {
+                Ok(_) => panic!("{what}: opened"),
+                Err(e) => e.to_string(),
+            };
+            assert!(
+                e.contains("truncated") && e.contains("copy the recording again"),
+                "{what}: {e}"
+            );
+            assert!(!e.contains("out of bounds") && !e.contains("rosbag"), "{what}: {e}");
+        }
     }
 }

@@ -175,14 +175,15 @@ fn has_png_frames(session: &Path) -> bool {
     session.join("color").is_dir() && session.join("depth").is_dir()
 }
 
-/// The `*.bag` files of `session` (not hidden), sorted.
+/// The `*.bag` entries of `session` (not hidden), sorted: files, and folders named like
+/// one (refused by [`rgbd_frames`] naming them, rather than overlooked).
 fn bag_files(session: &Path) -> Vec<PathBuf> {
     let mut v: Vec<PathBuf> = std::fs::read_dir(session)
         .map(|rd| {
             rd.flatten()
                 .map(|e| e.path())
                 .filter(|p| {
-                    p.is_file()
+                    (p.is_file() || p.is_dir())
                         && !is_hidden(p)
                         && p.extension().is_some_and(|e| e.eq_ignore_ascii_case("bag"))
                 })
@@ -206,6 +207,12 @@ pub enum RgbdFrames {
 /// refused (which one was meant is not known).
 pub fn rgbd_frames(session: &Path) -> Result<Option<RgbdFrames>, RgbdError> {
     let bags = bag_files(session);
+    if let Some(folder) = bags.iter().find(|p| p.is_dir()) {
+        return Err(RgbdError::Layout {
+            path: folder.clone(),
+            why: "a folder, not a recording: a RealSense recording is one .bag file: put the file itself in the session folder".into(),
+        });
+    }
     let names = |v: &[PathBuf]| {
         v.iter()
             .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
@@ -535,6 +542,21 @@ pub fn undistorter(intr: &RgbdIntrinsics) -> Result<Undistorter, crate::calib::C
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    #[test]
+    fn a_folder_named_like_a_bag_is_refused_naming_it() {
+        let d = tempfile::tempdir().unwrap();
+        std::fs::create_dir(d.path().join("x.bag")).unwrap();
+        assert!(is_rgbd_session(d.path()));
+        let e = rgbd_frames(d.path()).unwrap_err().to_string();
+        assert_eq!(
+            e,
+            format!(
+                "{}: a folder, not a recording: a RealSense recording is one .bag file: put the file itself in the session folder",
+                d.path().join("x.bag").display()
+            )
+        );
+    }
 
     #[test]
     fn intrinsics_read_and_check() {

@@ -202,6 +202,91 @@ fn failing_detect_key(text: &str) -> Option<(String, usize)> {
     })
 }
 
+/// What a serde type name means to a user writing TOML.
+fn plain_expected(expected: &str) -> String {
+    let e = expected.trim();
+    match e {
+        "i8" | "i16" | "i32" | "i64" => "a whole number".into(),
+        "u8" | "u16" | "u32" | "u64" | "usize" => "a whole number >= 0".into(),
+        "f32" | "f64" => "a number".into(),
+        "a sequence" => "a list `[...]`".into(),
+        "a boolean" => "true or false".into(),
+        "a string" | "a borrowed string" => "text in quotes".into(),
+        _ => e.to_string(),
+    }
+}
+
+/// What a serde description of a value (`floating point `35.5``, `string "1"`,
+/// `integer `-1``, `sequence`) means to a user writing TOML.
+fn plain_value(value: &str) -> String {
+    let v = value.trim();
+    let inner = |prefix: &str| {
+        v.strip_prefix(prefix)
+            .map(|r| r.trim().trim_matches('`').to_string())
+    };
+    if let Some(x) = inner("floating point") {
+        format!("the decimal number {x}")
+    } else if let Some(x) = inner("integer") {
+        if x.starts_with('-') {
+            format!("the negative number {x}")
+        } else {
+            format!("the whole number {x}")
+        }
+    } else if let Some(x) = inner("string") {
+        format!("the text {x}")
+    } else if let Some(x) = inner("boolean") {
+        format!("{x}")
+    } else {
+        match v {
+            "sequence" => "a list".into(),
+            "map" => "a table".into(),
+            _ => v.to_string(),
+        }
+    }
+}
+
+/// An example of a valid value of the session key `key` (its last dotted part), for
+/// messages about a value of the wrong type.
+fn key_example(key: &str) -> Option<&'static str> {
+    Some(match key.rsplit('.').next().unwrap_or(key) {
+        "hue_min" | "hue_max" | "hue_max_low" | "hue_min_high" => {
+            "0..180 (OpenCV's hue: degrees / 2), e.g. hue_min = 35"
+        }
+        "s_min" | "v_min" | "v_max" => "0..255, e.g. s_min = 100",
+        "min_area_px" | "max_area_px" => "pixels, e.g. min_area_px = 6",
+        "segments" => {
+            "the marker numbers of each segment, from 1 at the clamped end, e.g. segments = [[1, 2, 3], [3, 4, 5]]"
+        }
+        "roi" => "undistorted pixel corners [x, y], e.g. roi = [[100, 50], [1800, 50], [1800, 1000]]",
+        "expected_markers" => "e.g. expected_markers = 8",
+        "frame_stride" => "e.g. frame_stride = 2",
+        "cols" | "rows" => "inner corners, e.g. cols = 9",
+        "colour" => "red, green, blue, yellow or dark, e.g. colour = \"green\"",
+        "clamp_side" => "left, right, top or bottom, e.g. clamp_side = \"right\"",
+        "smooth_s" => "seconds, e.g. smooth_s = 0.2",
+        _ => return None,
+    })
+}
+
+/// A serde type error (`invalid type: floating point `35.5`, expected i64`) in a user's
+/// words, with an example of the key's form when one is known; other messages unchanged.
+fn plain_type_error(msg: &str, key: &str) -> String {
+    let rest = msg
+        .strip_prefix("invalid type: ")
+        .or_else(|| msg.strip_prefix("invalid value: "));
+    let Some((value, expected)) = rest.and_then(|r| r.rsplit_once(", expected ")) else {
+        return msg.to_string();
+    };
+    let example = key_example(key)
+        .map(|e| format!(": {e}"))
+        .unwrap_or_default();
+    format!(
+        "got {}, expected {}{example}",
+        plain_value(value),
+        plain_expected(expected)
+    )
+}
+
 /// A TOML or serde error as `line L: what`, naming the key: an unknown key by name (and
 /// its `[table]`), a value of the wrong type by the key it is set to.
 fn describe_toml_error(text: &str, e: &toml::de::Error) -> String {
@@ -230,7 +315,7 @@ fn describe_toml_error(text: &str, e: &toml::de::Error) -> String {
         match failing_detect_key(text) {
             Some((key, key_line)) if key_line > 0 => {
                 line = key_line;
-                format!("`detect.{key}`: {msg}")
+                format!("`detect.{key}`: {}", plain_type_error(msg, &key))
             }
             _ => format!("[detect]: {msg}"),
         }
@@ -239,7 +324,7 @@ fn describe_toml_error(text: &str, e: &toml::de::Error) -> String {
             .map(|t| format!("{t}."))
             .unwrap_or_default();
         match key_at(text, span.start) {
-            Some(key) => format!("`{table}{key}`: {msg}"),
+            Some(key) => format!("`{table}{key}`: {}", plain_type_error(msg, &key)),
             None => msg.to_string(),
         }
     };
@@ -470,10 +555,42 @@ mod tests {
         );
         let e = error_of("mm_per_px = 0.2\nexpected_markers = \"eight\"\n");
         assert!(
-            e.starts_with("line 2: `expected_markers`: invalid type"),
+            e.starts_with("line 2: `expected_markers`: got the text \"eight\", expected a whole number >= 0: e.g. expected_markers = 8"),
             "{e}"
         );
         let e = error_of("frame_stride = 1\nmodel = fisheye\n");
+        assert!(e.starts_with("line 2: "), "{e}");
+        // Values of the wrong type in a user's words, with the form the key takes.
+        for (text, want) in [
+            (
+                "[detect]\nhue_min = 35.5\n",
+                "line 2: `detect.hue_min`: got the decimal number 35.5, expected a whole number: 0..180 (OpenCV's hue: degrees / 2), e.g. hue_min = 35",
+            ),
+            (
+                "[detect]\ns_min = 90\nhue_min = \"35\"\n",
+                "line 3: `detect.hue_min`: got the text \"35\", expected a whole number: 0..180",
+            ),
+            (
+                "segments = [[\"1\", \"2\", \"3\"], [3, 4, 5]]\n",
+                "line 1: `segments`: got the text \"1\", expected a whole number >= 0: the marker numbers of each segment, from 1 at the clamped end, e.g. segments = [[1, 2, 3], [3, 4, 5]]",
+            ),
+            (
+                "segments = [[1.0, 2.0, 3.0], [3, 4, 5]]\n",
+                "line 1: `segments`: got the decimal number 1.0, expected a whole number >= 0: the marker",
+            ),
+            (
+                "segments = [[-1, 2, 3], [3, 4, 5]]\n",
+                "line 1: `segments`: got the negative number -1, expected a whole number >= 0: the marker",
+            ),
+            (
+                "segments = [1, 2, 3, 4, 5]\n",
+                "line 1: `segments`: got the whole number 1, expected a list `[...]`: the marker numbers of each segment, from 1 at the clamped end, e.g. segments = [[1, 2, 3], [3, 4, 5]]",
+            ),
+        ] {
+            let e = error_of(text);
+            assert!(e.starts_with(want), "{text:?}:\n{e}\n{want}");
+            assert!(!e.contains("i64") && !e.contains("usize"), "{e}");
+        }
         assert!(e.starts_with("line 2: "), "{e}");
         assert_eq!(
             error_of("\n\nframe_stride = 0\n"),

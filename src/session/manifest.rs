@@ -251,9 +251,7 @@ pub fn read_manifest(session: &Path) -> Result<Manifest, SessionError> {
             .cloned()
             .or_else(|| photo_item(session, &file))
         else {
-            issues.push(issue(
-                "no such video, photo or photo folder in the session folder: check the name".into(),
-            ));
+            issues.push(issue(why_not_an_item(session, &file)));
             continue;
         };
         entries.push(ManifestEntry {
@@ -315,6 +313,37 @@ pub fn read_manifest(session: &Path) -> Result<Manifest, SessionError> {
     })
 }
 
+/// Why the file a manifest row names is neither a video, a photo nor a photo folder of
+/// the session: it is missing, or it is there but nested, not a regular file (a pipe, a
+/// device) or in a format bendscope does not read.
+fn why_not_an_item(session: &Path, file: &str) -> String {
+    let path = session.join(file);
+    let nested = file.contains(['/', '\\']);
+    match std::fs::metadata(&path) {
+        Ok(_) if nested => "no such video, photo or photo folder in the session folder itself: nested paths are not supported: put it in the session folder and name it without a folder".into(),
+        Ok(m) if !m.is_file() && !m.is_dir() => "not a regular file (a pipe, socket or device): copy the video or photo into the session folder".into(),
+        Ok(m) if m.is_file() => {
+            let ext = path
+                .extension()
+                .map(|e| e.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            let what = if ext.is_empty() {
+                "a file without an extension".to_string()
+            } else {
+                format!("a .{ext} file")
+            };
+            format!(
+                "{what}, a format bendscope does not read: convert it to a photo (.jpg, .png, .tif) or a video (.mp4, .mov, .m4v, .mkv, .avi, .webm)"
+            )
+        }
+        Ok(_) => "a folder bendscope keeps for itself (calib, bendscope-out): not a photo folder: rename it".into(),
+        Err(e) if e.kind() == std::io::ErrorKind::PermissionDenied => {
+            "permission denied: make it readable (chmod a+r)".into()
+        }
+        Err(_) => "no such video, photo or photo folder in the session folder: check the name".into(),
+    }
+}
+
 /// The photo protocol: a row may name a photo (JPEG, PNG, TIFF) or a folder of photos
 /// (a burst) in the session folder itself; `Some(name)` when `file` is one.
 fn photo_item(session: &Path, file: &str) -> Option<String> {
@@ -330,7 +359,7 @@ fn photo_item(session: &Path, file: &str) -> Option<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::session::KPA_PER_PSI;
+    use crate::session::{PressureUnit, KPA_PER_PSI};
 
     fn session(rows: &str, files: &[&str]) -> tempfile::TempDir {
         let d = tempfile::tempdir().unwrap();
@@ -407,6 +436,112 @@ mod tests {
         assert!(has("MISSING.MP4: no such video"), "{msgs:?}");
         assert!(has("GX010004.MP4: no pressure in this row"), "{msgs:?}");
         assert!(has("GX010009.MP4: not in pressures.csv"), "{msgs:?}");
+    }
+
+    #[test]
+    fn decimal_commas_in_a_comma_separated_manifest_are_an_error_at_the_row() {
+        let files = ["GX010101.MP4", "GX010102.MP4"];
+        for (rows, line) in [
+            // A row with a decimal comma among correct ones: the whole manifest stops.
+            ("file,pressure_kpa\nGX010101.MP4,20\nGX010102.MP4,35,5\n", 3),
+            ("file,pressure_bar\nGX010101.MP4,0,2\nGX010102.MP4,0,35\n", 2),
+        ] {
+            let d = session(rows, &files);
+            let e = read_manifest(d.path()).unwrap_err().to_string();
+            assert!(
+                e.contains(&format!("pressures.csv: line {line}: this row has 3 fields where the header")),
+                "{e}"
+            );
+            assert!(
+                e.contains("decimal comma? use a semicolon separator or a decimal point"),
+                "{e}"
+            );
+        }
+        // The same values with a semicolon separator read as decimals.
+        let d = session(
+            "file;pressure_bar\nGX010101.MP4;0,2\nGX010102.MP4;0,35\n",
+            &files,
+        );
+        let m = read_manifest(d.path()).unwrap();
+        let kpa: Vec<f64> = m.entries.iter().map(|e| e.pressure_kpa).collect();
+        assert!((kpa[0] - 20.0).abs() < 1e-9 && (kpa[1] - 35.0).abs() < 1e-9, "{kpa:?}");
+        // A semicolon header over comma rows names the mismatch instead of each row
+        // lacking its pressure.
+        let d = session("file;pressure_kpa\nGX010101.MP4,20\nGX010102.MP4,35\n", &files);
+        let e = read_manifest(d.path()).unwrap_err().to_string();
+        assert!(
+            e.contains("line 2: the header is semicolon-separated but this row is comma-separated"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn rows_naming_files_that_are_there_but_unusable_say_why() {
+        let d = session(
+            "file,pressure_kpa\np3.heic,20\nnest/deeper/burst1,30\nGONE.MP4,40\nnoext,50\n",
+            &["p3.heic", "noext"],
+        );
+        std::fs::create_dir_all(d.path().join("nest/deeper/burst1")).unwrap();
+        let m = read_manifest(d.path()).unwrap();
+        let why = |file: &str| {
+            m.issues
+                .iter()
+                .find(|i| i.file == file)
+                .map(|i| i.message.clone())
+                .unwrap_or_default()
+        };
+        assert!(
+            why("p3.heic").starts_with("a .heic file, a format bendscope does not read: convert it"),
+            "{:?}",
+            m.issues
+        );
+        assert!(why("noext").starts_with("a file without an extension"), "{:?}", m.issues);
+        assert!(
+            why("nest/deeper/burst1").contains("nested paths are not supported"),
+            "{:?}",
+            m.issues
+        );
+        assert!(why("GONE.MP4").starts_with("no such video"), "{:?}", m.issues);
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_fifo_named_like_a_video_is_not_a_regular_file() {
+        let d = session("file,pressure_kpa\nGX010103.MP4,20\n", &[]);
+        let fifo = d.path().join("GX010103.MP4");
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        assert!(made.is_ok_and(|s| s.success()), "mkfifo failed");
+        let m = read_manifest(d.path()).unwrap();
+        assert_eq!(m.issues.len(), 1, "{:?}", m.issues);
+        assert!(
+            m.issues[0].message.starts_with("not a regular file (a pipe, socket or device)"),
+            "{:?}",
+            m.issues
+        );
+    }
+
+    #[test]
+    fn two_pressure_columns_must_agree() {
+        let files = ["GX010101.MP4", "GX010102.MP4"];
+        let d = session(
+            "file,pressure_kpa,pressure_bar\nGX010101.MP4,20,0.2\nGX010102.MP4,35,0.5\n",
+            &files,
+        );
+        let e = read_manifest(d.path()).unwrap_err().to_string();
+        assert_eq!(
+            e,
+            format!(
+                "{}: line 3: two pressure columns disagree: pressure_kpa is 35 (35 kPa) and pressure_bar is 0.5 (50 kPa): keep one pressure column",
+                d.path().join(MANIFEST).display()
+            )
+        );
+        // Columns that agree (to rounding) are fine: the first one is used.
+        let d = session(
+            "file,pressure_kpa,pressure_psi\nGX010101.MP4,20,2.9\nGX010102.MP4,35,5.08\n",
+            &files,
+        );
+        let m = read_manifest(d.path()).unwrap();
+        assert_eq!((m.unit, m.entries[1].pressure_kpa), (PressureUnit::Kpa, 35.0));
     }
 
     #[test]

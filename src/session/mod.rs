@@ -144,25 +144,61 @@ pub fn session_videos(session: &Path) -> Vec<String> {
     v
 }
 
+/// Two pressure columns of one row agree when they differ by less than this share of the
+/// larger (a value converted by hand and rounded to a few digits still agrees).
+const PRESSURE_COLUMNS_AGREE_REL: f64 = 0.01;
+
 /// The pressure column of a table and its unit: the first column named `pressure_bar`,
 /// `pressure_kpa` or `pressure_psi` (any case), else an error naming the header.
+///
+/// A table may hold more than one of them only when they agree in every row: where two
+/// give different pressures (`pressure_kpa` 20 beside `pressure_bar` 0.5), which one is
+/// meant is unknown, and the error names both and the line.
 fn require_pressure_column(table: &Table) -> Result<(usize, PressureUnit), TableError> {
-    table
+    let mut found = table
         .columns()
         .iter()
         .enumerate()
-        .find_map(|(i, c)| match c.to_ascii_lowercase().as_str() {
+        .filter_map(|(i, c)| match c.to_ascii_lowercase().as_str() {
             "pressure_bar" => Some((i, PressureUnit::Bar)),
             "pressure_kpa" => Some((i, PressureUnit::Kpa)),
             "pressure_psi" => Some((i, PressureUnit::Psi)),
             _ => None,
-        })
-        .ok_or_else(|| {
-            table.header_error(format!(
-                "no pressure column with a unit in the header `{}`: name it pressure_bar, pressure_kpa or pressure_psi",
-                table.header_text()
-            ))
-        })
+        });
+    let first = found.next().ok_or_else(|| {
+        table.header_error(format!(
+            "no pressure column with a unit in the header `{}`: name it pressure_bar, pressure_kpa or pressure_psi",
+            table.header_text()
+        ))
+    })?;
+    for other in found {
+        for row in 0..table.len() {
+            let kpa = |(col, unit): (usize, PressureUnit)| {
+                table
+                    .number(table.cell(row, col).trim())
+                    .filter(|v| v.is_finite())
+                    .map(|v| (v, v * unit.to_kpa()))
+            };
+            let (Some((a, a_kpa)), Some((b, b_kpa))) = (kpa(first), kpa(other)) else {
+                continue;
+            };
+            if (a_kpa - b_kpa).abs() > PRESSURE_COLUMNS_AGREE_REL * a_kpa.abs().max(b_kpa.abs()) {
+                let name = |(col, _): (usize, PressureUnit)| table.columns()[col].clone();
+                // Rounded for the message: 0.35 bar shows as 35 kPa, not 35.00000000000001.
+                let (a_kpa, b_kpa) = ((a_kpa * 1e6).round() / 1e6, (b_kpa * 1e6).round() / 1e6);
+                return Err(table.error_at(
+                    Some(row),
+                    None,
+                    format!(
+                        "two pressure columns disagree: {} is {a} ({a_kpa} kPa) and {} is {b} ({b_kpa} kPa): keep one pressure column",
+                        name(first),
+                        name(other)
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(first)
 }
 
 /// The scale photo of a session: the configured one, or the first `scale.*` image.
