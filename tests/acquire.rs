@@ -1135,10 +1135,15 @@ fn a_camera_left_recording_by_a_killed_run_is_stopped_first_and_the_run_complete
         let run = b.acquire(&b.protocol(STEPS, &sim.port, &camera));
         assert_eq!(run.code, 0, "legacy {legacy}: {run}");
         assert!(
-            run.stderr.contains("was recording (an earlier run killed before it stopped?): stopped that recording"),
+            run.stderr.contains(
+                "was recording (an earlier run killed before it stopped?): stopped that recording"
+            ),
             "legacy {legacy}: {run}"
         );
-        assert!(run.stdout.contains("5 recorded, 5 of 5"), "legacy {legacy}: {run}");
+        assert!(
+            run.stdout.contains("5 recorded, 5 of 5"),
+            "legacy {legacy}: {run}"
+        );
         // The left-over recording (number 201) stays on the camera, outside the session.
         let first = if legacy { "GOPR" } else { "GX01" };
         assert_eq!(
@@ -1198,7 +1203,10 @@ fn a_regulator_port_another_program_holds_is_said_to_be_in_use() {
         .open()
         .expect("the test opens the simulated port");
     let run = b.acquire(&b.protocol(STEPS, &sim.port, &gopro(&cam.url)));
-    run.assert_bad_input(&["regulator on ", "in use by another program (another acquire?)"]);
+    run.assert_bad_input(&[
+        "regulator on ",
+        "in use by another program (another acquire?)",
+    ]);
     assert!(!run.stderr.contains("no such serial port"), "{run}");
     assert!(sets(&reg).is_empty(), "{run}");
 }

@@ -393,7 +393,9 @@ fn material_fit(
         }
         let fit = fit_material(&data, kind, nonnegative)
             .map_err(|e| format!("{}: {e}", table.display()))?;
-        let named = data_name.map(PathBuf::from).unwrap_or_else(|| table.clone());
+        let named = data_name
+            .map(PathBuf::from)
+            .unwrap_or_else(|| table.clone());
         let report =
             write_material_fit(&out, &named, &data, &fit).map_err(|e| chain_message(&e))?;
         Ok((data.warnings, report))

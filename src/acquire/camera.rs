@@ -851,7 +851,10 @@ mod tests {
     #[test]
     fn the_camera_state_says_whether_it_records() {
         for (state, expected) in [
-            (r#"{"status": {"8": 0, "10": 1}, "settings": {}}"#, Some(true)),
+            (
+                r#"{"status": {"8": 0, "10": 1}, "settings": {}}"#,
+                Some(true),
+            ),
             (r#"{"status": {"10": 0}}"#, Some(false)),
             (r#"{"status": {"10": true}}"#, Some(true)),
             (r#"{"status": {"8": 1}}"#, None),

@@ -44,7 +44,11 @@ pub fn report_json(fit: &ModelFit, measured: &Measured) -> Value {
 /// The comment lines `fitted.toml` begins with: what was fitted to what, and every
 /// warning of the fit (a poor fit, a parameter at its bound), so that the file says them
 /// wherever it goes.
-pub fn fitted_toml_header(measured: &Path, parameters: &[(String, f64)], notes: &[String]) -> String {
+pub fn fitted_toml_header(
+    measured: &Path,
+    parameters: &[(String, f64)],
+    notes: &[String],
+) -> String {
     let mut header = format!(
         "# Fitted by bendscope fit-model to {}: {}\n",
         measured.display(),
@@ -185,6 +189,11 @@ mod tests {
         );
         // Still a valid TOML document.
         assert!(toml::from_str::<toml::Table>(&header).is_ok());
-        assert_eq!(fitted_toml_header(Path::new("out"), &[], &[]).lines().count(), 1);
+        assert_eq!(
+            fitted_toml_header(Path::new("out"), &[], &[])
+                .lines()
+                .count(),
+            1
+        );
     }
 }

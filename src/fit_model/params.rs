@@ -244,14 +244,22 @@ mod tests {
                 "--free material.scale: the lower bound 0 is outside the parameter's valid range (",
             ),
             ("scale=-1:2", "the lower bound -1 is outside"),
-            ("geometry.f=-1:8", "--free geometry.f: the lower bound -1 is outside"),
+            (
+                "geometry.f=-1:8",
+                "--free geometry.f: the lower bound -1 is outside",
+            ),
         ] {
             let e = parse_free(spec, &cfg).unwrap_err().to_string();
             assert!(e.contains(needle), "{spec}: {e}");
             assert!(e.contains("give bounds inside it"), "{spec}: {e}");
         }
-        let e = parse_free("material.scale=0:2", &cfg).unwrap_err().to_string();
-        assert!(e.ends_with("give bounds inside it, e.g. material.scale=0.2:5"), "{e}");
+        let e = parse_free("material.scale=0:2", &cfg)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.ends_with("give bounds inside it, e.g. material.scale=0.2:5"),
+            "{e}"
+        );
         assert!(parse_free("material.scale=0.01:2", &cfg).is_ok());
         // A value the geometry refuses is an error, not a panic.
         assert!(with_values(&cfg, &p, &[0.5, -1.0, 0.03]).is_err());
