@@ -594,7 +594,13 @@ fn serve(
             ok(&mut stream)
         }
         "/gopro/camera/control/wired_usb?p=1" | "/gopro/camera/keep_alive" => ok(&mut stream),
-        "/gopro/camera/shutter/start" if s.busy => {
+        "/gopro/camera/state" => {
+            let recording = i32::from(s.recording_kpa.is_some());
+            let body = serde_json::json!({"status": {"8": 0, "10": recording}, "settings": {}});
+            respond(&mut stream, "200 OK", body.to_string().as_bytes(), false)
+        }
+        // Busy, or recording already (a camera starts no second recording).
+        "/gopro/camera/shutter/start" if s.busy || s.recording_kpa.is_some() => {
             respond(&mut stream, "409 Conflict", b"{}", false)
         }
         "/gopro/camera/shutter/start" => {
@@ -1105,6 +1111,54 @@ fn a_cut_download_stays_on_the_camera_and_the_rerun_fetches_it_without_recording
 }
 
 #[test]
+fn a_camera_left_recording_by_a_killed_run_is_stopped_first_and_the_run_completes() {
+    for legacy in [false, true] {
+        let b = Bench::new();
+        let reg = RegState::new(RegMode::Normal);
+        let sim = RegSim::start(b.path(), &reg);
+        // What a run killed (SIGKILL) during its recording at 50 kPa leaves: the camera
+        // recording.
+        let left = CamState {
+            recording_kpa: Some(50.0),
+            encoding: legacy,
+            ..Default::default()
+        };
+        let (cam, camera) = if legacy {
+            let cam = CamSim::wifi(left, &reg);
+            let camera = gopro_wifi(&cam);
+            (cam, camera)
+        } else {
+            let cam = CamSim::films(left, &reg);
+            let camera = gopro(&cam.url);
+            (cam, camera)
+        };
+        let run = b.acquire(&b.protocol(STEPS, &sim.port, &camera));
+        assert_eq!(run.code, 0, "legacy {legacy}: {run}");
+        assert!(
+            run.stderr.contains(
+                "was recording (an earlier run killed before it stopped?): stopped that recording"
+            ),
+            "legacy {legacy}: {run}"
+        );
+        assert!(
+            run.stdout.contains("5 recorded, 5 of 5"),
+            "legacy {legacy}: {run}"
+        );
+        // The left-over recording (number 201) stays on the camera, outside the session.
+        let first = if legacy { "GOPR" } else { "GX01" };
+        assert_eq!(
+            manifest(&b.session()),
+            (0..5)
+                .map(|i| (format!("{first}{:04}.MP4", 202 + i), EXAMPLE_KPA[i]))
+                .collect::<Vec<_>>(),
+            "legacy {legacy}"
+        );
+        assert_videos_match_the_example(&b.session());
+        assert_eq!(cam.state.lock().unwrap().recordings, 6, "legacy {legacy}");
+    }
+}
+
+#[test]
 fn missing_or_wrong_devices_are_refused_with_what_to_check() {
     let b = Bench::new();
     let cam = CamSim::start(CamState::default());
@@ -1136,6 +1190,25 @@ fn missing_or_wrong_devices_are_refused_with_what_to_check() {
     run.assert_bad_input(&["GoPro at http://", "is the camera on", "USB address"]);
     assert_eq!(sets(&reg), [0.0]);
     assert!(!b.session().join("pressures.csv").exists());
+}
+
+#[test]
+fn a_regulator_port_another_program_holds_is_said_to_be_in_use() {
+    let b = Bench::new();
+    let cam = CamSim::start(CamState::default());
+    let reg = RegState::new(RegMode::Normal);
+    let sim = RegSim::start(b.path(), &reg);
+    // Held as another acquire holds it: opened exclusively.
+    let _held = serialport::new(sim.port.to_string_lossy(), 115_200)
+        .open()
+        .expect("the test opens the simulated port");
+    let run = b.acquire(&b.protocol(STEPS, &sim.port, &gopro(&cam.url)));
+    run.assert_bad_input(&[
+        "regulator on ",
+        "in use by another program (another acquire?)",
+    ]);
+    assert!(!run.stderr.contains("no such serial port"), "{run}");
+    assert!(sets(&reg).is_empty(), "{run}");
 }
 
 #[test]

@@ -26,7 +26,10 @@ simply run again: ``process`` reuses the videos already measured.
 from __future__ import annotations
 
 import json
+import math
+import numbers
 import os
+import re
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -157,9 +160,41 @@ def process(
     )
 
 
+_BOARD_FORM = "give the inner corners as (columns, rows) or 'COLSxROWS', e.g. board=(9, 6) or board='9x6'"
+
+
+def _whole(value) -> Optional[int]:
+    """``value`` as an int when it is a whole number >= 1 (an int, or digits), else None."""
+    if isinstance(value, bool):
+        return None
+    if isinstance(value, numbers.Integral):
+        n = int(value)
+    elif isinstance(value, str) and value.strip().isdigit():
+        n = int(value.strip())
+    else:
+        return None
+    return n if n >= 1 else None
+
+
+def _board(board) -> Tuple[int, int]:
+    """(columns, rows) of inner corners from ``(9, 6)`` or the CLI's ``"9x6"``; any other
+    form raises :class:`Error` naming the board and the forms."""
+    if isinstance(board, str):
+        parts = re.split(r"\s*[xX\u00d7]\s*", board.strip())
+    else:
+        try:
+            parts = list(board)
+        except TypeError:
+            parts = []
+    whole = [_whole(p) for p in parts]
+    if len(whole) != 2 or None in whole:
+        raise Error(f"board={board!r}: {_BOARD_FORM}")
+    return whole[0], whole[1]
+
+
 def calibrate(
     paths: Union[PathLike, Iterable[PathLike]],
-    board: Tuple[int, int] = (9, 6),
+    board: Union[Tuple[int, int], str] = (9, 6),
     square_mm: float = 25,
     model: str = "fisheye",
     out: Optional[PathLike] = None,
@@ -171,7 +206,8 @@ def calibrate(
     Args:
         paths: images, folders of images or videos of a checkerboard (one path or
             several); 20 frames are sampled evenly from each video.
-        board: inner corners (columns, rows); a 10x7-square board has (9, 6).
+        board: inner corners (columns, rows), or the CLI's text ``"9x6"``; a
+            10x7-square board has (9, 6).
         square_mm: side of one square, mm.
         model: "fisheye" (GoPro, Kannala-Brandt) or "pinhole" (5 Brown coefficients).
         out: YAML file to write [default: calibration/<folder-or-camera-name>.yaml].
@@ -189,9 +225,9 @@ def calibrate(
     Raises:
         Error: no views, no board found in enough views, bad board size, ...
     """
+    cols, rows = _board(board)
     if isinstance(paths, (str, os.PathLike)):
         paths = [paths]
-    cols, rows = board
     raw = json.loads(
         _native.calibrate(
             [os.fspath(p) for p in paths],
@@ -232,11 +268,79 @@ class Simulation:
     problems: list = field(default_factory=list)
 
 
-def _pressures_text(pressures: Union[str, Sequence[float], None]) -> Optional[str]:
-    """The pressures as the CLI's --pressures text: 'start:stop:step' or 'a,b,c'."""
-    if pressures is None or isinstance(pressures, str):
+def _finite(value) -> Optional[float]:
+    """``value`` as a float when it is a finite real number (not a bool), else None."""
+    if isinstance(value, bool) or not isinstance(value, (numbers.Real, str)):
+        return None
+    try:
+        v = float(value)
+    except ValueError:
+        return None
+    return v if math.isfinite(v) else None
+
+
+def _pressures_text(pressures: Union[str, float, Sequence[float], None]) -> Optional[str]:
+    """The pressures as the CLI's --pressures text: 'start:stop:step' or 'a,b,c'; an empty
+    list or a value that is not a finite number raises :class:`Error` naming it."""
+    if pressures is None:
+        return None
+    if isinstance(pressures, str):
+        if not pressures.strip():
+            raise Error("pressures='': empty: give at least one pressure in kPa, e.g. pressures=[20, 40] or '10:115:5'")
         return pressures
-    return ",".join(repr(float(p)) for p in pressures)
+    if isinstance(pressures, numbers.Real) and not isinstance(pressures, bool):
+        pressures = [pressures]
+    try:
+        values = list(pressures)
+    except TypeError:
+        raise Error(
+            f"pressures={pressures!r}: give a list of kPa, e.g. pressures=[20, 40], or the CLI's text '10:115:5'"
+        ) from None
+    if not values:
+        raise Error("pressures: empty list: give at least one pressure in kPa, e.g. pressures=[20, 40]")
+    out = []
+    for i, p in enumerate(values):
+        v = _finite(p)
+        if v is None:
+            raise Error(f"pressures[{i}] = {p!r}: not a finite number: give pressures in kPa, e.g. pressures=[20, 40]")
+        out.append(repr(v))
+    return ",".join(out)
+
+
+def _mesh_size(mesh_size) -> Optional[float]:
+    """``mesh_size`` as a float, refused unless a finite number > 0 (the library bounds
+    the number of cells it gives)."""
+    if mesh_size is None:
+        return None
+    v = _finite(mesh_size)
+    if v is None or v <= 0:
+        raise Error(
+            f"mesh_size={mesh_size!r}: give the largest element edge in mm, a finite number > 0, e.g. mesh_size=4 (coarse) or 1.5 (the default)"
+        )
+    return v
+
+
+def _non_finite(value, path: str):
+    """(key path, value) of every NaN or infinity in a config dict, e.g. ("geometry.b", nan)."""
+    if isinstance(value, dict):
+        for k, v in value.items():
+            yield from _non_finite(v, f"{path}.{k}" if path else str(k))
+    elif isinstance(value, (list, tuple)):
+        for i, v in enumerate(value):
+            yield from _non_finite(v, f"{path}[{i}]")
+    elif isinstance(value, numbers.Real) and not isinstance(value, bool):
+        if not math.isfinite(float(value)):
+            yield path, value
+
+
+def _config_json(config: dict) -> str:
+    """A config dict as JSON text; a NaN or infinity in it raises :class:`Error` naming
+    its key (JSON has no such numbers, and a value present is never dropped)."""
+    for path, value in _non_finite(config, ""):
+        raise Error(
+            f"the config dict's {path} = {float(value)!r}: not a finite number: give a number (see bendscope.default_config())"
+        )
+    return json.dumps(config)
 
 
 def simulate(
@@ -253,8 +357,9 @@ def simulate(
     Args:
         config: actuator TOML file, or a dict such as :func:`default_config` returns
             (edited) [default: the reference actuator].
-        pressures: kPa, a list ``[10, 20]`` or the CLI's text ``"10:115:5"``.
-        mesh_size: largest element edge, mm [default: 1.5].
+        pressures: kPa, a list ``[10, 20]`` (or one number) or the CLI's text
+            ``"10:115:5"``.
+        mesh_size: largest element edge, mm, a finite number > 0 [default: 1.5].
         out: output folder [default: fem-out, as the CLI].
         blocked: also run the blocked-tip analysis (force.csv).
         vtu: write the VTK files (vtu/, actuator.pvd).
@@ -264,17 +369,21 @@ def simulate(
         a :class:`Simulation`.
 
     Raises:
-        Error: a bad config or pressures, or no step converged.
+        Error: a bad config (a NaN or infinity in a config dict is named by its key),
+            pressures (an empty list, a value that is not a finite number) or
+            mesh_size, or no step converged.
     """
     out = Path("fem-out" if out is None else out)
     is_dict = isinstance(config, dict)
+    pressures_text = _pressures_text(pressures)
+    mesh_size_mm = _mesh_size(mesh_size)
     raw = json.loads(
         _native.simulate(
             os.fspath(out),
-            json.dumps(config) if is_dict else (None if config is None else os.fspath(config)),
+            _config_json(config) if is_dict else (None if config is None else os.fspath(config)),
             is_dict,
-            _pressures_text(pressures),
-            None if mesh_size is None else float(mesh_size),
+            pressures_text,
+            mesh_size_mm,
             bool(blocked),
             bool(vtu),
             progress,
@@ -405,18 +514,53 @@ def material_fit(
         Error: the table cannot be read or the fit fails.
     """
     out = Path("material-fit" if out is None else out)
-    with tempfile.TemporaryDirectory() as tmp:
-        if isinstance(table, pd.DataFrame):
+    if not isinstance(table, pd.DataFrame):
+        raw = _material_fit(Path(table), out, model, nonnegative, None)
+    else:
+        if len(table) == 0:
+            raise Error(
+                f"the DataFrame is empty (columns {list(table.columns)}, no rows): give the stretch or strain and the nominal stress, e.g. columns stretch, stress_mpa"
+            )
+        with tempfile.TemporaryDirectory() as tmp:
             path = Path(tmp) / "tensile.csv"
             table.to_csv(path, index=False)
-        else:
-            path = Path(table)
-        raw = json.loads(
-            _native.material_fit(os.fspath(path), os.fspath(out), str(model), bool(nonnegative))
-        )
+            try:
+                raw = _material_fit(path, out, model, nonnegative, _DATAFRAME)
+            except Error as e:
+                raise Error(_of_dataframe(str(e), path, table)) from None
+            raw["warnings"] = [_of_dataframe(w, path, table) for w in raw["warnings"]]
     result = _json(out / "material_fit.json") or {}
     result["problems"] = ["warning: " + w for w in raw["warnings"]]
     if raw["refused"]:
         result["problems"].append("note: " + raw["refused"])
     result["out"] = out
     return result
+
+
+# How a DataFrame given to material_fit is named in messages and in the outputs.
+_DATAFRAME = "the DataFrame"
+
+
+def _material_fit(path: Path, out: Path, model: str, nonnegative: bool, data_name: Optional[str]) -> dict:
+    return json.loads(
+        _native.material_fit(os.fspath(path), os.fspath(out), str(model), bool(nonnegative), data_name)
+    )
+
+
+def _of_dataframe(message: str, path: Path, table: pd.DataFrame) -> str:
+    """A message about the temporary CSV a DataFrame was written to, said of the
+    DataFrame: a data line becomes its row (index label), the header line its columns."""
+    text = message.replace(str(path), _DATAFRAME)
+    m = re.match(re.escape(_DATAFRAME) + r": line (\d+)", text)
+    if not m:
+        return text
+    position = int(m.group(1)) - 2  # line 1 is the header, one line per row
+    if position < 0:
+        where = f"columns {list(table.columns)}"
+    elif position < len(table):
+        label = table.index[position]
+        label = label.item() if hasattr(label, "item") else label  # numpy scalar -> int
+        where = f"row {label!r}"
+    else:
+        return text
+    return f"{_DATAFRAME}: {where}{text[m.end():]}"

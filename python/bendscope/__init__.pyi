@@ -54,7 +54,7 @@ def process(
 ) -> ProcessResult: ...
 def calibrate(
     paths: Union[PathLike, Iterable[PathLike]],
-    board: Tuple[int, int] = (9, 6),
+    board: Union[Tuple[int, int], str] = (9, 6),
     square_mm: float = 25,
     model: str = "fisheye",
     out: Optional[PathLike] = None,
@@ -63,7 +63,7 @@ def calibrate(
 ) -> dict: ...
 def simulate(
     config: Union[PathLike, dict, None] = None,
-    pressures: Union[str, Sequence[float], None] = None,
+    pressures: Union[str, float, Sequence[float], None] = None,
     mesh_size: Optional[float] = None,
     out: Optional[PathLike] = None,
     blocked: bool = False,

@@ -47,12 +47,16 @@ fn error(message: impl std::fmt::Display) -> PyErr {
     Error::new_err(message.to_string())
 }
 
-/// An error and its causes on one line, as the binary's `main` prints them.
+/// An error and its causes on one line, as the binary's `main` prints them; a cause
+/// the message already ends with (an error that shows its source) is not repeated.
 fn chain_message(e: &dyn std::error::Error) -> String {
     let mut msg = e.to_string();
     let mut cause = e.source();
     while let Some(c) = cause {
-        msg.push_str(&format!(": {c}"));
+        let text = c.to_string();
+        if !msg.ends_with(&text) {
+            msg.push_str(&format!(": {text}"));
+        }
         cause = c.source();
     }
     msg
@@ -366,22 +370,34 @@ fn compare(
 
 /// Fits a hyperelastic model to uniaxial tensile data (`bendscope material fit`) into
 /// `out`; returns JSON: the data's warnings and why no material block was written.
+/// `data_name` names the data in the outputs instead of `table` (a DataFrame's
+/// temporary CSV the user never wrote).
 #[pyfunction]
-#[pyo3(signature = (table, out, model="yeoh3", nonnegative=false))]
+#[pyo3(signature = (table, out, model="yeoh3", nonnegative=false, data_name=None))]
 fn material_fit(
     py: Python<'_>,
     table: PathBuf,
     out: PathBuf,
     model: &str,
     nonnegative: bool,
+    data_name: Option<String>,
 ) -> PyResult<String> {
     let kind = model.parse().map_err(error)?;
     let result = py.detach(|| -> Result<_, String> {
-        let data = TensileData::read(&table).map_err(|e| e.to_string())?;
+        let mut data = TensileData::read(&table).map_err(|e| e.to_string())?;
+        if let Some(name) = &data_name {
+            let path = table.display().to_string();
+            for w in &mut data.warnings {
+                *w = w.replace(&path, name);
+            }
+        }
         let fit = fit_material(&data, kind, nonnegative)
             .map_err(|e| format!("{}: {e}", table.display()))?;
+        let named = data_name
+            .map(PathBuf::from)
+            .unwrap_or_else(|| table.clone());
         let report =
-            write_material_fit(&out, &table, &data, &fit).map_err(|e| chain_message(&e))?;
+            write_material_fit(&out, &named, &data, &fit).map_err(|e| chain_message(&e))?;
         Ok((data.warnings, report))
     });
     let (warnings, report) = result.map_err(error)?;

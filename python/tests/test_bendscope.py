@@ -10,6 +10,7 @@ import math
 import os
 import re
 import subprocess
+import sys
 from pathlib import Path
 
 import pandas as pd
@@ -194,3 +195,147 @@ def test_compare_matches_the_cli(tmp_path):
     assert py.compared > 0 and py.table is not None
     assert_frames_close(py.table, pd.read_csv(tmp_path / "cli" / "compare.csv"), SAME_RUN_TOLERANCE)
     assert py.summary == (tmp_path / "cli" / "summary.txt").read_text()
+
+
+# ---------------------------------------------------------------- bad input, by name
+
+@pytest.mark.parametrize(
+    "board",
+    ["9 by 6", "9x6x2", (9,), (9, 6, 1), (9.5, 6), (-9, 6), (0, 6), (True, 6), 96, None],
+)
+def test_a_board_in_another_form_is_named_with_the_forms(tmp_path, board):
+    with pytest.raises(bendscope.Error) as e:
+        bendscope.calibrate(EXAMPLE / "calib", board=board, out=tmp_path / "c.yaml")
+    assert str(e.value) == f"board={board!r}: " + (
+        "give the inner corners as (columns, rows) or 'COLSxROWS', e.g. board=(9, 6) or board='9x6'"
+    )
+
+
+def test_the_clis_board_text_is_taken(tmp_path):
+    # "9x6" passes the board check: the error is then the missing views', not the board's.
+    for board in ["9x6", " 9 X 6 ", ("9", "6"), [9, 6]]:
+        with pytest.raises(bendscope.Error) as e:
+            bendscope.calibrate(tmp_path / "no-views", board=board, out=tmp_path / "c.yaml")
+        assert str(e.value) == f"{tmp_path / 'no-views'}: no such file or folder", (board, str(e.value))
+
+
+@pytest.mark.parametrize(
+    "section, key, value, shown",
+    [
+        ("geometry", "b", math.nan, "geometry.b = nan"),
+        ("material", "c1", math.inf, "material.c1 = inf"),
+        ("mesh", "size_mm", -math.inf, "mesh.size_mm = -inf"),
+    ],
+)
+def test_a_nan_or_inf_in_a_config_dict_is_named_by_its_key(tmp_path, section, key, value, shown):
+    cfg = bendscope.default_config()
+    cfg[section][key] = value
+    with pytest.raises(bendscope.Error) as e:
+        bendscope.simulate(config=cfg, out=tmp_path / "fem", vtu=False)
+    assert str(e.value) == (
+        f"the config dict's {shown}: not a finite number: give a number (see bendscope.default_config())"
+    )
+    assert not (tmp_path / "fem").exists()
+
+
+def test_a_nan_in_a_config_dicts_list_is_named_by_its_index(tmp_path):
+    cfg = bendscope.default_config()
+    cfg["load"]["gravity_direction"] = [math.nan, 0.0, 0.0]
+    with pytest.raises(bendscope.Error, match=r"^the config dict's load\.gravity_direction\[0\] = nan: "):
+        bendscope.simulate(config=cfg, out=tmp_path / "fem", vtu=False)
+
+
+@pytest.mark.parametrize(
+    "pressures, message",
+    [
+        ([], "pressures: empty list: give at least one pressure in kPa, e.g. pressures=[20, 40]"),
+        ((), "pressures: empty list: give at least one pressure in kPa, e.g. pressures=[20, 40]"),
+        ("", "pressures='': empty: give at least one pressure in kPa, e.g. pressures=[20, 40] or '10:115:5'"),
+        ([20, math.nan], "pressures[1] = nan: not a finite number: give pressures in kPa, e.g. pressures=[20, 40]"),
+        ([math.inf], "pressures[0] = inf: not a finite number: give pressures in kPa, e.g. pressures=[20, 40]"),
+        ([20, "forty"], "pressures[1] = 'forty': not a finite number: give pressures in kPa, e.g. pressures=[20, 40]"),
+        ([None], "pressures[0] = None: not a finite number: give pressures in kPa, e.g. pressures=[20, 40]"),
+    ],
+)
+def test_bad_pressures_are_named_as_given(tmp_path, pressures, message):
+    with pytest.raises(bendscope.Error) as e:
+        bendscope.simulate(pressures=pressures, mesh_size=4, out=tmp_path / "fem", vtu=False)
+    assert str(e.value) == message
+
+
+@pytest.mark.parametrize("mesh_size", [0, -1.5, math.nan, math.inf, "fine"])
+def test_a_mesh_size_that_is_no_positive_number_is_refused(tmp_path, mesh_size):
+    with pytest.raises(bendscope.Error) as e:
+        bendscope.simulate(pressures=[20], mesh_size=mesh_size, out=tmp_path / "fem", vtu=False)
+    assert str(e.value).startswith(f"mesh_size={mesh_size!r}: give the largest element edge in mm, a finite number > 0")
+
+
+# Address space the child running a tiny mesh size gets: an allocation the library did not
+# bound then aborts the child (as it would kill a notebook kernel), not this test run.
+CHILD_ADDRESS_SPACE_BYTES = 3 << 30
+
+
+def test_a_tiny_mesh_size_raises_instead_of_killing_the_interpreter(tmp_path):
+    # 1e-9 mm is positive and finite: the library's bound on the mesh's cells refuses it.
+    code = f"""
+import resource
+import bendscope
+resource.setrlimit(resource.RLIMIT_AS, ({CHILD_ADDRESS_SPACE_BYTES}, {CHILD_ADDRESS_SPACE_BYTES}))
+try:
+    bendscope.simulate(pressures=[20], mesh_size=1e-9, out={str(tmp_path / 'fem')!r}, vtu=False)
+    print("returned")
+except bendscope.Error as e:
+    print("Error:", e)
+"""
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, (run.returncode, run.stderr[-2000:])
+    assert run.stdout.startswith("Error:"), run.stdout
+    assert "mesh" in run.stdout.lower(), run.stdout
+
+
+def test_a_nan_in_a_config_file_is_refused_by_its_key(tmp_path):
+    # A TOML file reaches the library as written: its check names the key.
+    bad = tmp_path / "bnan.toml"
+    bad.write_text("[geometry]\nb = nan\n")
+    with pytest.raises(bendscope.Error) as e:
+        bendscope.simulate(config=bad, pressures=[20], mesh_size=4, out=tmp_path / "fem", vtu=False)
+    assert re.search(r"\bb\b", str(e.value)) and "nan" in str(e.value).lower(), str(e.value)
+    assert not (tmp_path / "fem" / "steps.csv").exists()
+
+
+def test_material_fit_errors_name_the_dataframes_row_and_column(tmp_path):
+    stretch = [1.0 + 0.05 * i for i in range(1, 8)]
+    good = pd.DataFrame({"stretch": stretch, "stress_mpa": [0.1 * (l - l**-2) for l in stretch]})
+    nan = good.copy()
+    nan.loc[2, "stretch"] = math.nan
+    with pytest.raises(bendscope.Error) as e:
+        bendscope.material_fit(nan, out=tmp_path / "fit")
+    assert str(e.value) == "the DataFrame: row 2, column stretch: empty cell: give a number"
+    # Index labels, not positions.
+    labelled = nan.set_axis([f"s{i}" for i in range(len(nan))])
+    with pytest.raises(bendscope.Error) as e:
+        bendscope.material_fit(labelled, out=tmp_path / "fit")
+    assert str(e.value).startswith("the DataFrame: row 's2', column stretch: ")
+    # The header: the columns, not a file.
+    with pytest.raises(bendscope.Error) as e:
+        bendscope.material_fit(good.rename(columns={"stretch": "x"}), out=tmp_path / "fit")
+    assert str(e.value).startswith("the DataFrame: columns ['x', 'stress_mpa']: no stretch or strain column"), str(e.value)
+    for message in [str(e.value)]:
+        assert "tensile.csv" not in message and "tmp" not in message
+    # Too few rows for the model: the DataFrame, not a temporary file.
+    with pytest.raises(bendscope.Error) as e:
+        bendscope.material_fit(good.head(2), model="yeoh3", out=tmp_path / "fit")
+    assert str(e.value).startswith("the DataFrame: material fit: 2 points for 3 coefficient(s)"), str(e.value)
+    # The fit's own file names the DataFrame too.
+    bendscope.material_fit(good, model="neo-hookean", out=tmp_path / "ok")
+    assert "tensile.csv" not in (tmp_path / "ok" / "material.toml").read_text()
+    assert json.loads((tmp_path / "ok" / "material_fit.json").read_text())["data"] == "the DataFrame"
+
+
+def test_material_fit_of_an_empty_dataframe_says_so(tmp_path):
+    for empty, columns in [(pd.DataFrame(), "[]"), (pd.DataFrame({"stretch": [], "stress_mpa": []}), "['stretch', 'stress_mpa']")]:
+        with pytest.raises(bendscope.Error) as e:
+            bendscope.material_fit(empty, out=tmp_path / "fit")
+        assert str(e.value) == (
+            f"the DataFrame is empty (columns {columns}, no rows): give the stretch or strain and the nominal stress, e.g. columns stretch, stress_mpa"
+        )

@@ -16,7 +16,10 @@
 //! files of a recording are the videos that appear in the media list between before the
 //! start and after the stop (a long recording comes as chapters GX01xxxx, GX02xxxx ...,
 //! all of them fetched). A camera that answers 409 or 503 is busy (encoding, a menu
-//! open): asked again until the request timeout, then refused with what to check. HTTP
+//! open): asked again until the request timeout, then refused with what to check. A
+//! camera whose state (`GET /gopro/camera/state`, its `status` `"10"`: encoding) says it
+//! is recording when a run begins (an earlier run was killed while recording) is stopped
+//! first ([`Camera::stop_leftover_recording`]). HTTP
 //! is `ureq` (plain http, no TLS: the camera's USB API is not encrypted).
 //!
 //! # Webcam
@@ -170,8 +173,28 @@ pub trait Camera {
     fn stop(&mut self) -> Result<Vec<CameraFile>, AcquireError>;
     /// Copies one file of a recording to `dest` (atomically); returns its size in bytes.
     fn fetch(&mut self, file: &CameraFile, dest: &Path) -> Result<u64, AcquireError>;
+    /// Stops a recording the camera is making before this run starts one (a run killed
+    /// before it stopped its own leaves the camera recording); returns whether it did.
+    fn stop_leftover_recording(&mut self) -> Result<bool, AcquireError> {
+        Ok(false)
+    }
     /// Stops a recording after a failure, ignoring errors.
     fn abort(&mut self);
+}
+
+/// Key of the `status` object (Open GoPro's camera state and the HERO5-HERO8 status)
+/// that says the camera is encoding, i.e. recording.
+pub(super) const STATUS_ENCODING: &str = "10";
+
+/// Whether a camera state (`{"status": {"10": 1, ...}}`) says the camera is recording;
+/// None when the text says nothing readable about it.
+pub fn is_encoding(state: &str) -> Option<bool> {
+    let v: serde_json::Value = serde_json::from_str(state).ok()?;
+    let encoding = v.get("status")?.get(STATUS_ENCODING)?;
+    encoding
+        .as_i64()
+        .map(|n| n != 0)
+        .or_else(|| encoding.as_bool())
 }
 
 /// A GoPro on its USB network link.
@@ -239,6 +262,14 @@ impl GoPro {
     fn media(&self) -> Result<Vec<CameraFile>, AcquireError> {
         let text = self.get("/gopro/media/list")?;
         parse_media_list(&text).map_err(|why| self.camera_error(why))
+    }
+
+    /// Whether the camera state says it is recording; None when the camera does not
+    /// tell (no state request, an unreadable answer).
+    fn encoding(&self) -> Option<bool> {
+        self.get("/gopro/camera/state")
+            .ok()
+            .and_then(|text| is_encoding(&text))
     }
 }
 
@@ -386,6 +417,23 @@ impl Camera for GoPro {
             dest,
             transport_error,
         )
+    }
+
+    fn stop_leftover_recording(&mut self) -> Result<bool, AcquireError> {
+        if self.encoding() != Some(true) {
+            return Ok(false);
+        }
+        self.get("/gopro/camera/shutter/stop")?;
+        let deadline = Instant::now() + Duration::from_secs_f64(MEDIA_WAIT_S);
+        while self.encoding() == Some(true) {
+            if Instant::now() >= deadline {
+                return Err(self.camera_error(format!(
+                    "the camera was recording before this run and kept recording {MEDIA_WAIT_S} s after /gopro/camera/shutter/stop: stop it on the camera"
+                )));
+            }
+            std::thread::sleep(POLL);
+        }
+        Ok(true)
     }
 
     fn abort(&mut self) {
@@ -798,6 +846,23 @@ mod tests {
         assert_eq!((new[0].size, new[1].size), (Some(8), Some(7)));
         assert!(parse_media_list("{}").unwrap_err().contains("media"));
         assert!(parse_media_list("<html>").unwrap_err().contains("not JSON"));
+    }
+
+    #[test]
+    fn the_camera_state_says_whether_it_records() {
+        for (state, expected) in [
+            (
+                r#"{"status": {"8": 0, "10": 1}, "settings": {}}"#,
+                Some(true),
+            ),
+            (r#"{"status": {"10": 0}}"#, Some(false)),
+            (r#"{"status": {"10": true}}"#, Some(true)),
+            (r#"{"status": {"8": 1}}"#, None),
+            (r#"{}"#, None),
+            ("not json", None),
+        ] {
+            assert_eq!(is_encoding(state), expected, "{state}");
+        }
     }
 
     #[test]

@@ -28,7 +28,7 @@ use std::time::{Duration, Instant};
 
 use super::camera::{
     fetch_with_retries, http_agents, parse_media_list, recording_files, with_listed_size, Camera,
-    CameraFile, MEDIA_WAIT_S, POLL,
+    CameraFile, MEDIA_WAIT_S, POLL, STATUS_ENCODING,
 };
 use super::protocol::GoProWifiConfig;
 use super::AcquireError;
@@ -39,8 +39,6 @@ pub const WAKE_WAIT_S: f64 = 15.0;
 const WAKE_RESEND: Duration = Duration::from_secs(1);
 /// `status` key: the camera is busy (a menu, processing).
 const STATUS_BUSY: &str = "8";
-/// `status` key: the camera is encoding (recording).
-const STATUS_ENCODING: &str = "10";
 /// `status` key: the camera's mode (0 video, 1 photo, 2 multishot).
 const STATUS_MODE: &str = "43";
 /// What to do when the camera does not answer at all.
@@ -317,6 +315,19 @@ impl Camera for GoProWifi {
             dest,
             wifi_transport_error,
         )
+    }
+
+    fn stop_leftover_recording(&mut self) -> Result<bool, AcquireError> {
+        if !self.status()?.encoding {
+            return Ok(false);
+        }
+        self.get("/gp/gpControl/command/shutter?p=0")?;
+        self.wait_for(
+            Duration::from_secs_f64(MEDIA_WAIT_S),
+            "the camera was recording before this run and did not stop (still encoding or busy): stop it on the camera",
+            |s| !s.encoding && !s.busy,
+        )?;
+        Ok(true)
     }
 
     fn abort(&mut self) {

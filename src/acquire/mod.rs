@@ -12,7 +12,9 @@
 //! at the next set point (fetching first a recording whose download failed). A rerun
 //! also records again every set point whose recording the log calls done but that is
 //! missing or not a playable video (a recorder left running by a killed run wrote over
-//! it), and stops such a recorder first ([`camera::stop_earlier_recorder`]).
+//! it), and stops such a recorder first ([`camera::stop_earlier_recorder`]); a GoPro
+//! still recording for a killed run is stopped first too
+//! ([`camera::Camera::stop_leftover_recording`]).
 //!
 //! Modules: [`protocol`] (the TOML), [`regulator`] (the serial line protocol), [`camera`]
 //! (GoPro over the Open GoPro HTTP API, webcam through ffmpeg), [`gopro_wifi`] (HERO5-HERO8
@@ -267,9 +269,21 @@ pub fn acquire(
         CameraConfig::GoProWifi(w) => Box::new(GoProWifi::new(w)),
         CameraConfig::Webcam(w) => Box::new(Webcam::new(w, session)),
     };
-    if let Err(e) = camera.connect() {
-        let _ = regulator.set_kpa(0.0);
-        return Err(e);
+    // A run killed while recording leaves the camera recording: stop that recording
+    // before this run's first, which the camera would refuse as busy.
+    match camera.connect().and_then(|()| camera.stop_leftover_recording()) {
+        Ok(true) => note(
+            NoteKind::Warning,
+            &format!(
+                "{} was recording (an earlier run killed before it stopped?): stopped that recording; it stays on the camera, outside the session",
+                camera.describe()
+            ),
+        ),
+        Ok(false) => {}
+        Err(e) => {
+            let _ = regulator.set_kpa(0.0);
+            return Err(e);
+        }
     }
     note(
         NoteKind::Progress,

@@ -46,6 +46,8 @@ pub const DEFAULT_CAMERA_TIMEOUT_S: f64 = 5.0;
 pub const DEFAULT_GOPRO_WIFI_URL: &str = "http://10.5.5.9";
 /// Media server of a HERO5-HERO8 on its WiFi network (media list and downloads).
 pub const DEFAULT_GOPRO_WIFI_MEDIA_URL: &str = "http://10.5.5.9:8080";
+/// Port of a HERO5-HERO8's media server, on the host of its control API.
+pub const GOPRO_WIFI_MEDIA_PORT: u16 = 8080;
 /// UDP port of the wake-on-LAN magic packet (the discard port, as the cameras expect).
 pub const DEFAULT_WAKE_PORT: u16 = 9;
 /// Highest sampling or logging rate accepted, Hz (the serial line answers one `GET` in
@@ -528,6 +530,20 @@ fn http_url(url: &str, key: &str, example: &str) -> Result<String, String> {
     Ok(url)
 }
 
+/// The media server beside the control API at `url` (an `http://` URL): the same host
+/// on [`GOPRO_WIFI_MEDIA_PORT`], so that a `url` pointing elsewhere than the camera's
+/// default address takes the media requests with it.
+fn media_url_of(url: &str) -> String {
+    let rest = url.strip_prefix("http://").unwrap_or(url);
+    let authority = rest.split('/').next().unwrap_or(rest);
+    let host = match authority.rfind([':', ']']) {
+        // `host:port` (an IPv6 host is bracketed: `[::1]:80`).
+        Some(i) if authority.as_bytes()[i] == b':' => &authority[..i],
+        _ => authority,
+    };
+    format!("http://{host}:{GOPRO_WIFI_MEDIA_PORT}")
+}
+
 /// Refuses the webcam's keys in a GoPro's section.
 fn no_webcam_keys(c: &RawCamera) -> Result<(), String> {
     for (key, set) in [
@@ -570,13 +586,10 @@ fn camera_config(c: RawCamera) -> Result<CameraConfig, String> {
                 "url",
                 DEFAULT_GOPRO_WIFI_URL,
             )?;
-            let media_url = http_url(
-                c.media_url
-                    .as_deref()
-                    .unwrap_or(DEFAULT_GOPRO_WIFI_MEDIA_URL),
-                "media_url",
-                DEFAULT_GOPRO_WIFI_MEDIA_URL,
-            )?;
+            let media_url = match c.media_url.as_deref() {
+                Some(m) => http_url(m, "media_url", DEFAULT_GOPRO_WIFI_MEDIA_URL)?,
+                None => media_url_of(&url),
+            };
             let wake_port = c.wake_port.unwrap_or(DEFAULT_WAKE_PORT);
             if wake_port == 0 {
                 return Err(format!(
@@ -742,6 +755,34 @@ mod tests {
             Path::new("p.toml"),
         );
         assert!(allowed.is_ok(), "{allowed:?}");
+    }
+
+    #[test]
+    fn a_gopro_wifi_media_url_follows_the_url_unless_given() {
+        let media_url = |camera: &str| {
+            let p = Protocol::parse(
+                &format!("[ramp]\nrate_kpa_s = 1\ntop_kpa = 10\n[regulator]\nport = \"x\"\n[camera]\nkind = \"gopro-wifi\"\n{camera}"),
+                Path::new("p.toml"),
+            )
+            .unwrap();
+            let CameraConfig::GoProWifi(w) = p.camera else {
+                panic!("{camera}: not gopro-wifi")
+            };
+            w.media_url
+        };
+        for (camera, expected) in [
+            ("url = \"http://127.0.0.1:18432\"", "http://127.0.0.1:8080"),
+            ("url = \"http://192.168.4.7/\"", "http://192.168.4.7:8080"),
+            ("url = \"http://[::1]:18432\"", "http://[::1]:8080"),
+            ("url = \"http://[::1]\"", "http://[::1]:8080"),
+            ("", "http://10.5.5.9:8080"),
+            (
+                "url = \"http://127.0.0.1:18432\"\nmedia_url = \"http://127.0.0.1:9000\"",
+                "http://127.0.0.1:9000",
+            ),
+        ] {
+            assert_eq!(media_url(camera), expected, "{camera}");
+        }
     }
 
     #[test]

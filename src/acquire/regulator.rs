@@ -18,6 +18,7 @@
 //! dozen lines no crate provides.
 
 use std::io::{ErrorKind, Read, Write};
+use std::path::Path;
 use std::time::{Duration, Instant};
 
 use super::protocol::RegulatorConfig;
@@ -88,7 +89,7 @@ impl SerialRegulator {
             .open()
             .map_err(|e| AcquireError::Regulator {
                 port: cfg.port.clone(),
-                why: open_error(&e),
+                why: open_error(&e, Path::new(&cfg.port).exists()),
             })?;
         let mut reg = Regulator::new(port, cfg);
         reg.wait_ready(Duration::from_secs_f64(cfg.boot_s))?;
@@ -96,9 +97,16 @@ impl SerialRegulator {
     }
 }
 
-fn open_error(e: &serialport::Error) -> String {
+/// What a failure to open the serial port means for the user; `exists`: the port's
+/// device file exists.
+fn open_error(e: &serialport::Error, exists: bool) -> String {
     use serialport::ErrorKind as K;
     match e.kind() {
+        // serialport reports a port another process holds (its TIOCEXCL or flock) as
+        // NoDevice: the device file is there, and busy.
+        K::NoDevice if exists => format!(
+            "in use by another program (another acquire?) ({e}): let it finish or close it, or set [regulator] port to another device"
+        ),
         K::NoDevice | K::Io(ErrorKind::NotFound) => format!(
             "no such serial port ({e}): plug the regulator in, check the port name (ls /dev/ttyACM* /dev/ttyUSB*) and set [regulator] port"
         ),
@@ -275,6 +283,20 @@ impl<P: Read + Write> Regulator<P> {
 mod tests {
     use super::*;
     use std::collections::VecDeque;
+
+    #[test]
+    fn a_port_held_by_another_program_is_in_use_not_missing() {
+        let held = serialport::Error::new(
+            serialport::ErrorKind::NoDevice,
+            "Unable to acquire exclusive lock on serial port",
+        );
+        let e = open_error(&held, true);
+        assert!(
+            e.starts_with("in use by another program (another acquire?) (Unable to acquire exclusive lock on serial port)"),
+            "{e}"
+        );
+        assert!(open_error(&held, false).starts_with("no such serial port"));
+    }
 
     #[test]
     fn answers_parse() {

@@ -94,6 +94,19 @@ pub const FTOL: f64 = 1e-10;
 /// simulation per parameter on top).
 pub const LM_PATIENCE: usize = 12;
 
+/// RMS relative deviation of a fit above which it is reported as poor, %: ten times the
+/// radius accuracy of a measurement (0.5%), so the model, not the data, misses.
+pub const POOR_FIT_RMS_PCT: f64 = 5.0;
+
+/// The warning for a fit whose RMS relative deviation is above [`POOR_FIT_RMS_PCT`].
+pub fn poor_fit_note(rms_rel_pct: f64, max_rel_dev_pct: f64) -> Option<String> {
+    (rms_rel_pct.is_nan() || rms_rel_pct > POOR_FIT_RMS_PCT).then(|| {
+        format!(
+            "poor fit: rms deviation {rms_rel_pct:.1}% (max {max_rel_dev_pct:.1}%) is above {POOR_FIT_RMS_PCT}%: the model does not follow the measurement; check the config (geometry, material, layers) and the measurement, or free other parameters, before using fitted.toml"
+        )
+    })
+}
+
 /// Settings of a fit.
 #[derive(Debug, Clone)]
 pub struct FitModelSettings {
@@ -404,6 +417,8 @@ pub fn fit_model(
         / m as f64)
         .sqrt();
     let rms = |r: &DVector<f64>| 100.0 * (r.norm_squared() / r.len() as f64).sqrt();
+    let max_rel_dev_pct = 100.0 * res.amax();
+    notes.extend(poor_fit_note(rms(&res), max_rel_dev_pct));
     Ok(ModelFit {
         parameters: free
             .iter()
@@ -418,7 +433,7 @@ pub fn fit_model(
         initial,
         fitted,
         rmse_mm,
-        max_rel_dev_pct: 100.0 * res.amax(),
+        max_rel_dev_pct,
         initial_rms_rel_pct: rms(&initial_res),
         rms_rel_pct: rms(&res),
         stats,
@@ -426,4 +441,21 @@ pub fn fit_model(
         termination: format!("{:?}", report.termination),
         notes,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_fit_above_the_threshold_is_called_poor() {
+        let note = poor_fit_note(15.7, 28.04).unwrap();
+        assert!(
+            note.starts_with("poor fit: rms deviation 15.7% (max 28.0%) is above 5%"),
+            "{note}"
+        );
+        assert_eq!(poor_fit_note(POOR_FIT_RMS_PCT, 9.0), None);
+        assert_eq!(poor_fit_note(0.3, 0.5), None);
+        assert!(poor_fit_note(f64::NAN, f64::NAN).is_some());
+    }
 }

@@ -41,6 +41,29 @@ pub fn report_json(fit: &ModelFit, measured: &Measured) -> Value {
     })
 }
 
+/// The comment lines `fitted.toml` begins with: what was fitted to what, and every
+/// warning of the fit (a poor fit, a parameter at its bound), so that the file says them
+/// wherever it goes.
+pub fn fitted_toml_header(
+    measured: &Path,
+    parameters: &[(String, f64)],
+    notes: &[String],
+) -> String {
+    let mut header = format!(
+        "# Fitted by bendscope fit-model to {}: {}\n",
+        measured.display(),
+        parameters
+            .iter()
+            .map(|(n, v)| format!("{n} = {v:.6}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    for n in notes {
+        header.push_str(&format!("# warning: {n}\n"));
+    }
+    header
+}
+
 /// Writes every output of a fit into `out`.
 pub fn write_fit_model(
     out: &Path,
@@ -49,15 +72,7 @@ pub fn write_fit_model(
 ) -> Result<(), FitModelError> {
     std::fs::create_dir_all(out.join("plots")).map_err(output)?;
     let text = fit.config.to_toml().map_err(output)?;
-    let header = format!(
-        "# Fitted by bendscope fit-model to {}: {}\n",
-        measured.path.display(),
-        fit.parameters
-            .iter()
-            .map(|(n, v)| format!("{n} = {v:.6}"))
-            .collect::<Vec<_>>()
-            .join(", ")
-    );
+    let header = fitted_toml_header(&measured.path, &fit.parameters, &fit.notes);
     write_atomic(
         &out.join("fitted.toml"),
         format!("{header}{text}").as_bytes(),
@@ -154,4 +169,31 @@ pub fn write_fit_model(
     )
     .map_err(output)?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fitted_toml_carries_the_fits_warnings_as_comments() {
+        let note = super::super::poor_fit_note(15.7, 28.0).unwrap();
+        let header = fitted_toml_header(
+            Path::new("out"),
+            &[("material.scale".into(), 0.5)],
+            std::slice::from_ref(&note),
+        );
+        assert_eq!(
+            header,
+            format!("# Fitted by bendscope fit-model to out: material.scale = 0.500000\n# warning: {note}\n")
+        );
+        // Still a valid TOML document.
+        assert!(toml::from_str::<toml::Table>(&header).is_ok());
+        assert_eq!(
+            fitted_toml_header(Path::new("out"), &[], &[])
+                .lines()
+                .count(),
+            1
+        );
+    }
 }

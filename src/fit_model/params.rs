@@ -138,14 +138,18 @@ pub fn parse_free(spec: &str, cfg: &ActuatorConfig) -> Result<Vec<FreeParameter>
         if out.iter().any(|p| p.name == full) {
             return Err(bad(&full, "named twice"));
         }
-        out.push(FreeParameter {
+        let param = FreeParameter {
             name: full,
             section,
             field,
             initial,
             lower,
             upper,
-        });
+        };
+        if bounds.is_some() {
+            check_bounds_valid(cfg, &param)?;
+        }
+        out.push(param);
     }
     if out.is_empty() {
         return Err(bad(
@@ -154,6 +158,33 @@ pub fn parse_free(spec: &str, cfg: &ActuatorConfig) -> Result<Vec<FreeParameter>
         ));
     }
     Ok(out)
+}
+
+/// Refuses explicit bounds where the parameter leaves its valid range (`material.scale
+/// = 0`, a negative size): the fit would search values the model refuses.
+fn check_bounds_valid(cfg: &ActuatorConfig, p: &FreeParameter) -> Result<(), FitModelError> {
+    for (which, bound) in [("lower", p.lower), ("upper", p.upper)] {
+        if let Err(e) = with_values(cfg, std::slice::from_ref(p), &[bound]) {
+            // The default bounds as the example, when the model takes them.
+            let (lo, hi) = (
+                p.initial / DEFAULT_BOUND_FACTOR,
+                p.initial * DEFAULT_BOUND_FACTOR,
+            );
+            let valid = |v: f64| with_values(cfg, std::slice::from_ref(p), &[v]).is_ok();
+            let example = if p.initial > 0.0 && valid(lo) && valid(hi) {
+                format!(", e.g. {}={lo}:{hi}", p.name)
+            } else {
+                String::new()
+            };
+            return Err(bad(
+                &p.name,
+                format!(
+                    "the {which} bound {bound} is outside the parameter's valid range ({e}): give bounds inside it{example}"
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// `base` with every parameter set to its value, checked.
@@ -206,6 +237,30 @@ mod tests {
             let e = parse_free(spec, &cfg).unwrap_err().to_string();
             assert!(e.contains(needle), "{spec}: {e}");
         }
+        // Explicit bounds outside a parameter's valid range are refused by name.
+        for (spec, needle) in [
+            (
+                "material.scale=0:2",
+                "--free material.scale: the lower bound 0 is outside the parameter's valid range (",
+            ),
+            ("scale=-1:2", "the lower bound -1 is outside"),
+            (
+                "geometry.f=-1:8",
+                "--free geometry.f: the lower bound -1 is outside",
+            ),
+        ] {
+            let e = parse_free(spec, &cfg).unwrap_err().to_string();
+            assert!(e.contains(needle), "{spec}: {e}");
+            assert!(e.contains("give bounds inside it"), "{spec}: {e}");
+        }
+        let e = parse_free("material.scale=0:2", &cfg)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.ends_with("give bounds inside it, e.g. material.scale=0.2:5"),
+            "{e}"
+        );
+        assert!(parse_free("material.scale=0.01:2", &cfg).is_ok());
         // A value the geometry refuses is an error, not a panic.
         assert!(with_values(&cfg, &p, &[0.5, -1.0, 0.03]).is_err());
     }
