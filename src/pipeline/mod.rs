@@ -24,7 +24,8 @@
 
 pub mod cache;
 pub mod frame;
-pub mod lock;
+/// The output lock ([`crate::lock`]), shared by every command that writes a folder.
+pub use crate::lock;
 pub mod markers;
 pub mod output;
 pub mod overlay;
@@ -55,7 +56,7 @@ use crate::session::{
 
 use cache::{Cache, CacheEntry, ItemKey};
 use frame::{measure_frame, Geometry, Tracker};
-use lock::{LockError, OutputLock};
+use crate::lock::LockError;
 use provenance::{
     CalibrationSource, CalibrationUsed, Provenance, ScaleSource, ScaleUsed, VideoUsed,
 };
@@ -371,9 +372,9 @@ fn measure_session_into(
             why: "is a file, not a folder: give -o a folder for the results".into(),
         });
     }
-    std::fs::create_dir_all(out).map_err(write_err(out))?;
-    // Held until the session's outputs are written; then its file is removed.
-    let lock = OutputLock::acquire(out)?;
+    // Made, locked and a write tested; held until the session's outputs are written,
+    // then its file is removed.
+    let lock = crate::lock::lock_output(out)?;
     // Temporaries of a run killed while writing (no other run is writing here: the lock).
     crate::io::remove_stale_temporaries(&["", "cache", "overlays", "plots"].map(|d| out.join(d)));
     let mut notes = Notes {
