@@ -30,6 +30,7 @@ pub struct InspectArgs {
 
 /// Runs `bendscope inspect`.
 pub fn run(args: &InspectArgs) -> Result<u8> {
+    super::check_output_file(&args.output)?;
     let (frame, source, config) = load_frame(&args.input, args.frame, args.config.as_deref())?;
     let i = inspect_frame(&frame, source, &config.detect);
     write_atomic(&args.output, inspect_html(&i)?.as_bytes())?;

@@ -105,6 +105,7 @@ impl RenderArgs {
 /// Runs `bendscope render`.
 pub fn run(args: &RenderArgs) -> Result<u8> {
     check_render_target(&args.output, args.force)?;
+    let _lock = super::lock_output(&args.output)?;
     let camera = match (&args.calibration, &args.gopro_like) {
         (Some(path), _) => read_calibration(path)
             .with_context(|| format!("cannot use {} as the camera", path.display()))?,
