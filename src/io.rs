@@ -486,12 +486,18 @@ mod tests {
             write_advice(Path::new(""), &std::io::Error::from_raw_os_error(EROFS)),
             format!("{} is read-only: give another -o", here.display())
         );
-        assert_eq!(with_path(&file, &text), "out/plots/a.png: Is a directory (os error 21)");
+        assert_eq!(
+            with_path(&file, &text),
+            "out/plots/a.png: Is a directory (os error 21)"
+        );
         assert_eq!(
             without_path(&file, &write_error(&file, dir, &os).to_string()),
             "Is a directory (os error 21)"
         );
-        assert_eq!(with_path(&file, &write_error(&file, dir, &os)), "out/plots/a.png: Is a directory (os error 21)");
+        assert_eq!(
+            with_path(&file, &write_error(&file, dir, &os)),
+            "out/plots/a.png: Is a directory (os error 21)"
+        );
     }
 
     #[test]

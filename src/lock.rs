@@ -179,7 +179,10 @@ mod tests {
             Err(e @ LockError::Busy { .. }) => {
                 let text = e.to_string();
                 assert!(text.starts_with(&out.display().to_string()), "{text}");
-                assert!(text.contains(&format!("(pid {})", std::process::id())), "{text}");
+                assert!(
+                    text.contains(&format!("(pid {})", std::process::id())),
+                    "{text}"
+                );
             }
             other => panic!("{other:?}"),
         }
@@ -189,7 +192,10 @@ mod tests {
         let e = lock_output(&file).unwrap_err();
         assert_eq!(
             e.to_string(),
-            format!("{} is a file, not a folder: give -o a folder for the results", file.display())
+            format!(
+                "{} is a file, not a folder: give -o a folder for the results",
+                file.display()
+            )
         );
         assert!(!e.is_no_space());
     }

@@ -164,7 +164,8 @@ fn material_fit_of_noisy_ogden_data_follows_the_curve_and_flags_instability() {
     // written, the [material] block not (exit 1).
     assert_eq!(run.code, 1, "{run}");
     assert!(
-        run.stderr.contains("no [material] block written; refit with --nonnegative"),
+        run.stderr
+            .contains("no [material] block written; refit with --nonnegative"),
         "{run}"
     );
     let j = json(&d.join("y3/material_fit.json"));

@@ -33,7 +33,10 @@ fn folder_commands(d: &Path, out: &str) -> Vec<(&'static str, Vec<String>)> {
             "simulate",
             strings(&["simulate", "--mesh-size", "4", "--pressures", "10"]),
         ),
-        ("simulate --model analytic", strings(&["simulate", "--model", "analytic"])),
+        (
+            "simulate --model analytic",
+            strings(&["simulate", "--model", "analytic"]),
+        ),
         (
             "sweep",
             vec!["sweep".into(), path(plans.join("two-factor.toml"))],
@@ -53,7 +56,10 @@ fn folder_commands(d: &Path, out: &str) -> Vec<(&'static str, Vec<String>)> {
         ),
         (
             "optimize",
-            vec!["optimize".into(), path(plans.join("optimize-curvature.toml"))],
+            vec![
+                "optimize".into(),
+                path(plans.join("optimize-curvature.toml")),
+            ],
         ),
         (
             "render",
@@ -121,7 +127,11 @@ fn every_command_that_writes_a_folder_is_refused_at_once_while_another_run_holds
     for (name, args) in folder_commands(d, "out") {
         let (run, took) = run(d, &args);
         assert_eq!(run.code, 2, "{name}: {run}");
-        let lines: Vec<&str> = run.stderr.lines().filter(|l| !l.trim().is_empty()).collect();
+        let lines: Vec<&str> = run
+            .stderr
+            .lines()
+            .filter(|l| !l.trim().is_empty())
+            .collect();
         assert_eq!(lines.len(), 1, "{name}: one line: {run}");
         assert!(
             lines[0].contains("out is in use by another bendscope run")
@@ -134,7 +144,10 @@ fn every_command_that_writes_a_folder_is_refused_at_once_while_another_run_holds
     }
     drop(held);
     // Released: a quick command runs and removes its lock file at its end.
-    let (run, _) = run(d, &strings(&["simulate", "--model", "analytic", "-o", "out"]));
+    let (run, _) = run(
+        d,
+        &strings(&["simulate", "--model", "analytic", "-o", "out"]),
+    );
     assert_eq!(run.code, 0, "{run}");
     assert!(out.join("steps.csv").is_file());
     assert!(!out.join(LOCK_FILE).exists());
@@ -180,11 +193,22 @@ fn a_read_only_output_is_refused_before_the_work_naming_the_folder_once() {
     for (name, args) in writing_commands(d, "ro") {
         let (run, took) = run(d, &args);
         assert_eq!(run.code, 2, "{name}: {run}");
-        let lines: Vec<&str> = run.stderr.lines().filter(|l| !l.trim().is_empty()).collect();
+        let lines: Vec<&str> = run
+            .stderr
+            .lines()
+            .filter(|l| !l.trim().is_empty())
+            .collect();
         assert_eq!(lines.len(), 1, "{name}: one line: {run}");
         let line = lines[0];
-        assert!(line.contains("is read-only: give another -o"), "{name}: {run}");
-        assert_eq!(line.matches("read-only").count(), 1, "{name}: said once: {run}");
+        assert!(
+            line.contains("is read-only: give another -o"),
+            "{name}: {run}"
+        );
+        assert_eq!(
+            line.matches("read-only").count(),
+            1,
+            "{name}: said once: {run}"
+        );
         for refused in [".bendscope-", "camera model", "os error", "at path"] {
             assert!(!line.contains(refused), "{name}: `{refused}`: {run}");
         }
@@ -204,14 +228,22 @@ fn a_full_disk_is_found_before_the_work_and_exits_4() {
     let block = vec![0u8; 4096];
     loop {
         use std::io::Write as _;
-        if filler.write_all(&block).and_then(|()| filler.sync_all()).is_err() {
+        if filler
+            .write_all(&block)
+            .and_then(|()| filler.sync_all())
+            .is_err()
+        {
             break;
         }
     }
     for (name, args) in writing_commands(d, "full") {
         let (run, took) = run(d, &args);
         assert_eq!(run.code, 4, "{name}: {run}");
-        let lines: Vec<&str> = run.stderr.lines().filter(|l| !l.trim().is_empty()).collect();
+        let lines: Vec<&str> = run
+            .stderr
+            .lines()
+            .filter(|l| !l.trim().is_empty())
+            .collect();
         assert_eq!(lines.len(), 1, "{name}: one line: {run}");
         // process words it its own way: `no space left on full/x: free space and rerun`.
         assert!(

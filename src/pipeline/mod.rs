@@ -54,9 +54,9 @@ use crate::session::{
     MANIFEST, PRESSURE_LOG,
 };
 
+use crate::lock::LockError;
 use cache::{Cache, CacheEntry, ItemKey};
 use frame::{measure_frame, Geometry, Tracker};
-use crate::lock::LockError;
 use provenance::{
     CalibrationSource, CalibrationUsed, Provenance, ScaleSource, ScaleUsed, VideoUsed,
 };

@@ -710,8 +710,11 @@ pub fn render_fem_session(
         seed: s.seed,
     };
     let unfinished = out.join(UNFINISHED_RENDER);
-    write_atomic(&unfinished, b"a render is writing this session, or was stopped before its end\n")
-        .map_err(|e| RenderError::write(out, &e))?;
+    write_atomic(
+        &unfinished,
+        b"a render is writing this session, or was stopped before its end\n",
+    )
+    .map_err(|e| RenderError::write(out, &e))?;
     let truth = render_session(out, &spec, videos, on_video)?;
     if s.rgbd {
         write_fem_rgbd(
@@ -756,6 +759,9 @@ mod tests {
         }
         assert!(check_render_target(dir, true).is_ok(), "--force");
         std::fs::write(dir.join(UNFINISHED_RENDER), b"").unwrap();
-        assert!(check_render_target(dir, false).is_ok(), "its own partial render");
+        assert!(
+            check_render_target(dir, false).is_ok(),
+            "its own partial render"
+        );
     }
 }
