@@ -19,7 +19,8 @@ use super::EXIT_OK;
     after_help = "Writes into SESSION: one H.264 video per FEM pressure step (GX01xxxx.MP4), pressures.csv, \
 scale.jpg (a 9x6 board of 10 mm squares in the actuator plane), calib/ (board photos through the same camera), \
 bendscope.toml and truth.json (camera, and per video the radius and bending angle of the rendered marker centres).
-A SESSION that already holds a session (videos, pressures.csv, scale.jpg, calib/ ...) is refused unless --force.
+A SESSION that already holds a session (videos, pressures.csv, scale.jpg, calib/ ...) is refused unless --force, \
+or unless it is the unfinished session of a render that was stopped (marked .bendscope-render-unfinished).
 Then: bendscope process SESSION."
 )]
 pub struct RenderArgs {

@@ -101,7 +101,7 @@ pub enum PipelineError {
         dir: PathBuf,
     },
     /// An output could not be written.
-    #[error("{path}: cannot write ({source}): check the output folder's space and permissions")]
+    #[error("{}: cannot write ({}): check the output folder's space and permissions", path.display(), crate::io::without_path(path, &source.to_string()))]
     Write {
         /// The file.
         path: PathBuf,
@@ -1393,4 +1393,23 @@ fn measure_rgbd(
         ));
     }
     Ok(result)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_write_error_names_its_file_once() {
+        let path = Path::new("out/overlays/a.png");
+        let os = std::io::Error::from_raw_os_error(21);
+        let e = PipelineError::Write {
+            path: path.to_path_buf(),
+            source: crate::io::write_error(path, Path::new("out/overlays"), &os),
+        };
+        assert_eq!(
+            e.to_string(),
+            "out/overlays/a.png: cannot write (Is a directory (os error 21)): check the output folder's space and permissions"
+        );
+    }
 }
