@@ -55,18 +55,23 @@ impl LockError {
 
 /// Prepares the output folder `out` of a command: refuses a file in its place, creates
 /// it, and locks it ([`OutputLock::acquire`], which writes the lock file: the test that
-/// the folder takes a write). Hold the lock until the last output is written.
+/// the folder takes a write). Hold the lock until the last output is written. A folder
+/// made here and still empty when the lock is dropped (the run refused its input) is
+/// removed with the lock file.
 pub fn lock_output(out: &Path) -> Result<OutputLock, LockError> {
     if out.exists() && !out.is_dir() {
         return Err(LockError::NotAFolder {
             out: out.to_path_buf(),
         });
     }
+    let made = !out.exists();
     std::fs::create_dir_all(out).map_err(|error| LockError::Io {
         out: out.to_path_buf(),
         error,
     })?;
-    OutputLock::acquire(out)
+    let mut lock = OutputLock::acquire(out)?;
+    lock.made = made.then(|| out.to_path_buf());
+    Ok(lock)
 }
 
 /// The lock of an output folder, held until dropped (then its file is removed).
@@ -77,6 +82,8 @@ pub struct OutputLock {
     _file: File,
     /// False when the file system cannot lock (the run goes on unlocked).
     pub locked: bool,
+    /// The folder, when [`lock_output`] made it: removed on drop if left empty.
+    made: Option<PathBuf>,
 }
 
 impl OutputLock {
@@ -120,6 +127,7 @@ impl OutputLock {
                 path,
                 _file: file,
                 locked,
+                made: None,
             });
         }
     }
@@ -129,6 +137,10 @@ impl Drop for OutputLock {
     fn drop(&mut self) {
         // Removed while still locked; the file is closed (unlocked) afterwards.
         let _ = std::fs::remove_file(&self.path);
+        if let Some(dir) = &self.made {
+            // Fails, as it should, when the run wrote anything there.
+            let _ = std::fs::remove_dir(dir);
+        }
     }
 }
 
@@ -187,6 +199,12 @@ mod tests {
             other => panic!("{other:?}"),
         }
         drop(lock);
+        assert!(!out.exists(), "made here and left empty: removed");
+        let kept = lock_output(&out).unwrap();
+        std::fs::write(out.join("steps.csv"), b"x").unwrap();
+        drop(kept);
+        assert!(out.join("steps.csv").is_file(), "a folder written to stays");
+        assert!(!out.join(LOCK_FILE).exists());
         let file = d.path().join("f");
         std::fs::write(&file, b"x").unwrap();
         let e = lock_output(&file).unwrap_err();
