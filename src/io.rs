@@ -11,7 +11,8 @@
 //!
 //! [`bounded_file_name`] keeps file names derived from user data (video names) within
 //! what file systems accept; [`content_key`] is the stable fingerprint the caches use;
-//! [`is_storage_full`] tells a full disk from other write errors.
+//! [`is_storage_full`] tells a full disk from other write errors; [`write_advice`] says
+//! what a failed write means and what to do (free space, give another `-o`).
 
 use std::fs;
 use std::io::{Read, Write};
@@ -26,7 +27,7 @@ pub const TEMP_SUFFIX: &str = ".tmp";
 
 /// Removes the temporary files [`write_atomic`] leaves in `dirs` (not their subfolders)
 /// when a run is killed between writing and renaming; returns how many. Call it before
-/// writing into an output folder, holding its lock ([`crate::pipeline::lock`]): it would
+/// writing into an output folder, holding its lock ([`crate::lock`]): it would
 /// remove the temporaries of another run writing there at the same time.
 pub fn remove_stale_temporaries(dirs: &[PathBuf]) -> usize {
     let mut removed = 0;
@@ -52,7 +53,8 @@ pub fn remove_stale_temporaries(dirs: &[PathBuf]) -> usize {
 pub const OUTPUT_MODE: u32 = 0o666;
 
 /// Writes `bytes` to `path` atomically (temporary file in the same folder, then rename).
-/// Creates the parent folder when missing.
+/// Creates the parent folder when missing. An error keeps the OS error's kind and its
+/// text names `path` once (never the hidden temporary file) with [`write_advice`].
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     write_atomic_with(path, |f| f.write_all(bytes))
 }
@@ -66,7 +68,8 @@ pub fn write_atomic_with(
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    fs::create_dir_all(&parent)?;
+    let fail = |e: std::io::Error| write_error(path, &parent, &e);
+    fs::create_dir_all(&parent).map_err(fail)?;
     // Dropped on any error below: the temporary file is removed.
     let mut builder = tempfile::Builder::new();
     builder.prefix(TEMP_PREFIX).suffix(TEMP_SUFFIX);
@@ -76,11 +79,103 @@ pub fn write_atomic_with(
         // The mode goes to open(2), which applies the umask.
         builder.permissions(fs::Permissions::from_mode(OUTPUT_MODE));
     }
-    let mut tmp = builder.tempfile_in(&parent)?;
-    write(tmp.as_file_mut())?;
-    tmp.as_file().sync_all()?;
-    tmp.persist(path).map_err(|e| e.error)?;
+    let mut tmp = builder.tempfile_in(&parent).map_err(fail)?;
+    write(tmp.as_file_mut()).map_err(fail)?;
+    tmp.as_file().sync_all().map_err(fail)?;
+    tmp.persist(path).map_err(|e| fail(e.error))?;
     Ok(())
+}
+
+/// Checks before the work that `path` can be written as a file: not a folder, its
+/// folder made when missing and taking a write (a temporary file, removed at once), so a
+/// read-only folder or a full disk is found before minutes of work. The error's text is
+/// that of [`write_error`].
+pub fn check_file_writable(path: &Path) -> std::io::Result<()> {
+    if path.is_dir() {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::IsADirectory,
+            format!("{} is a folder: give -o a file name", path.display()),
+        ));
+    }
+    let parent = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let fail = |e: std::io::Error| write_error(path, &parent, &e);
+    fs::create_dir_all(&parent).map_err(fail)?;
+    let mut probe = tempfile::Builder::new()
+        .prefix(TEMP_PREFIX)
+        .suffix(TEMP_SUFFIX)
+        .tempfile_in(&parent)
+        .map_err(fail)?;
+    // One byte flushed: a full disk fails here (an empty file may still be made).
+    probe.as_file_mut().write_all(b"x").map_err(fail)?;
+    probe.as_file().sync_all().map_err(fail)?;
+    Ok(())
+}
+
+/// The OS error number of "disk quota exceeded" (EDQUOT on Linux).
+const EDQUOT: i32 = 122;
+/// The OS error number of "read-only file system" (EROFS).
+const EROFS: i32 = 30;
+
+/// What a failed write into folder `dir` means for the user, and what to do: a full disk
+/// ("no space left on the disk of DIR: free space and rerun"), a read-only or
+/// unwritable folder ("give another -o"); other errors as the OS words them, without
+/// the temporary file's path that tempfile adds.
+pub fn write_advice(dir: &Path, e: &std::io::Error) -> String {
+    // A file in the working folder: that folder by its full name.
+    let here = (dir.as_os_str().is_empty() || dir == Path::new("."))
+        .then(std::env::current_dir)
+        .and_then(Result::ok);
+    let dir = here.as_deref().unwrap_or(dir).display();
+    let code = e.raw_os_error();
+    if e.kind() == std::io::ErrorKind::StorageFull || code == Some(ENOSPC) {
+        format!("no space left on the disk of {dir}: free space and rerun")
+    } else if e.kind() == std::io::ErrorKind::QuotaExceeded || code == Some(EDQUOT) {
+        format!("no space left on the disk of {dir} (disk quota exceeded): free space and rerun")
+    } else if e.kind() == std::io::ErrorKind::ReadOnlyFilesystem || code == Some(EROFS) {
+        format!("{dir} is read-only: give another -o")
+    } else if e.kind() == std::io::ErrorKind::PermissionDenied {
+        format!("{dir} is not writable (permission denied): give another -o")
+    } else if let Some(code) = code {
+        std::io::Error::from_raw_os_error(code).to_string()
+    } else {
+        // tempfile's errors end in "at path <the temporary file>".
+        let text = e.to_string();
+        match text.find(" at path ") {
+            Some(at) => text[..at].to_string(),
+            None => text,
+        }
+    }
+}
+
+/// `e`, met writing `path` into `dir`, as an error of the same kind whose text is
+/// `path: ` and [`write_advice`].
+pub fn write_error(path: &Path, dir: &Path, e: &std::io::Error) -> std::io::Error {
+    std::io::Error::new(
+        e.kind(),
+        format!("{}: {}", path.display(), write_advice(dir, e)),
+    )
+}
+
+/// `text` (an error about `path`) without a leading `path: `, for wrappers that name
+/// `path` themselves.
+pub fn without_path(path: &Path, text: &str) -> String {
+    let prefix = format!("{}: ", path.display());
+    text.strip_prefix(&prefix).unwrap_or(text).to_string()
+}
+
+/// `what` (an error about `path`) prefixed with `path` unless its text starts with it
+/// already (the errors of [`write_atomic`] do): wrappers name a file once.
+pub fn with_path(path: &Path, what: &dyn std::fmt::Display) -> String {
+    let text = what.to_string();
+    let name = path.display().to_string();
+    if text.starts_with(&name) {
+        text
+    } else {
+        format!("{name}: {text}")
+    }
 }
 
 /// Longest file name (bytes) bendscope derives from user data; longer names are cut and
@@ -150,17 +245,25 @@ pub fn content_key(path: &Path) -> std::io::Result<u128> {
 const ENOSPC: i32 = 28;
 
 /// True when `e`, or an error it was caused by, says the device is full (an
-/// [`std::io::Error`] of kind `StorageFull` or OS error 28). Errors that kept only their
-/// cause's text (a table's write error) are recognized by it: `(os error 28)`.
+/// [`std::io::Error`] of kind `StorageFull` or `QuotaExceeded`, OS error 28 or 122).
+/// Errors that kept only their cause's text (a table's write error) are recognized by
+/// it: `(os error 28)` or the words of [`write_advice`], `no space left on`.
 pub fn is_storage_full(e: &(dyn std::error::Error + 'static)) -> bool {
     let mut next = Some(e);
     while let Some(err) = next {
         if let Some(io) = err.downcast_ref::<std::io::Error>() {
-            if io.kind() == std::io::ErrorKind::StorageFull || io.raw_os_error() == Some(ENOSPC) {
+            if matches!(
+                io.kind(),
+                std::io::ErrorKind::StorageFull | std::io::ErrorKind::QuotaExceeded
+            ) || matches!(io.raw_os_error(), Some(ENOSPC | EDQUOT))
+            {
                 return true;
             }
         }
-        if err.to_string().contains(&format!("(os error {ENOSPC})")) {
+        let text = err.to_string();
+        if text.contains(&format!("(os error {ENOSPC})"))
+            || text.to_ascii_lowercase().contains("no space left on")
+        {
             return true;
         }
         next = err.source();
@@ -322,6 +425,93 @@ mod tests {
         struct Wrapped(String);
         assert!(is_storage_full(&Wrapped(full.to_string())));
         assert!(!is_storage_full(&Wrapped("denied".into())));
+    }
+
+    #[test]
+    fn write_errors_name_the_file_once_and_say_what_to_do() {
+        let dir = Path::new("out/plots");
+        let file = dir.join("a.png");
+        // (the error, the text expected, words it must not hold)
+        let cases: [(std::io::Error, &str, &str); 6] = [
+            (
+                std::io::Error::from_raw_os_error(ENOSPC),
+                "out/plots/a.png: no space left on the disk of out/plots: free space and rerun",
+                "os error",
+            ),
+            (
+                std::io::Error::from(std::io::ErrorKind::StorageFull),
+                "out/plots/a.png: no space left on the disk of out/plots: free space and rerun",
+                "os error",
+            ),
+            (
+                std::io::Error::from_raw_os_error(EDQUOT),
+                "out/plots/a.png: no space left on the disk of out/plots (disk quota exceeded): free space and rerun",
+                "os error",
+            ),
+            (
+                std::io::Error::from_raw_os_error(EROFS),
+                "out/plots/a.png: out/plots is read-only: give another -o",
+                "os error",
+            ),
+            (
+                std::io::Error::from(std::io::ErrorKind::PermissionDenied),
+                "out/plots/a.png: out/plots is not writable (permission denied): give another -o",
+                "os error",
+            ),
+            (
+                // tempfile's wording: the OS error and "at path" the temporary file.
+                std::io::Error::new(
+                    std::io::ErrorKind::IsADirectory,
+                    std::io::Error::from_raw_os_error(21).to_string()
+                        + " at path \"out/plots/.bendscope-XyZ123.tmp\"",
+                ),
+                "out/plots/a.png: Is a directory (os error 21)",
+                ".bendscope-",
+            ),
+        ];
+        for (e, want, refused) in cases {
+            let got = write_error(&file, dir, &e);
+            let text = got.to_string();
+            assert_eq!(text, want);
+            assert_eq!(got.kind(), e.kind(), "{text}");
+            assert!(refused.is_empty() || !text.contains(refused), "{text}");
+            assert_eq!(is_storage_full(&got), want.contains("no space"), "{text}");
+        }
+        let os = std::io::Error::from_raw_os_error(21);
+        let text = write_advice(dir, &os);
+        assert_eq!(text, "Is a directory (os error 21)");
+        // A file in the working folder: the folder by its full name.
+        let here = std::env::current_dir().unwrap();
+        assert_eq!(
+            write_advice(Path::new(""), &std::io::Error::from_raw_os_error(EROFS)),
+            format!("{} is read-only: give another -o", here.display())
+        );
+        assert_eq!(
+            with_path(&file, &text),
+            "out/plots/a.png: Is a directory (os error 21)"
+        );
+        assert_eq!(
+            without_path(&file, &write_error(&file, dir, &os).to_string()),
+            "Is a directory (os error 21)"
+        );
+        assert_eq!(
+            with_path(&file, &write_error(&file, dir, &os)),
+            "out/plots/a.png: Is a directory (os error 21)"
+        );
+    }
+
+    #[test]
+    fn a_failed_write_names_the_destination_and_not_the_temporary_file() {
+        let dir = tempfile::tempdir().unwrap();
+        // The destination is a folder: the rename fails.
+        let path = dir.path().join("a.html");
+        fs::create_dir(&path).unwrap();
+        fs::write(path.join("x"), b"x").unwrap();
+        let e = write_atomic(&path, b"page").unwrap_err();
+        let text = e.to_string();
+        assert!(text.starts_with(&path.display().to_string()), "{text}");
+        assert!(!text.contains(TEMP_PREFIX), "{text}");
+        assert_eq!(names(dir.path()), ["a.html"], "no temporary left");
     }
 
     #[test]

@@ -45,6 +45,7 @@ pub mod fit;
 pub mod fit_model;
 pub mod inspect;
 pub mod io;
+pub mod lock;
 pub mod material_fit;
 pub mod optimize;
 pub mod pipeline;

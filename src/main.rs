@@ -28,13 +28,21 @@ fn main() -> ExitCode {
     match result {
         Ok(code) => ExitCode::from(code),
         Err(e) => {
-            // One line: the error and its causes.
+            // One line: the error and those of its causes it does not say already.
             let mut msg = format!("error: {e}");
             for cause in e.chain().skip(1) {
-                msg.push_str(&format!(": {cause}"));
+                let text = cause.to_string();
+                if !msg.contains(&text) {
+                    msg.push_str(&format!(": {text}"));
+                }
             }
             eprintln!("{msg}");
-            ExitCode::from(cli::EXIT_BAD_INPUT)
+            let full = e.chain().any(bendscope::io::is_storage_full);
+            ExitCode::from(if full {
+                cli::EXIT_NO_SPACE
+            } else {
+                cli::EXIT_BAD_INPUT
+            })
         }
     }
 }

@@ -791,7 +791,10 @@ fn csv_bytes(columns: &[Column]) -> Result<Vec<u8>, String> {
 /// Writes `columns` as a CSV file at `path`, atomically.
 pub fn write_csv(path: &Path, columns: &[Column]) -> Result<(), TableError> {
     let bytes = csv_bytes(columns).map_err(|why| TableError::file(path, why))?;
-    write_atomic(path, &bytes).map_err(|e| TableError::file(path, format!("cannot write: {e}")))
+    write_atomic(path, &bytes).map_err(|e| {
+        let why = crate::io::without_path(path, &e.to_string());
+        TableError::file(path, format!("cannot write: {why}"))
+    })
 }
 
 #[cfg(test)]

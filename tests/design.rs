@@ -317,7 +317,7 @@ fn bounds_and_an_optimum_past_the_designs_are_warned_and_marked_beside_the_fem_c
             "6",
         ],
     );
-    assert!(run.code == 0 || run.code == 1, "{run}");
+    assert_eq!(run.code, 0, "{run}");
     assert!(!run.stderr.contains("panicked"), "{run}");
     assert!(
         run.stderr.contains(

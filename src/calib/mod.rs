@@ -121,7 +121,7 @@ pub enum CalibError {
         why: String,
     },
     /// Reading or writing a file failed.
-    #[error("{path}: {source}")]
+    #[error("{}", crate::io::with_path(path, source))]
     Io {
         /// The file.
         path: PathBuf,

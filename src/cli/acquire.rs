@@ -42,6 +42,8 @@ pub fn run(args: &AcquireArgs) -> Result<u8> {
     if args.dry_run {
         return print_plan(args);
     }
+    // One recording per session folder (a second would fight over the camera and port).
+    let _lock = super::lock_output(&args.output)?;
     let stop = Arc::new(AtomicBool::new(false));
     let flag = Arc::clone(&stop);
     if let Err(e) = ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst)) {

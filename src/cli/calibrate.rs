@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use bendscope::calib::corners::{detect_views, DetectSettings};
 use bendscope::calib::destination::{check_replaces_same_camera, default_calibration_path};
 use bendscope::calib::field::NO_LIMIT_DEG;
@@ -62,6 +62,9 @@ pub fn parse_positive(s: &str) -> Result<f64, String> {
 
 /// Runs `bendscope calibrate`.
 pub fn run(args: &CalibrateArgs) -> Result<u8> {
+    if let Some(out) = &args.output {
+        super::check_output_file(out)?;
+    }
     let board = Board::new(args.board.cols, args.board.rows, args.square_mm)?;
     let (sources, skipped) = collect_sources(&args.paths, args.frames)?;
     if sources.is_empty() {
@@ -101,7 +104,8 @@ pub fn run(args: &CalibrateArgs) -> Result<u8> {
             path
         }
     };
-    write_calibration(&out, &calib).with_context(|| format!("writing {}", out.display()))?;
+    // Its error names the file and what to do.
+    write_calibration(&out, &calib)?;
     print_summary(&calib, &out);
     Ok(EXIT_OK)
 }

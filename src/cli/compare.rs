@@ -37,6 +37,7 @@ pub struct CompareArgs {
 
 /// Runs `bendscope compare`.
 pub fn run(args: &CompareArgs) -> Result<u8> {
+    let _lock = super::lock_output(&args.output)?;
     let report = compare_to(
         &args.measured,
         &args.fem,

@@ -195,6 +195,7 @@ pub fn run(args: &ControlArgs) -> Result<u8> {
             return Ok(EXIT_BAD_INPUT);
         }
     };
+    let _lock = super::lock_output(&args.output)?;
     let bar = args
         .fem_in_loop
         .then(|| super::progress_bar(0, "FEM in the loop"));

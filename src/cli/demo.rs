@@ -35,7 +35,8 @@ fn stage(name: &str, code: u8) -> Result<()> {
 /// Runs `bendscope demo`.
 pub fn run(args: &DemoArgs) -> Result<u8> {
     let dir = &args.output;
-    std::fs::create_dir_all(dir)?;
+    // Its stages lock their own subfolders.
+    let _lock = super::lock_output(dir)?;
     let started = Instant::now();
     let mut times = Vec::new();
     let mut lap = |what: &str, t: &mut Instant| {

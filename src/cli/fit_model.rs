@@ -72,6 +72,8 @@ pub fn run(args: &FitModelArgs) -> Result<u8> {
             return Ok(EXIT_BAD_INPUT);
         }
     };
+    // One run per output folder, its writability checked before the simulations.
+    let _lock = super::lock_output(&args.output)?;
     let bar = super::progress_bar(0, "simulations");
     let result = fit_model(
         &cfg,

@@ -37,18 +37,10 @@ fn frame_number(s: &str) -> Result<u64, String> {
 
 /// Runs `bendscope inspect`.
 pub fn run(args: &InspectArgs) -> Result<u8> {
-    let out = &args.output;
-    if out.is_dir() {
-        anyhow::bail!(
-            "{}: is a folder: give the page's file name, e.g. -o {}",
-            out.display(),
-            out.join("inspect.html").display()
-        );
-    }
+    super::check_output_file(&args.output)?;
     let (frame, source, config) = load_frame(&args.input, args.frame, args.config.as_deref())?;
     let i = inspect_frame(&frame, source, &config.detect);
-    write_atomic(out, inspect_html(&i)?.as_bytes())
-        .map_err(|e| anyhow::anyhow!("{}: cannot write the page ({e})", out.display()))?;
+    write_atomic(&args.output, inspect_html(&i)?.as_bytes())?;
     out!(
         "{}: {} mask px, {} blobs with the session's settings; wrote {}",
         i.source,

@@ -77,6 +77,7 @@ pub fn run(args: &MaterialArgs) -> Result<u8> {
 }
 
 fn run_fit(args: &FitArgs) -> Result<u8> {
+    let _lock = super::lock_output(&args.output)?;
     let data = match TensileData::read(&args.data) {
         Ok(d) => d,
         Err(e) => {

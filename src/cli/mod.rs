@@ -27,6 +27,9 @@ pub mod simulate;
 pub mod surrogate;
 pub mod sweep;
 
+use std::path::Path;
+
+use bendscope::lock::OutputLock;
 use clap::{Parser, Subcommand};
 
 /// Exit code: everything asked for was done.
@@ -48,7 +51,7 @@ pub const EXIT_NO_SPACE: u8 = 4;
 #[derive(Debug, Parser)]
 #[command(name = "bendscope", version, about, long_about = None)]
 #[command(
-    after_help = "Exit codes: 0 all done, 1 some items failed (others kept), 2 bad input or usage, 3 nothing could be measured, 4 no space left on the output folder's disk (process)."
+    after_help = "Exit codes: 0 all done, 1 some items failed (others kept), 2 bad input or usage (also: the output folder in use by another run, or not writable), 3 nothing could be measured, 4 no space left on the output folder's disk."
 )]
 pub struct Cli {
     /// What to do.
@@ -101,4 +104,26 @@ pub fn progress_bar(len: u64, what: &str) -> indicatif::ProgressBar {
     }
     bar.set_message(what.to_string());
     bar
+}
+
+/// Takes the output folder `out` before a command's work ([`bendscope::lock::lock_output`]:
+/// made, locked, a write tested): a second run into it, a read-only folder or a full
+/// disk is refused at once (exit 2, or 4 for a full disk, in `main`). Hold the lock
+/// until the last output is written.
+pub fn lock_output(out: &Path) -> anyhow::Result<OutputLock> {
+    let lock = bendscope::lock::lock_output(out)?;
+    if !lock.locked {
+        eprintln!(
+            "warning: {}: this file system cannot lock files: do not run two bendscope commands into this folder at once",
+            out.display()
+        );
+    }
+    Ok(lock)
+}
+
+/// Checks before a command's work that the file `path` can be written
+/// ([`bendscope::io::check_file_writable`]).
+pub fn check_output_file(path: &Path) -> anyhow::Result<()> {
+    bendscope::io::check_file_writable(path)?;
+    Ok(())
 }

@@ -48,6 +48,7 @@ pub fn run(args: &OptimizeArgs) -> Result<u8> {
             return Ok(EXIT_BAD_INPUT);
         }
     }
+    let _lock = super::lock_output(&args.output)?;
     let bar = super::progress_bar(0, "optimize");
     let result = optimize_to(
         &loaded,

@@ -19,7 +19,8 @@ use super::EXIT_OK;
     after_help = "Writes into SESSION: one H.264 video per FEM pressure step (GX01xxxx.MP4), pressures.csv, \
 scale.jpg (a 9x6 board of 10 mm squares in the actuator plane), calib/ (board photos through the same camera), \
 bendscope.toml and truth.json (camera, and per video the radius and bending angle of the rendered marker centres).
-A SESSION that already holds a session (videos, pressures.csv, scale.jpg, calib/ ...) is refused unless --force.
+A SESSION that already holds a session (videos, pressures.csv, scale.jpg, calib/ ...) is refused unless --force, \
+or unless it is the unfinished session of a render that was stopped (marked .bendscope-render-unfinished).
 Then: bendscope process SESSION."
 )]
 pub struct RenderArgs {
@@ -105,6 +106,7 @@ impl RenderArgs {
 /// Runs `bendscope render`.
 pub fn run(args: &RenderArgs) -> Result<u8> {
     check_render_target(&args.output, args.force)?;
+    let _lock = super::lock_output(&args.output)?;
     let camera = match (&args.calibration, &args.gopro_like) {
         (Some(path), _) => read_calibration(path)
             .with_context(|| format!("cannot use {} as the camera", path.display()))?,

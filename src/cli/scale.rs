@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use bendscope::calib::file::read_calibration;
 use bendscope::calib::{Board, BoardSize, UndistortSettings};
 use bendscope::io::write_atomic;
@@ -81,7 +81,8 @@ pub fn run(args: &ScaleArgs) -> Result<u8> {
     }
     if let Some(out) = &args.save {
         let json = serde_json::to_string_pretty(&scale)?;
-        write_atomic(out, json.as_bytes()).with_context(|| format!("writing {}", out.display()))?;
+        // Its error names the file and what to do.
+        write_atomic(out, json.as_bytes())?;
         eprintln!("saved to {}", out.display());
     }
     Ok(EXIT_OK)

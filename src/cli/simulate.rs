@@ -141,6 +141,8 @@ pub fn run(args: &SimulateArgs) -> Result<u8> {
         super::out!("{}", cfg.to_toml()?);
         return Ok(EXIT_OK);
     }
+    // One run per output folder, its writability checked before the solve.
+    let _lock = super::lock_output(&args.output)?;
     if args.model == Model::Analytic {
         return run_analytic(&cfg, &args.output);
     }

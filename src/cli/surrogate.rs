@@ -117,6 +117,7 @@ fn fit(a: &FitArgs) -> Result<u8> {
         eprintln!("error: --folds {}: use at least 2", a.folds);
         return Ok(EXIT_BAD_INPUT);
     }
+    super::check_output_file(&a.model)?;
     let designs = match read_designs(&a.designs, &a.inputs, std::slice::from_ref(&a.output)) {
         Ok(d) => d,
         Err(e) => return Ok(bad_input(&e)),

@@ -79,7 +79,12 @@ fn bad_input(e: &SweepError) -> u8 {
 /// Runs `bendscope sweep`.
 pub fn run(args: &SweepArgs) -> Result<u8> {
     match &args.action {
-        Some(SweepAction::Collect { dir }) => return run_collect(dir),
+        Some(SweepAction::Collect { dir }) => {
+            let _lock = super::lock_output(dir)?;
+            return run_collect(dir);
+        }
+        // Not locked: the sweep that runs the point (or emitted its job) holds DIR's lock,
+        // and the point writes only its own runs/<id>/.
         Some(SweepAction::RunPoint { dir, id }) => {
             let s = match run_point(dir, id) {
                 Ok(s) => s,
@@ -107,6 +112,8 @@ pub fn run(args: &SweepArgs) -> Result<u8> {
         Ok(p) => p,
         Err(e) => return Ok(bad_input(&e)),
     };
+    // One sweep per folder: a second plan would replace the manifest and the points.
+    let _lock = super::lock_output(&args.output)?;
     let prepared = match prepare(&plan, &args.output) {
         Ok(p) => p,
         Err(e @ SweepError::Plan { .. }) => return Ok(bad_input(&e)),

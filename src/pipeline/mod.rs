@@ -24,7 +24,8 @@
 
 pub mod cache;
 pub mod frame;
-pub mod lock;
+/// The output lock ([`crate::lock`]), shared by every command that writes a folder.
+pub use crate::lock;
 pub mod markers;
 pub mod output;
 pub mod overlay;
@@ -53,9 +54,9 @@ use crate::session::{
     MANIFEST, PRESSURE_LOG,
 };
 
+use crate::lock::LockError;
 use cache::{Cache, CacheEntry, ItemKey};
 use frame::{measure_frame, Geometry, Tracker};
-use lock::{LockError, OutputLock};
 use provenance::{
     CalibrationSource, CalibrationUsed, Provenance, ScaleSource, ScaleUsed, VideoUsed,
 };
@@ -100,7 +101,7 @@ pub enum PipelineError {
         dir: PathBuf,
     },
     /// An output could not be written.
-    #[error("{path}: cannot write ({source}): check the output folder's space and permissions")]
+    #[error("{}: cannot write ({}): check the output folder's space and permissions", path.display(), crate::io::without_path(path, &source.to_string()))]
     Write {
         /// The file.
         path: PathBuf,
@@ -405,9 +406,9 @@ fn measure_session_into(
             why: "is a file, not a folder: give -o a folder for the results".into(),
         });
     }
-    std::fs::create_dir_all(out).map_err(write_err(out))?;
-    // Held until the session's outputs are written; then its file is removed.
-    let lock = OutputLock::acquire(out)?;
+    // Made, locked and a write tested; held until the session's outputs are written,
+    // then its file is removed.
+    let lock = crate::lock::lock_output(out)?;
     // Temporaries of a run killed while writing (no other run is writing here: the lock).
     crate::io::remove_stale_temporaries(&["", "cache", "overlays", "plots"].map(|d| out.join(d)));
     let mut notes = Notes {
@@ -1472,6 +1473,20 @@ mod tests {
                 "warning: {} more rows or files: no such video (all are listed in per_video.csv)",
                 1000 - ISSUE_LINES_PER_KIND
             )
+        );
+    }
+
+    #[test]
+    fn a_write_error_names_its_file_once() {
+        let path = Path::new("out/overlays/a.png");
+        let os = std::io::Error::from_raw_os_error(21);
+        let e = PipelineError::Write {
+            path: path.to_path_buf(),
+            source: crate::io::write_error(path, Path::new("out/overlays"), &os),
+        };
+        assert_eq!(
+            e.to_string(),
+            "out/overlays/a.png: cannot write (Is a directory (os error 21)): check the output folder's space and permissions"
         );
     }
 }

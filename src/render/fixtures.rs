@@ -187,10 +187,7 @@ pub fn write_calibration_set(
 }
 
 fn io_error(path: &Path, source: std::io::Error) -> RenderError {
-    RenderError::Camera(crate::calib::CalibError::Io {
-        path: path.to_path_buf(),
-        source,
-    })
+    RenderError::write(path, &source)
 }
 
 /// Encodes a grey image as JPEG and writes it atomically.

@@ -16,6 +16,24 @@ pub mod session;
 
 pub use board::{random_board_poses, render_board_photo, BoardPose, PhotoSettings};
 
+impl RenderError {
+    /// `e`, met writing into the folder `dir` (or a file in it), as [`RenderError::Write`]:
+    /// the path once and what to do ([`crate::io::write_advice`]).
+    pub fn write(dir: &std::path::Path, e: &std::io::Error) -> Self {
+        let name = dir.display().to_string();
+        let text = e.to_string();
+        let advice = crate::io::write_advice(dir, e);
+        let why = if text.starts_with(&name) {
+            text
+        } else if advice.contains(&name) {
+            advice
+        } else {
+            format!("{name}: {advice}")
+        };
+        RenderError::Write { why }
+    }
+}
+
 /// Errors of the renderers.
 #[derive(Debug, thiserror::Error)]
 pub enum RenderError {
@@ -33,6 +51,12 @@ pub enum RenderError {
         distance_mm: f64,
         /// A distance at which it fits, mm.
         suggested_mm: f64,
+    },
+    /// A file of the session could not be written.
+    #[error("cannot write the session: {why}")]
+    Write {
+        /// The file or folder and what to do.
+        why: String,
     },
     /// The FEM output cannot be rendered.
     #[error("{0}")]

@@ -135,12 +135,7 @@ pub fn render_session<S: Shade + Sync>(
     videos: Vec<(S, VideoTruth)>,
     progress: &dyn Fn(usize),
 ) -> Result<SessionTruth, RenderError> {
-    let err = |e: std::io::Error| {
-        RenderError::Camera(crate::calib::CalibError::Io {
-            path: dir.to_path_buf(),
-            source: e,
-        })
-    };
+    let err = |e: std::io::Error| RenderError::write(dir, &e);
     std::fs::create_dir_all(dir).map_err(err)?;
     // Calibration photos (9x6, 25 mm) in calib/.
     write_calibration_set(
@@ -428,12 +423,7 @@ pub fn write_fem_rgbd(
     face: &crate::fem::simulate::SideFaceFile,
     spec: &RgbdSpec,
 ) -> Result<Vec<VideoTruth>, RenderError> {
-    let err = |e: std::io::Error| {
-        RenderError::Camera(crate::calib::CalibError::Io {
-            path: dir.to_path_buf(),
-            source: e,
-        })
-    };
+    let err = |e: std::io::Error| RenderError::write(dir, &e);
     let camera = rgbd_camera();
     let origin = place_fem_actuator(face, &camera, spec.distance_mm)?;
     let videos = fem_videos(face, origin, spec.marker_diameter_mm, false)?;
@@ -576,12 +566,18 @@ pub fn session_files_in(dir: &Path) -> Vec<String> {
     found
 }
 
+/// Marks a folder [`render_fem_session`] is writing; removed when the session is
+/// complete. A render stopped on the way (killed, disk full) leaves it, and the rerun
+/// recognises the partial session as its own.
+pub const UNFINISHED_RENDER: &str = ".bendscope-render-unfinished";
+
 /// Refuses to render into `dir` when it already holds a session ([`session_files_in`]):
 /// the rendered videos, `scale.jpg`, `pressures.csv` and `calib/` would replace or mix
-/// with a recorded session's. `force` renders over it anyway.
+/// with a recorded session's. `force` renders over it anyway, and so does a render into
+/// the unfinished session of an earlier render ([`UNFINISHED_RENDER`]).
 pub fn check_render_target(dir: &Path, force: bool) -> Result<(), RenderError> {
     let files = session_files_in(dir);
-    if force || files.is_empty() {
+    if force || files.is_empty() || dir.join(UNFINISHED_RENDER).is_file() {
         return Ok(());
     }
     const SHOWN: usize = 6;
@@ -713,6 +709,12 @@ pub fn render_fem_session(
         look,
         seed: s.seed,
     };
+    let unfinished = out.join(UNFINISHED_RENDER);
+    write_atomic(
+        &unfinished,
+        b"a render is writing this session, or was stopped before its end\n",
+    )
+    .map_err(|e| RenderError::write(out, &e))?;
     let truth = render_session(out, &spec, videos, on_video)?;
     if s.rgbd {
         write_fem_rgbd(
@@ -733,5 +735,33 @@ pub fn render_fem_session(
             },
         )?;
     }
+    std::fs::remove_file(&unfinished).map_err(|e| RenderError::write(&unfinished, &e))?;
     Ok(truth)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_partial_render_is_rendered_over_and_a_recorded_session_refused() {
+        let d = tempfile::tempdir().unwrap();
+        let dir = d.path();
+        assert!(check_render_target(dir, false).is_ok(), "empty");
+        // What a render stopped on the way leaves: calib/ and scale.jpg.
+        std::fs::create_dir(dir.join("calib")).unwrap();
+        std::fs::write(dir.join("scale.jpg"), b"x").unwrap();
+        match check_render_target(dir, false) {
+            Err(RenderError::SessionExists { files, .. }) => {
+                assert_eq!(files, "calib/, scale.jpg")
+            }
+            other => panic!("a session without the mark is refused: {other:?}"),
+        }
+        assert!(check_render_target(dir, true).is_ok(), "--force");
+        std::fs::write(dir.join(UNFINISHED_RENDER), b"").unwrap();
+        assert!(
+            check_render_target(dir, false).is_ok(),
+            "its own partial render"
+        );
+    }
 }

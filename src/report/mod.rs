@@ -17,7 +17,7 @@ use crate::io::write_atomic;
 #[derive(Debug, thiserror::Error)]
 pub enum ReportError {
     /// File system.
-    #[error("{path}: {source}")]
+    #[error("{}", crate::io::with_path(path, source))]
     Io {
         /// File.
         path: PathBuf,

@@ -51,11 +51,11 @@ pub enum SweepError {
 }
 
 impl SweepError {
-    /// An I/O error on `path`.
+    /// An I/O error on `path` (its text not naming `path` a second time).
     pub fn io(path: &std::path::Path, e: impl std::fmt::Display) -> Self {
         Self::Io {
             path: path.to_path_buf(),
-            why: e.to_string(),
+            why: crate::io::without_path(path, &e.to_string()),
         }
     }
 }

@@ -171,3 +171,40 @@ impl Drop for KillOnDrop {
         }
     }
 }
+
+/// A tmpfs mounted on `dir` (created), unmounted when dropped. Mounting needs root: a
+/// test that uses it is `#[ignore]`d with that reason, and a mount that fails panics (a
+/// test that cannot set itself up must not pass).
+pub struct Tmpfs(PathBuf);
+
+impl Tmpfs {
+    /// A writable tmpfs of `bytes`.
+    pub fn mount(dir: &Path, bytes: u64) -> Tmpfs {
+        Self::mount_with(dir, &format!("size={bytes}"))
+    }
+
+    /// A read-only (empty) tmpfs.
+    pub fn mount_read_only(dir: &Path) -> Tmpfs {
+        Self::mount_with(dir, "ro,size=65536")
+    }
+
+    fn mount_with(dir: &Path, options: &str) -> Tmpfs {
+        std::fs::create_dir_all(dir).unwrap();
+        let status = Command::new("mount")
+            .args(["-t", "tmpfs", "-o", options, "tmpfs"])
+            .arg(dir)
+            .status();
+        assert!(
+            status.as_ref().is_ok_and(|s| s.success()),
+            "mount -t tmpfs -o {options} on {} failed ({status:?}): this test needs root",
+            dir.display()
+        );
+        Tmpfs(dir.to_path_buf())
+    }
+}
+
+impl Drop for Tmpfs {
+    fn drop(&mut self) {
+        let _ = Command::new("umount").arg("-l").arg(&self.0).status();
+    }
+}
