@@ -37,6 +37,13 @@ fn frame_number(s: &str) -> Result<u64, String> {
 
 /// Runs `bendscope inspect`.
 pub fn run(args: &InspectArgs) -> Result<u8> {
+    if args.output.is_dir() {
+        anyhow::bail!(
+            "{} is a folder: give the page's file name, e.g. -o {}",
+            args.output.display(),
+            args.output.join("inspect.html").display()
+        );
+    }
     super::check_output_file(&args.output)?;
     let (frame, source, config) = load_frame(&args.input, args.frame, args.config.as_deref())?;
     let i = inspect_frame(&frame, source, &config.detect);
