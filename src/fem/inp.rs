@@ -187,7 +187,15 @@ pub fn inp_from_config(cfg: &ActuatorConfig) -> Result<(String, InpSummary), Fem
     // Writing into a String cannot fail: the fmt::Results below are discarded.
     let _ = writeln!(
         s,
-        "** bendscope simulate: {what} as solved; mm, N, MPa, t/mm^3, s\n*HEADING\nbendscope {what}, {} nodes, {} C3D8I, mesh {} mm",
+        "** bendscope simulate: {what} as solved; mm, N, MPa, t/mm^3, s"
+    );
+    // What CalculiX will not do with the deck travels with it, not only on stderr.
+    for c in caveats(cfg) {
+        let _ = writeln!(s, "{}", comment_line(&format!("note: {c}")));
+    }
+    let _ = writeln!(
+        s,
+        "*HEADING\nbendscope {what}, {} nodes, {} C3D8I, mesh {} mm",
         m.nodes.len(),
         m.elements.len(),
         cfg.mesh.size_mm
@@ -612,9 +620,28 @@ pub fn caveats(cfg: &ActuatorConfig) -> Vec<String> {
     out
 }
 
-/// Writes the deck of `cfg` to `path` atomically ([`crate::io::write_atomic`]).
-pub fn write_inp(path: &Path, cfg: &ActuatorConfig) -> Result<InpSummary, FemError> {
-    let (text, summary) = inp_from_config(cfg)?;
+/// `text` as one `**` comment line of the deck (line breaks folded to spaces).
+fn comment_line(text: &str) -> String {
+    format!("** {}", text.replace(['\n', '\r'], " "))
+}
+
+/// Writes the deck of `cfg` to `path` atomically ([`crate::io::write_atomic`]), with
+/// `notes` (what the deck leaves out of the run it was exported from) as `** note:`
+/// comment lines under its first line, beside [`caveats`].
+pub fn write_inp(
+    path: &Path,
+    cfg: &ActuatorConfig,
+    notes: &[String],
+) -> Result<InpSummary, FemError> {
+    let (mut text, summary) = inp_from_config(cfg)?;
+    if !notes.is_empty() {
+        let at = text.find('\n').map_or(text.len(), |i| i + 1);
+        let lines: String = notes
+            .iter()
+            .map(|n| comment_line(&format!("note: {n}")) + "\n")
+            .collect();
+        text.insert_str(at, &lines);
+    }
     crate::io::write_atomic(path, text.as_bytes()).map_err(|e| FemError::Output {
         why: format!("{}: {e}", path.display()),
     })?;
@@ -650,6 +677,15 @@ mod tests {
     fn the_export_notes_what_calculix_stalls_on() {
         use crate::fem::family::{defaults, Family};
         assert_eq!(caveats(&defaults(Family::Pneunets)).len(), 1);
+        // In the deck too, as comments under its first line, before *HEADING.
+        let mut coarse = defaults(Family::Pneunets);
+        coarse.mesh.size_mm = 4.0;
+        let (text, _) = inp_from_config(&coarse).unwrap();
+        let lines: Vec<&str> = text.lines().take(3).collect();
+        assert!(
+            lines[1].starts_with("** note: a bulk modulus above 200 mu0") && lines[2] == "*HEADING",
+            "{lines:?}"
+        );
         let mut tube = defaults(Family::FibreReinforced);
         let notes = caveats(&tube);
         assert_eq!(notes.len(), 2, "{notes:?}");
