@@ -384,6 +384,10 @@ fn an_output_that_is_a_file_or_read_only_is_named_before_the_solve() {
         "the output folder ro is not writable",
         "Read-only file system",
     ]);
+    assert!(
+        !run.stderr.contains(".bendscope-"),
+        "no hidden file named: {run}"
+    );
     let s = started.elapsed().as_secs_f64();
     assert!(s < 10.0, "{s} s: the folder is checked before the solve");
 }

@@ -196,7 +196,7 @@ pub fn run(args: &SimulateArgs) -> Result<u8> {
         }
         let notes: Vec<String> = args
             .blocked
-            .then(|| "the deck holds the free ramp only: the blocked-tip analysis of --blocked (force.csv) has no counterpart in it".to_string())
+            .then(|| "the deck holds the free ramp only: the rigid support under the tip of --blocked (force.csv) has no counterpart in it".to_string())
             .into_iter()
             .collect();
         match write_inp(path, &cfg, &notes) {

@@ -106,16 +106,23 @@ pub fn prepare_output_folder(out: &Path) -> Result<(), FemError> {
             out.display()
         ))
     })?;
+    // A plain file (not tempfile's): its errors carry no hidden path to show. Named as
+    // write_atomic's temporaries, so a run killed here leaves nothing a rerun keeps.
+    let path = out.join(format!(
+        "{}write-test-{}{}",
+        crate::io::TEMP_PREFIX,
+        std::process::id(),
+        crate::io::TEMP_SUFFIX
+    ));
     let probe = || -> std::io::Result<()> {
         use std::io::Write;
-        let mut f = tempfile::Builder::new()
-            .prefix(crate::io::TEMP_PREFIX)
-            .suffix(crate::io::TEMP_SUFFIX)
-            .tempfile_in(out)?;
+        let mut f = std::fs::File::create(&path)?;
         f.write_all(b"bendscope write test\n")?;
-        f.as_file().sync_all()
+        f.sync_all()
     };
-    probe().map_err(|e| {
+    let result = probe();
+    let _ = std::fs::remove_file(&path);
+    result.map_err(|e| {
         output(format!(
             "the output folder {} is not writable ({e})",
             out.display()
