@@ -575,7 +575,7 @@ fn element_part(
         ));
     }
     let e = element_kinematics(g, material, &gather(u, el))?;
-    if !(th > 0.0) {
+    if th.is_nan() || th <= 0.0 {
         return None;
     }
     let vol = g.volume;
@@ -609,7 +609,7 @@ fn enhanced_part(
     modes: &Modes,
     u: &[f64],
 ) -> Option<ElementPart> {
-    if th.iter().any(|t| !(*t > 0.0)) {
+    if th.iter().any(|t| t.is_nan() || *t <= 0.0) {
         return None;
     }
     let e = enhanced_kinematics(
