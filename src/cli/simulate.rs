@@ -6,7 +6,7 @@ use anyhow::{anyhow, Result};
 use bendscope::fem::actuator::{parse_range, ActuatorConfig};
 use bendscope::fem::analytic::analytic_to;
 use bendscope::fem::family::Family;
-use bendscope::fem::inp::{caveats, write_inp};
+use bendscope::fem::inp::{caveats, for_calculix, write_inp};
 use bendscope::fem::material::MaterialPreset;
 use bendscope::fem::output::{
     is_run_output, prepare_output_folder, simulate_to, sweep_to, SimulateOptions,
@@ -88,6 +88,10 @@ pub struct SimulateArgs {
     /// threads tied by *EQUATION, [contact] as node-to-surface contact pairs, one step per pressure).
     #[arg(long, value_name = "FILE")]
     pub export_inp: Option<PathBuf>,
+    /// With --export-inp: the deck of the model exactly as solved [default: a bulk modulus
+    /// above 200 mu0 goes out as 100 mu0, where CalculiX's C3D8I does not lock; noted].
+    #[arg(long, requires = "export_inp")]
+    pub export_exact: bool,
 }
 
 /// The model `simulate` runs.
@@ -194,15 +198,18 @@ pub fn run(args: &SimulateArgs) -> Result<u8> {
         if let Err(e) = prepare_output_folder(&args.output) {
             return failed(e);
         }
-        let notes: Vec<String> = args
-            .blocked
-            .then(|| "the deck holds the free ramp only: the rigid support under the tip of --blocked (force.csv) has no counterpart in it".to_string())
-            .into_iter()
-            .collect();
-        match write_inp(path, &cfg, &notes) {
+        let (deck_cfg, mut notes) = if args.export_exact {
+            (cfg.clone(), Vec::new())
+        } else {
+            for_calculix(&cfg)
+        };
+        if args.blocked {
+            notes.push("the deck holds the free ramp only: the rigid support under the tip of --blocked (force.csv) has no counterpart in it".into());
+        }
+        match write_inp(path, &deck_cfg, &notes) {
             Ok(deck) => {
                 eprintln!("note: {deck} -> {}", path.display());
-                caveats(&cfg)
+                caveats(&deck_cfg)
                     .iter()
                     .chain(&notes)
                     .for_each(|c| eprintln!("note: {c}"));
