@@ -629,7 +629,7 @@ fn comment_line(text: &str) -> String {
 /// shear modulus: where its C3D8I gets the reference to 100 kPa.
 pub const CALCULIX_DECK_BULK_TO_SHEAR: f64 = 100.0;
 
-/// `cfg` as CalculiX converges with it by default: every silicone ([material], and
+/// `cfg` as CalculiX's C3D8I takes it without locking: every silicone ([material], and
 /// [tube.outer_material]) whose bulk modulus is above [`CALCULIX_BULK_TO_SHEAR`] mu0 (where
 /// C3D8I locks) gets [`CALCULIX_DECK_BULK_TO_SHEAR`] mu0; a note per change, for the deck
 /// and the output (`simulate --export-exact` writes the model as solved instead).
