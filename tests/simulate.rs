@@ -240,6 +240,212 @@ fn nonsense_parameters_get_one_line_naming_them() {
     );
 }
 
+/// A pressure or a density no actuator has is refused up front by key with its range
+/// (before: `--pressures 1e200` and `0:1e300:1e299` "converged" in 0 Newton iterations at
+/// the rest shape, exit 0; a density of 1e300 gave radius inf, exit 0; `1e9` solved for
+/// 41 s before diverging).
+#[test]
+fn implausible_pressures_and_densities_are_refused_by_key() {
+    let dir = tempfile::tempdir().unwrap();
+    for p in ["1e200", "0:1e300:1e299", "1e9", "20,10001"] {
+        Run::new(
+            dir.path(),
+            &["simulate", "--mesh-size", "4", "--pressures", p],
+        )
+        .assert_bad_input(&["pressures", "above 10000 kPa (10 MPa)"]);
+    }
+    for (density, shown) in [("1e300", "1e300"), ("30", "30")] {
+        std::fs::write(
+            dir.path().join("dense.toml"),
+            format!("[material]\ndensity_g_cm3 = {density}\n"),
+        )
+        .unwrap();
+        Run::new(
+            dir.path(),
+            &["simulate", "--config", "dense.toml", "--mesh-size", "4"],
+        )
+        .assert_bad_input(&["density_g_cm3", shown, "25 g/cm3"]);
+    }
+    assert!(!dir.path().join("fem-out").exists(), "nothing written");
+}
+
+/// `--export-inp` where the run writes no deck (the analytic model, --print-config,
+/// --sweep) or where the run's own results would replace it is refused in one line,
+/// nothing written (before: exit 0 and no deck, or the deck overwritten by steps.csv).
+#[test]
+fn export_inp_is_refused_where_no_deck_would_be_written_or_kept() {
+    let dir = tempfile::tempdir().unwrap();
+    let base = [
+        "simulate",
+        "--mesh-size",
+        "4",
+        "--pressures",
+        "20",
+        "-o",
+        "o",
+    ];
+    for (extra, needles) in [
+        (
+            &["--model", "analytic", "--export-inp", "a.inp"][..],
+            &["--model analytic"][..],
+        ),
+        (
+            &["--print-config", "--export-inp", "a.inp"],
+            &["--print-config"],
+        ),
+        (&["--sweep", "f=4,5", "--export-inp", "a.inp"], &["--sweep"]),
+        (
+            &["--export-inp", "o/steps.csv"],
+            &["o/steps.csv", "o/deck.inp"],
+        ),
+        (&["--export-inp", "./o/config.toml"], &["config.toml"]),
+        (&["--export-inp", "o/vtu/deck.inp"], &["o/vtu/deck.inp"]),
+    ] {
+        let args: Vec<&str> = base.iter().chain(extra).copied().collect();
+        let run = Run::new(dir.path(), &args);
+        run.assert_bad_input(needles);
+        assert!(run.stderr.contains("--export-inp"), "{run}");
+        assert!(run.stdout.is_empty(), "{run}");
+    }
+    assert!(!dir.path().join("a.inp").exists() && !dir.path().join("o").exists());
+}
+
+/// The deck carries what it changes for CalculiX (the bulk modulus) and what it leaves out
+/// of the run (`--blocked`'s tip support) as `**` comments, and the run says so in notes.
+#[test]
+fn the_deck_carries_its_caveats_and_the_blocked_note_as_comments() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = Run::new(
+        dir.path(),
+        &[
+            "simulate",
+            "--mesh-size",
+            "4",
+            "--pressures",
+            "10",
+            "--no-vtu",
+            "--blocked",
+            "--export-inp",
+            "d.inp",
+            "-o",
+            "o",
+        ],
+    );
+    assert_eq!(run.code, 0, "{run}");
+    assert!(
+        run.stderr
+            .contains("note: the deck holds the free ramp only"),
+        "{run}"
+    );
+    let deck = std::fs::read_to_string(dir.path().join("d.inp")).unwrap();
+    let head: Vec<&str> = deck.lines().take_while(|l| *l != "*HEADING").collect();
+    // By default the bulk modulus CalculiX converges with (100 mu0), said in both.
+    let softened = "note: the deck's [material] bulk modulus is";
+    assert!(
+        head.iter()
+            .any(|l| l.starts_with(&format!("** {softened}")) && l.contains("(1000 mu0)"))
+            && head
+                .iter()
+                .any(|l| l.starts_with("** note: the deck holds the free ramp only")),
+        "{head:?}"
+    );
+    assert!(run.stderr.contains(softened), "{run}");
+    assert!(!deck.contains("a bulk modulus above 200 mu0"), "{head:?}");
+    assert!(head.iter().all(|l| l.starts_with("**")), "{head:?}");
+    // --export-exact is a variant of --export-inp only.
+    let run = Run::new(dir.path(), &["simulate", "--export-exact"]);
+    assert!(
+        run.code == 2 && run.stderr.contains("--export-inp"),
+        "{run}"
+    );
+}
+
+/// A tmpfs of `bytes` mounted on `dir` (read-only when `ro`), unmounted on drop. Needs
+/// root: the test fails, rather than passing unrun, when the mount fails.
+struct Tmpfs(std::path::PathBuf);
+
+impl Tmpfs {
+    fn mount(dir: &Path, bytes: u64, ro: bool) -> Tmpfs {
+        std::fs::create_dir_all(dir).unwrap();
+        let opts = format!("size={bytes}{}", if ro { ",ro" } else { "" });
+        let ok = std::process::Command::new("mount")
+            .args(["-t", "tmpfs", "-o", &opts, "tmpfs"])
+            .arg(dir)
+            .status()
+            .is_ok_and(|s| s.success());
+        assert!(
+            ok,
+            "mount -t tmpfs on {} failed: this test needs root",
+            dir.display()
+        );
+        Tmpfs(dir.to_path_buf())
+    }
+}
+
+impl Drop for Tmpfs {
+    fn drop(&mut self) {
+        let _ = std::process::Command::new("umount")
+            .arg("-l")
+            .arg(&self.0)
+            .status();
+    }
+}
+
+/// A bad -o fails in a second with the folder named, before the (default 1.5 mm, tens of
+/// seconds) solve: a file is called a file (it was "File exists ... check the output
+/// folder's space"), a read-only folder is named (it was "Read-only file system" alone).
+#[test]
+fn an_output_that_is_a_file_or_read_only_is_named_before_the_solve() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("taken"), "x").unwrap();
+    let started = std::time::Instant::now();
+    Run::new(
+        dir.path(),
+        &["simulate", "--pressures", "20", "-o", "taken"],
+    )
+    .assert_bad_input(&["taken: is a file, not a folder", "give -o a folder"]);
+    let _ro = Tmpfs::mount(&dir.path().join("ro"), 1 << 20, true);
+    let run = Run::new(dir.path(), &["simulate", "--pressures", "20", "-o", "ro"]);
+    run.assert_bad_input(&[
+        "the output folder ro is not writable",
+        "Read-only file system",
+    ]);
+    assert!(
+        !run.stderr.contains(".bendscope-"),
+        "no hidden file named: {run}"
+    );
+    let s = started.elapsed().as_secs_f64();
+    assert!(s < 10.0, "{s} s: the folder is checked before the solve");
+}
+
+/// On a full disk the VTK files fail, the small tables of the converged steps are kept
+/// and the exit is 4, as `process`'s (it was 2, the bad-input code, with no steps.csv).
+#[test]
+fn a_full_disk_keeps_the_steps_table_and_exits_4() {
+    let dir = tempfile::tempdir().unwrap();
+    let _full = Tmpfs::mount(&dir.path().join("full"), 64 << 10, false);
+    let run = Run::new(
+        dir.path(),
+        &[
+            "simulate",
+            "--mesh-size",
+            "4",
+            "--pressures",
+            "10,20",
+            "-o",
+            "full",
+        ],
+    );
+    assert_eq!(run.code, 4, "{run}");
+    assert!(
+        run.stderr.contains("No space left") && run.stderr.contains("free space and rerun"),
+        "{run}"
+    );
+    let (h, rows) = read_csv(&dir.path().join("full/steps.csv"));
+    assert_eq!(rows.len(), 2, "{run}");
+    assert_eq!(rows[1][col(&h, "pressure_kpa")], 20.0);
+}
+
 /// `--family NAME --print-config` prints the family's whole config, which reads back as
 /// itself; a file naming only the family and one value gets the family's other values.
 #[test]

@@ -61,6 +61,7 @@ pub fn run(args: &DemoArgs) -> Result<u8> {
             no_vtu: false,
             model: simulate::Model::Fem,
             export_inp: None,
+            export_exact: false,
             print_config: false,
         })?,
     )?;

@@ -6,12 +6,16 @@ use anyhow::{anyhow, Result};
 use bendscope::fem::actuator::{parse_range, ActuatorConfig};
 use bendscope::fem::analytic::analytic_to;
 use bendscope::fem::family::Family;
-use bendscope::fem::inp::{caveats, write_inp};
+use bendscope::fem::inp::{caveats, for_calculix, write_inp};
 use bendscope::fem::material::MaterialPreset;
-use bendscope::fem::output::{simulate_to, sweep_to, SimulateOptions, BOTTOM_ELONGATION_LIMIT_PCT};
+use bendscope::fem::output::{
+    is_run_output, prepare_output_folder, simulate_to, sweep_to, SimulateOptions,
+    BOTTOM_ELONGATION_LIMIT_PCT,
+};
+use bendscope::fem::FemError;
 use clap::Args;
 
-use super::{EXIT_BAD_INPUT, EXIT_NOTHING, EXIT_OK, EXIT_PARTIAL};
+use super::{EXIT_BAD_INPUT, EXIT_NOTHING, EXIT_NO_SPACE, EXIT_OK, EXIT_PARTIAL};
 
 /// Simulate the actuator under a pressure ramp (FEM).
 #[derive(Debug, Args)]
@@ -84,6 +88,10 @@ pub struct SimulateArgs {
     /// threads tied by *EQUATION, [contact] as node-to-surface contact pairs, one step per pressure).
     #[arg(long, value_name = "FILE")]
     pub export_inp: Option<PathBuf>,
+    /// With --export-inp: the deck of the model exactly as solved [default: a bulk modulus
+    /// above 200 mu0 goes out as 100 mu0, where CalculiX's C3D8I does not lock; noted].
+    #[arg(long, requires = "export_inp")]
+    pub export_exact: bool,
 }
 
 /// The model `simulate` runs.
@@ -128,8 +136,46 @@ fn resolve(args: &SimulateArgs) -> Result<ActuatorConfig> {
     Ok(cfg)
 }
 
+/// Why `--export-inp` cannot go with the other flags, if it cannot: the runs that write
+/// no deck (the analytic model, --print-config, --sweep) and a deck the run's own
+/// results would overwrite.
+fn export_refused(args: &SimulateArgs) -> Option<String> {
+    let path = args.export_inp.as_ref()?;
+    let with = if args.model == Model::Analytic {
+        "--model analytic (the deck is the finite-element model's)"
+    } else if args.print_config {
+        "--print-config (it prints the config and exits)"
+    } else if args.sweep.is_some() {
+        "--sweep (a deck is one design's: export it by a run without --sweep)"
+    } else if is_run_output(&args.output, path) {
+        return Some(format!(
+            "--export-inp {}: the run writes that name in {} (its results would replace the deck): give another name, e.g. {}",
+            path.display(),
+            args.output.display(),
+            args.output.join("deck.inp").display()
+        ));
+    } else {
+        return None;
+    };
+    Some(format!(
+        "--export-inp writes no deck with {with}: drop one of the two"
+    ))
+}
+
+/// The exit of a run that failed: 4 when the disk is full (as `process`), 2 otherwise.
+fn failed(e: FemError) -> Result<u8> {
+    if bendscope::io::is_storage_full(&e) {
+        eprintln!("error: {e}: free space and rerun");
+        return Ok(EXIT_NO_SPACE);
+    }
+    bad(e)
+}
+
 /// Runs `bendscope simulate`.
 pub fn run(args: &SimulateArgs) -> Result<u8> {
+    if let Some(why) = export_refused(args) {
+        return bad(why);
+    }
     let cfg = match resolve(args) {
         Ok(c) => c,
         Err(e) => return bad(format!("{e:#}")),
@@ -150,13 +196,27 @@ pub fn run(args: &SimulateArgs) -> Result<u8> {
         return run_sweep(&cfg, sweep, &args.output);
     }
     if let Some(path) = &args.export_inp {
-        match write_inp(path, &cfg) {
+        // The output folder first: a bad -o fails before anything is written.
+        if let Err(e) = prepare_output_folder(&args.output) {
+            return failed(e);
+        }
+        let (deck_cfg, mut notes) = if args.export_exact {
+            (cfg.clone(), Vec::new())
+        } else {
+            for_calculix(&cfg)
+        };
+        if args.blocked {
+            notes.push("the deck holds the free ramp only: the rigid support under the tip of --blocked (force.csv) has no counterpart in it".into());
+        }
+        match write_inp(path, &deck_cfg, &notes) {
             Ok(deck) => {
                 eprintln!("note: {deck} -> {}", path.display());
-                caveats(&cfg).iter().for_each(|c| eprintln!("note: {c}"));
+                caveats(&deck_cfg)
+                    .iter()
+                    .chain(&notes)
+                    .for_each(|c| eprintln!("note: {c}"));
             }
-            Err(e) if e.is_bad_input() => return bad(e),
-            Err(e) => return Err(e.into()),
+            Err(e) => return failed(e),
         }
     }
     let out = &args.output;
@@ -180,10 +240,14 @@ pub fn run(args: &SimulateArgs) -> Result<u8> {
                 b.inc(1);
             }
         },
-    )?;
+    );
     if let Some((_, b)) = bar {
         b.finish_and_clear();
     }
+    let sim = match sim {
+        Ok(s) => s,
+        Err(e) => return failed(e),
+    };
     let s = &sim.summary;
     for n in &s.notes {
         eprintln!("note: {n}");

@@ -356,9 +356,21 @@ impl MaterialConfig {
                 return Err(bad(name, format!("{v}: must be positive")));
             }
         }
+        if self.density_g_cm3 > MAX_DENSITY_G_CM3 {
+            return Err(bad(
+                "density_g_cm3",
+                format!(
+                    "{}: no material is denser than {MAX_DENSITY_G_CM3} g/cm3 (silicones are 1.0-1.5): give g/cm3",
+                    number_text(self.density_g_cm3)
+                ),
+            ));
+        }
         Ok(m)
     }
 }
+
+/// Largest density a material may have, g/cm³ (osmium, the densest element, is 22.6).
+pub const MAX_DENSITY_G_CM3: f64 = 25.0;
 
 /// Mesh settings.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -931,6 +943,32 @@ pub fn config_table_at<'a>(
     Ok(table)
 }
 
+/// Refuses a pressure above [`crate::session::MAX_PLAUSIBLE_PRESSURE_KPA`] in magnitude
+/// (where `process` warns): no soft actuator sees it, and the solve would run for long
+/// before diverging.
+fn check_plausible_pressures(p: &[f64]) -> Result<(), FemError> {
+    let max = crate::session::MAX_PLAUSIBLE_PRESSURE_KPA;
+    match p.iter().find(|v| v.abs() > max) {
+        Some(v) => Err(bad(
+            "pressures",
+            format!(
+                "{} kPa is above {max} kPa (10 MPa), not plausible for a soft actuator: give kPa (e.g. 10:100:10)",
+                number_text(*v)
+            ),
+        )),
+        None => Ok(()),
+    }
+}
+
+/// `v` as a message shows it: `1e300`, not three hundred digits.
+fn number_text(v: f64) -> String {
+    if v.abs() >= 1e6 {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
 /// Parses "start:stop:step" (inclusive) or "a,b,c" into values; `what` names the
 /// quantity in messages.
 pub fn parse_range(text: &str, what: &str) -> Result<Vec<f64>, FemError> {
@@ -1015,9 +1053,10 @@ impl ActuatorConfig {
         })
     }
 
-    /// The pressure steps, kPa, checked (non-negative, increasing).
+    /// The pressure steps, kPa, checked (non-negative, at most 10 MPa, increasing).
     pub fn pressures_kpa(&self) -> Result<Vec<f64>, FemError> {
         let p = parse_range(&self.load.pressures_kpa, "pressures")?;
+        check_plausible_pressures(&p)?;
         if let Some(v) = p.iter().find(|v| **v < 0.0) {
             return Err(bad(
                 "pressures",

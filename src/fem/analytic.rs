@@ -178,7 +178,7 @@ pub fn analytic_to(
 ) -> Result<Vec<AnalyticStep>, FemError> {
     let output = |e: &dyn std::fmt::Display| FemError::Output { why: e.to_string() };
     let steps = analytic_config(cfg, &cfg.pressures_kpa()?)?;
-    std::fs::create_dir_all(out).map_err(|e| output(&e))?;
+    super::output::prepare_output_folder(out)?;
     let text = cfg.to_toml()?;
     super::output::remove_earlier_outputs(out)?;
     crate::io::write_atomic(&out.join("config.toml"), text.as_bytes()).map_err(|e| output(&e))?;

@@ -187,7 +187,15 @@ pub fn inp_from_config(cfg: &ActuatorConfig) -> Result<(String, InpSummary), Fem
     // Writing into a String cannot fail: the fmt::Results below are discarded.
     let _ = writeln!(
         s,
-        "** bendscope simulate: {what} as solved; mm, N, MPa, t/mm^3, s\n*HEADING\nbendscope {what}, {} nodes, {} C3D8I, mesh {} mm",
+        "** bendscope simulate: {what} as solved; mm, N, MPa, t/mm^3, s"
+    );
+    // What CalculiX will not do with the deck travels with it, not only on stderr.
+    for c in caveats(cfg) {
+        let _ = writeln!(s, "{}", comment_line(&format!("note: {c}")));
+    }
+    let _ = writeln!(
+        s,
+        "*HEADING\nbendscope {what}, {} nodes, {} C3D8I, mesh {} mm",
         m.nodes.len(),
         m.elements.len(),
         cfg.mesh.size_mm
@@ -612,9 +620,62 @@ pub fn caveats(cfg: &ActuatorConfig) -> Vec<String> {
     out
 }
 
-/// Writes the deck of `cfg` to `path` atomically ([`crate::io::write_atomic`]).
-pub fn write_inp(path: &Path, cfg: &ActuatorConfig) -> Result<InpSummary, FemError> {
-    let (text, summary) = inp_from_config(cfg)?;
+/// `text` as one `**` comment line of the deck (line breaks folded to spaces).
+fn comment_line(text: &str) -> String {
+    format!("** {}", text.replace(['\n', '\r'], " "))
+}
+
+/// Bulk modulus of a deck for CalculiX ([`for_calculix`]), as a multiple of the initial
+/// shear modulus: where its C3D8I gets the reference to 100 kPa.
+pub const CALCULIX_DECK_BULK_TO_SHEAR: f64 = 100.0;
+
+/// `cfg` as CalculiX's C3D8I takes it without locking: every silicone ([material], and
+/// [tube.outer_material]) whose bulk modulus is above [`CALCULIX_BULK_TO_SHEAR`] mu0 (where
+/// C3D8I locks) gets [`CALCULIX_DECK_BULK_TO_SHEAR`] mu0; a note per change, for the deck
+/// and the output (`simulate --export-exact` writes the model as solved instead).
+pub fn for_calculix(cfg: &ActuatorConfig) -> (ActuatorConfig, Vec<String>) {
+    let mut deck = cfg.clone();
+    let mut notes = Vec::new();
+    let soften = |m: &mut super::actuator::MaterialConfig, key: &str, notes: &mut Vec<String>| {
+        let Ok(y) = m.yeoh() else { return };
+        let mu0 = 2.0 * y.c1;
+        if y.bulk_modulus <= CALCULIX_BULK_TO_SHEAR * mu0 {
+            return;
+        }
+        // The coefficients are scaled by `scale` in yeoh(): the ratio to mu0 is not.
+        let c1 = m.c1.unwrap_or(m.preset.yeoh().c1);
+        m.bulk_modulus_mpa = Some(CALCULIX_DECK_BULK_TO_SHEAR * 2.0 * c1);
+        notes.push(format!(
+            "the deck's {key} bulk modulus is {:.4} MPa ({CALCULIX_DECK_BULK_TO_SHEAR} mu0), not the {:.4} MPa ({:.0} mu0) solved here: CalculiX's C3D8I locks above {CALCULIX_BULK_TO_SHEAR} mu0 (--export-exact writes the model as solved)",
+            CALCULIX_DECK_BULK_TO_SHEAR * mu0,
+            y.bulk_modulus,
+            y.bulk_modulus / mu0
+        ));
+    };
+    soften(&mut deck.material, "[material]", &mut notes);
+    if let Some(t) = deck.tube.as_mut() {
+        soften(&mut t.outer_material, "[tube.outer_material]", &mut notes);
+    }
+    (deck, notes)
+}
+
+/// Writes the deck of `cfg` to `path` atomically ([`crate::io::write_atomic`]), with
+/// `notes` (what the deck leaves out of the run it was exported from) as `** note:`
+/// comment lines under its first line, beside [`caveats`].
+pub fn write_inp(
+    path: &Path,
+    cfg: &ActuatorConfig,
+    notes: &[String],
+) -> Result<InpSummary, FemError> {
+    let (mut text, summary) = inp_from_config(cfg)?;
+    if !notes.is_empty() {
+        let at = text.find('\n').map_or(text.len(), |i| i + 1);
+        let lines: String = notes
+            .iter()
+            .map(|n| comment_line(&format!("note: {n}")) + "\n")
+            .collect();
+        text.insert_str(at, &lines);
+    }
     crate::io::write_atomic(path, text.as_bytes()).map_err(|e| FemError::Output {
         why: format!("{}: {e}", path.display()),
     })?;
@@ -643,6 +704,43 @@ mod tests {
         (x[q[2]] - x[q[0]]).cross(&(x[q[3]] - x[q[1]]))
     }
 
+    /// By default the deck gets the bulk modulus CalculiX converges with (100 mu0 of each
+    /// silicone above 200 mu0), with a note each; then no bulk caveat is left, and a
+    /// config already at 100 mu0 is unchanged.
+    #[test]
+    fn the_calculix_deck_softens_the_bulk_modulus_and_says_so() {
+        use crate::fem::family::{defaults, Family};
+        let reference = defaults(Family::Pneunets);
+        let (deck, notes) = for_calculix(&reference);
+        let y = deck.material.yeoh().unwrap();
+        assert!(
+            (y.bulk_modulus / (2.0 * y.c1) - 100.0).abs() < 1e-9,
+            "{y:?}"
+        );
+        assert_eq!(y.c1, reference.material.yeoh().unwrap().c1);
+        assert_eq!(notes.len(), 1, "{notes:?}");
+        assert!(
+            notes[0].starts_with("the deck's [material] bulk modulus is")
+                && notes[0].contains("(1000 mu0)")
+        );
+        assert!(caveats(&deck).is_empty(), "{:?}", caveats(&deck));
+        let mut scaled = reference.clone();
+        scaled.material.scale = 2.0;
+        let y = for_calculix(&scaled).0.material.yeoh().unwrap();
+        assert!(
+            (y.bulk_modulus / (2.0 * y.c1) - 100.0).abs() < 1e-9,
+            "{y:?}"
+        );
+        let tube = defaults(Family::FibreReinforced);
+        let (deck, notes) = for_calculix(&tube);
+        assert_eq!(notes.len(), 2, "{notes:?}");
+        assert!(notes[1].contains("[tube.outer_material]"));
+        let left = caveats(&deck);
+        assert!(left.len() == 1 && left[0].contains("smeared"), "{left:?}");
+        let (same, notes) = for_calculix(&deck);
+        assert!(notes.is_empty() && same == deck, "{notes:?}");
+    }
+
     /// The export names what CalculiX will not do with a deck: the default bulk modulus
     /// (1000 mu0, C3D8I locks) and smeared threads (it stalls near 10 kPa); a deck at 100
     /// mu0 with threads as lines gets no note.
@@ -650,6 +748,15 @@ mod tests {
     fn the_export_notes_what_calculix_stalls_on() {
         use crate::fem::family::{defaults, Family};
         assert_eq!(caveats(&defaults(Family::Pneunets)).len(), 1);
+        // In the deck too, as comments under its first line, before *HEADING.
+        let mut coarse = defaults(Family::Pneunets);
+        coarse.mesh.size_mm = 4.0;
+        let (text, _) = inp_from_config(&coarse).unwrap();
+        let lines: Vec<&str> = text.lines().take(3).collect();
+        assert!(
+            lines[1].starts_with("** note: a bulk modulus above 200 mu0") && lines[2] == "*HEADING",
+            "{lines:?}"
+        );
         let mut tube = defaults(Family::FibreReinforced);
         let notes = caveats(&tube);
         assert_eq!(notes.len(), 2, "{notes:?}");

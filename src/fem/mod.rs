@@ -86,6 +86,15 @@ pub enum FemError {
         /// What to try.
         why: String,
     },
+    /// A load, a stiffness or a residual is not a finite number (NaN or infinite): a
+    /// divergence with its cause named, never a converged step.
+    #[error("FEM solve stopped at {:.1}% of the load: {why}", 100.0 * load_fraction)]
+    NotFinite {
+        /// Load fraction reached.
+        load_fraction: f64,
+        /// What is not finite, at which load, and what to check.
+        why: String,
+    },
 }
 
 impl FemError {

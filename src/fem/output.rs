@@ -10,7 +10,7 @@
 //! results, never another actuator's. A folder with a `config.toml` and no
 //! `summary.json` is a run that was stopped before its end.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use serde::Serialize;
@@ -87,6 +87,96 @@ pub fn remove_earlier_outputs(out: &Path) -> Result<(), FemError> {
     Ok(())
 }
 
+/// Checks `out` before a run writes into it (and before a solve): it is a folder, or is
+/// created as one, and a file can be written in it. A file named `out`, a read-only
+/// folder or a full disk then fails in a second with the folder named, not after the
+/// solve.
+pub fn prepare_output_folder(out: &Path) -> Result<(), FemError> {
+    if out.exists() && !out.is_dir() {
+        return Err(FemError::Input {
+            why: format!(
+                "{}: is a file, not a folder: give -o a folder for the results",
+                out.display()
+            ),
+        });
+    }
+    std::fs::create_dir_all(out).map_err(|e| {
+        output(format!(
+            "cannot create the output folder {}: {e}",
+            out.display()
+        ))
+    })?;
+    // A plain file (not tempfile's): its errors carry no hidden path to show. Named as
+    // write_atomic's temporaries, so a run killed here leaves nothing a rerun keeps.
+    let path = out.join(format!(
+        "{}write-test-{}{}",
+        crate::io::TEMP_PREFIX,
+        std::process::id(),
+        crate::io::TEMP_SUFFIX
+    ));
+    let probe = || -> std::io::Result<()> {
+        use std::io::Write;
+        let mut f = std::fs::File::create(&path)?;
+        f.write_all(b"bendscope write test\n")?;
+        f.sync_all()
+    };
+    let result = probe();
+    let _ = std::fs::remove_file(&path);
+    result.map_err(|e| {
+        output(format!(
+            "the output folder {} is not writable ({e})",
+            out.display()
+        ))
+    })
+}
+
+/// Whether `path` is a file that a run into `out` writes or removes: one of
+/// [`RUN_OUTPUT_FILES`] or `config.toml` in `out`, anything in `out/vtu/`, a plot of
+/// [`RUN_PLOTS`] in `out/plots/`. A file to keep (an exported deck) must not be one.
+pub fn is_run_output(out: &Path, path: &Path) -> bool {
+    // Existing folders through their links; others lexically from the working folder.
+    let folder = |p: &Path| -> PathBuf {
+        p.canonicalize()
+            .or_else(|_| std::path::absolute(p))
+            .unwrap_or_else(|_| p.to_path_buf())
+    };
+    let Some(name) = path.file_name().map(|n| n.to_string_lossy().into_owned()) else {
+        return false;
+    };
+    let parent = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let (out, dir) = (folder(out), folder(parent));
+    if dir == out {
+        return name == "config.toml"
+            || name == "vtu"
+            || name == "plots"
+            || RUN_OUTPUT_FILES.contains(&name.as_str());
+    }
+    if dir.starts_with(out.join("vtu")) {
+        return true;
+    }
+    dir == out.join("plots")
+        && RUN_PLOTS
+            .iter()
+            .any(|p| name == format!("{p}.png") || name == format!("{p}.svg"))
+}
+
+/// A ramp run by [`ramp_with_outputs`]: its steps, the VTU files written (pressure,
+/// name) and the side face; `vtu_error` is the first VTU that could not be written
+/// (none is tried after it), so that the small tables are still written.
+pub struct RampOutputs {
+    /// The converged steps and why the ramp stopped.
+    pub ramp: Ramp,
+    /// VTU files written, (pressure kPa, name relative to the output folder).
+    pub vtu_files: Vec<(f64, String)>,
+    /// The filmed face per step.
+    pub face: SideFaceFile,
+    /// The first VTU write that failed.
+    pub vtu_error: Option<String>,
+}
+
 /// Runs a ramp, writing a VTU per step into `vtu_dir/vtu/`; `progress` sees each step.
 pub fn ramp_with_outputs(
     mesh: &ActuatorMesh,
@@ -95,7 +185,7 @@ pub fn ramp_with_outputs(
     blocked: bool,
     vtu_dir: Option<&Path>,
     progress: &mut dyn FnMut(&StepResult),
-) -> Result<(Ramp, Vec<(f64, String)>, SideFaceFile), FemError> {
+) -> Result<RampOutputs, FemError> {
     let mut files = Vec::new();
     let mut io_error = None;
     let (mut face, face_nodes) = SideFaceFile::new(mesh);
@@ -105,7 +195,7 @@ pub fn ramp_with_outputs(
     };
     let ramp = run_ramp(mesh, pressures, &settings, |step, fields| {
         face.push(mesh, &face_nodes, step, fields.displacement);
-        if let Some(dir) = vtu_dir {
+        if let (Some(dir), None) = (vtu_dir, &io_error) {
             let name = format!("vtu/step_{:03}.vtu", files.len() + 1);
             match write_vtu(
                 &dir.join(&name),
@@ -115,17 +205,17 @@ pub fn ramp_with_outputs(
                 fields.stresses,
             ) {
                 Ok(()) => files.push((step.pressure_kpa, name)),
-                Err(e) => {
-                    io_error.get_or_insert(e);
-                }
+                Err(e) => io_error = Some(e.to_string()),
             }
         }
         progress(step);
     })?;
-    if let Some(e) = io_error {
-        return Err(output(format!("VTK files: {e}")));
-    }
-    Ok((ramp, files, face))
+    Ok(RampOutputs {
+        ramp,
+        vtu_files: files,
+        face,
+        vtu_error: io_error,
+    })
 }
 
 /// A column of step results with `decimals` digits.
@@ -361,7 +451,7 @@ pub fn simulate_to(
     options: SimulateOptions,
     progress: &mut dyn FnMut(&str, &StepResult),
 ) -> Result<Simulation, FemError> {
-    std::fs::create_dir_all(out).map_err(output)?;
+    prepare_output_folder(out)?;
     let text = cfg.to_toml()?;
     remove_earlier_outputs(out)?;
     write_atomic(&out.join("config.toml"), text.as_bytes()).map_err(output)?;
@@ -369,7 +459,12 @@ pub fn simulate_to(
     let notes = mesh_notes(cfg);
     let mesh = build_mesh(cfg)?;
     let started = Instant::now();
-    let (ramp, vtu_files, face) = ramp_with_outputs(
+    let RampOutputs {
+        ramp,
+        vtu_files,
+        face,
+        vtu_error,
+    } = ramp_with_outputs(
         &mesh,
         &pressures,
         cfg,
@@ -377,9 +472,16 @@ pub fn simulate_to(
         options.vtu.then_some(out),
         &mut |s| progress("pressure steps", s),
     )?;
-    write_json(&out.join("side_face.json"), &face).map_err(output)?;
     let seconds = started.elapsed().as_secs_f64();
+    // The small tables first: on a full disk they are kept when the VTK files fail.
     write_steps(out, &ramp.steps)?;
+    if let Some(e) = vtu_error {
+        return Err(output(format!(
+            "VTK files: {e} (steps.csv and markers.csv of the {} converged steps are written; --no-vtu leaves the VTK files out)",
+            ramp.steps.len()
+        )));
+    }
+    write_json(&out.join("side_face.json"), &face).map_err(output)?;
     if !vtu_files.is_empty() {
         write_pvd(&out.join("actuator.pvd"), &vtu_files).map_err(output)?;
     }
@@ -389,7 +491,7 @@ pub fn simulate_to(
         let blocked = ramp_with_outputs(&mesh, &pressures, cfg, true, None, &mut |s| {
             progress("blocked tip", s)
         })?
-        .0;
+        .ramp;
         write_force(out, &blocked.steps)?;
         force_steps = blocked.steps;
         if let Some(e) = blocked.failure {
@@ -466,7 +568,7 @@ pub fn sweep_to(
         c.validate()?;
         designs.push(c);
     }
-    std::fs::create_dir_all(out).map_err(output)?;
+    prepare_output_folder(out)?;
     remove_earlier_outputs(out)?;
     // A sweep writes no config of its own: an earlier run's is not its.
     match std::fs::remove_file(out.join("config.toml")) {

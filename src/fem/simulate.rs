@@ -269,6 +269,12 @@ pub fn run_ramp(
                 });
                 break;
             }
+            // Its cause (which load is not finite) is the message: the steps before it
+            // are kept.
+            Err(e @ FemError::NotFinite { .. }) => {
+                ramp.failure = Some(e);
+                break;
+            }
             Err(e) => return Err(e),
         }
     }
@@ -485,6 +491,35 @@ mod tests {
         assert!(s.curvature_per_m < 1e-9, "{s:?}");
         assert!(s.bending_angle_deg.abs() < 1e-9 && s.tip_z_mm.abs() < 1e-9);
         assert!(s.bottom_elongation_pct.abs() < 1e-9);
+    }
+
+    /// A step whose load is not finite ends the ramp as a failure naming the load, the
+    /// steps before it kept (it was a step "converged" in 0 iterations at the rest shape),
+    /// and so does a density whose gravity load overflows, before any step.
+    #[test]
+    fn a_load_that_is_not_finite_ends_the_ramp_naming_it() {
+        let mesh = coarse(false);
+        let ramp = run_ramp(
+            &mesh,
+            &[10.0, 1e200, 20.0],
+            &RampSettings::default(),
+            |_, _| {},
+        )
+        .unwrap();
+        assert_eq!(ramp.steps.len(), 1);
+        let why = ramp.failure.map(|e| e.to_string()).unwrap_or_default();
+        assert!(why.contains("the load is not finite at 1e200 kPa"), "{why}");
+        let mut heavy = coarse(true);
+        for l in &mut heavy.model.loads {
+            *l *= 1e300;
+        }
+        let ramp = run_ramp(&heavy, &[10.0], &RampSettings::default(), |_, _| {}).unwrap();
+        assert!(ramp.steps.is_empty());
+        let why = ramp.failure.map(|e| e.to_string()).unwrap_or_default();
+        assert!(
+            why.contains("the load is not finite at 0 kPa with gravity"),
+            "{why}"
+        );
     }
 
     #[test]

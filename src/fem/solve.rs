@@ -159,6 +159,34 @@ pub struct NewtonSettings {
     pub min_step: f64,
 }
 
+impl NewtonSettings {
+    /// Checks the settings: tolerances finite and non-negative, steps in (0, 1] (a NaN
+    /// smallest step would never end the step cutting).
+    pub fn check(&self) -> Result<(), FemError> {
+        let bad = |name: &str, v: f64, range: &str| FemError::Parameter {
+            name: name.into(),
+            why: format!("{v}: must be {range}"),
+        };
+        for (name, v) in [
+            ("tolerance", self.tolerance),
+            ("absolute_tolerance", self.absolute_tolerance),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(bad(name, v, "a finite number >= 0"));
+            }
+        }
+        for (name, v) in [
+            ("initial_step", self.initial_step),
+            ("min_step", self.min_step),
+        ] {
+            if !(v > 0.0 && v <= 1.0) {
+                return Err(bad(name, v, "in (0, 1]"));
+            }
+        }
+        Ok(())
+    }
+}
+
 impl Default for NewtonSettings {
     fn default() -> Self {
         Self {
@@ -495,6 +523,18 @@ fn gather<const N: usize>(u: &[f64], nodes: &[usize; N]) -> [Vector3<f64>; N] {
     std::array::from_fn(|a| Vector3::new(u[3 * nodes[a]], u[3 * nodes[a] + 1], u[3 * nodes[a] + 2]))
 }
 
+/// The larger of `a` and `b`, NaN when either is (`f64::max` drops a NaN, which would
+/// hide it from the convergence test).
+fn max_or_nan(a: f64, b: f64) -> f64 {
+    if a.is_nan() || b.is_nan() {
+        f64::NAN
+    } else {
+        a.max(b)
+    }
+}
+
+/// Euclidean norm; infinite when the squares overflow (a load near 1e154 or more), which
+/// the convergence test takes as a load that is not finite.
 fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
@@ -535,7 +575,7 @@ fn element_part(
         ));
     }
     let e = element_kinematics(g, material, &gather(u, el))?;
-    if th <= 0.0 {
+    if th.is_nan() || th <= 0.0 {
         return None;
     }
     let vol = g.volume;
@@ -569,7 +609,7 @@ fn enhanced_part(
     modes: &Modes,
     u: &[f64],
 ) -> Option<ElementPart> {
-    if th.iter().any(|t| *t <= 0.0) {
+    if th.iter().any(|t| t.is_nan() || *t <= 0.0) {
         return None;
     }
     let e = enhanced_kinematics(
@@ -594,7 +634,7 @@ fn enhanced_part(
         k += gq * gq.transpose() * (ddu / vq);
         shift += gq * ((ddu * r_volume + r_pressure) / vq);
         points[q] = (r_volume, r_pressure, ddu);
-        volume_error = volume_error.max((r_volume / vq).abs());
+        volume_error = max_or_nan(volume_error, (r_volume / vq).abs());
     }
     let kaa_inv = k
         .fixed_view::<MODE_DOFS, MODE_DOFS>(24, 24)
@@ -875,6 +915,13 @@ impl<'m> Solver<'m> {
         target: LoadState,
         s: &NewtonSettings,
     ) -> Result<StepReport, FemError> {
+        s.check()?;
+        if !(target.dead.is_finite() && target.pressure_mpa.is_finite()) {
+            return Err(FemError::NotFinite {
+                load_fraction: 0.0,
+                why: load_not_finite(target),
+            });
+        }
         let start = self.load;
         let (mut t, mut step) = (0.0f64, s.initial_step.clamp(s.min_step, 1.0));
         let mut report = StepReport {
@@ -887,8 +934,16 @@ impl<'m> Solver<'m> {
             let saved_couplings = self.extra_couplings.clone();
             let load = start.lerp(&target, next);
             let guess = self.predict(load);
-            match self.newton(load, s, guess) {
-                Some(it) => {
+            let outcome = self.newton(load, s, guess);
+            if let Err(NewtonFailure::LoadNotFinite) = outcome {
+                // Named at the target: a fraction of it overflowing, so does the whole.
+                return Err(FemError::NotFinite {
+                    load_fraction: t,
+                    why: load_not_finite(target),
+                });
+            }
+            match outcome {
+                Ok(it) => {
                     report.iterations += it;
                     report.substeps += 1;
                     self.previous = Some((saved, self.load));
@@ -898,7 +953,12 @@ impl<'m> Solver<'m> {
                         step = (step * 2.0).min(1.0);
                     }
                 }
-                None => {
+                Err(failure) => {
+                    // What was not finite in this failed increment, if anything.
+                    let not_finite = match failure {
+                        NewtonFailure::NotFinite(what) => Some((what, load)),
+                        _ => None,
+                    };
                     (self.u, self.theta, self.pressure, self.modes) = saved;
                     if self.extra_couplings != saved_couplings {
                         // Contact met by the iterates of a failed increment (e.g. the
@@ -912,6 +972,15 @@ impl<'m> Solver<'m> {
                     }
                     step *= 0.5;
                     if step < s.min_step {
+                        if let Some((what, at)) = not_finite {
+                            return Err(FemError::NotFinite {
+                                load_fraction: t,
+                                why: format!(
+                                    "{what} became NaN or infinite at {} (even with the smallest load increment): a material, layer or load far outside the physical range; check the config's values",
+                                    load_text(at)
+                                ),
+                            });
+                        }
                         return Err(FemError::Diverged {
                             load_fraction: t,
                             why: "Newton failed even with the smallest load increment: refine the mesh, lower the pressure or check the supports".into(),
@@ -1130,14 +1199,14 @@ impl<'m> Solver<'m> {
             }
             if let Some(m) = &c.modes {
                 modes_residual_sq += m.residual_sq;
-                volume_error = volume_error.max(m.volume_error);
+                volume_error = max_or_nan(volume_error, m.volume_error);
             }
             for (s, v) in slots.iter().zip(k.as_slice()) {
                 if *s != SKIP {
                     values[*s as usize] += v;
                 }
             }
-            volume_error = volume_error.max((c.r_volume / g.volume).abs());
+            volume_error = max_or_nan(volume_error, (c.r_volume / g.volume).abs());
         }
         for ((m, (_, f, k)), slots) in model
             .membranes
@@ -1261,13 +1330,14 @@ impl<'m> Solver<'m> {
     }
 
     /// Newton iterations at `load` from the current state; the number of linear solves
-    /// when converged (the state is then updated).
+    /// when converged (the state is then updated). A load, residual or stiffness that
+    /// is not finite fails ([`NewtonFailure`]), never passes the convergence test.
     fn newton(
         &mut self,
         load: LoadState,
         s: &NewtonSettings,
         guess: Option<State>,
-    ) -> Option<usize> {
+    ) -> Result<usize, NewtonFailure> {
         let debug = std::env::var_os("BENDSCOPE_DEBUG_NEWTON").is_some();
         // From the predicted state when it is valid (no inverted element), else from the
         // last state.
@@ -1282,28 +1352,38 @@ impl<'m> Solver<'m> {
         });
         let ((mut u, mut theta, mut pressure, mut modes), mut cur) = match predicted {
             Some(p) => p,
-            None => from_last()?,
+            None => from_last().ok_or(NewtonFailure::Cut)?,
         };
+        if !cur.external_norm.is_finite() {
+            return Err(NewtonFailure::LoadNotFinite);
+        }
         let first_norm = cur.equilibrium_norm.max(s.absolute_tolerance);
         for it in 0..=s.max_iterations {
-            let tol = (s.tolerance * cur.external_norm)
-                .max(s.absolute_tolerance)
-                .max(ROUNDOFF_FACTOR * cur.roundoff_norm);
+            let norms = IterateNorms {
+                equilibrium: cur.equilibrium_norm,
+                external: cur.external_norm,
+                roundoff: cur.roundoff_norm,
+                volume_error: cur.volume_error,
+                residual_finite: cur.residual.iter().all(|r| r.is_finite()),
+            };
             if debug {
                 eprintln!(
-                    "newton {it}: |R_u| {:.3e} (tol {tol:.1e}, round-off floor {:.1e}) volume error {:.2e}",
-                    cur.equilibrium_norm, cur.roundoff_norm, cur.volume_error
+                    "newton {it}: |R_u| {:.3e} (tol {:.1e}, round-off floor {:.1e}) volume error {:.2e}",
+                    cur.equilibrium_norm,
+                    norms.tolerance(s),
+                    cur.roundoff_norm,
+                    cur.volume_error
                 );
             }
-            if cur.equilibrium_norm <= tol && cur.volume_error <= VOLUME_TOLERANCE {
+            if norms.converged(s).map_err(NewtonFailure::NotFinite)? {
                 self.u = u;
                 self.theta = theta;
                 self.pressure = pressure;
                 self.modes = modes;
-                return Some(it);
+                return Ok(it);
             }
             if it == s.max_iterations || cur.equilibrium_norm > DIVERGENCE_FACTOR * first_norm {
-                return None;
+                return Err(NewtonFailure::Cut);
             }
             if !cur.missing.is_empty() {
                 // New contact couplings: extend the pattern (a new symbolic factorization)
@@ -1317,17 +1397,19 @@ impl<'m> Solver<'m> {
                         self.extra_couplings.len()
                     );
                 }
-                self.pattern =
-                    Pattern::new(self.model, &self.eq, self.n_eq, &self.extra_couplings).ok()?;
+                self.pattern = Pattern::new(self.model, &self.eq, self.n_eq, &self.extra_couplings)
+                    .map_err(|_| NewtonFailure::Cut)?;
                 self.symbolic = None;
                 self.scratch = None;
-                cur = self.assemble(&u, &theta, &pressure, &modes, load)?;
+                cur = self
+                    .assemble(&u, &theta, &pressure, &modes, load)
+                    .ok_or(NewtonFailure::Cut)?;
             }
             let Some(du) = self.factor_and_solve(&cur.values, &cur.residual) else {
                 if debug {
                     eprintln!("newton {it}: singular tangent: cutting the step");
                 }
-                return None;
+                return Err(NewtonFailure::Cut);
             };
 
             let mut du_full = vec![0.0; u.len()];
@@ -1411,7 +1493,7 @@ impl<'m> Solver<'m> {
                 if debug {
                     eprintln!("newton {it}: every step length inverts an element");
                 }
-                return None;
+                return Err(NewtonFailure::Cut);
             };
             u = tu;
             theta = tt;
@@ -1419,8 +1501,90 @@ impl<'m> Solver<'m> {
             modes = tm;
             cur = next;
         }
-        None
+        Err(NewtonFailure::Cut)
     }
+}
+
+/// Why a Newton solve at one load failed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum NewtonFailure {
+    /// Not converged (iterations used up, a growing residual, a singular tangent, every
+    /// step inverting an element): a smaller load increment may converge.
+    Cut,
+    /// The external load is not finite (its norm overflows): no increment converges.
+    LoadNotFinite,
+    /// The named quantity of an iterate is NaN or infinite.
+    NotFinite(&'static str),
+}
+
+/// The norms of one Newton iterate that its convergence test reads.
+#[derive(Debug, Clone, Copy)]
+struct IterateNorms {
+    /// |R_u| with the modes' residual.
+    equilibrium: f64,
+    /// |f_ext|.
+    external: f64,
+    /// The round-off floor ε ‖ |K| |u| ‖ (not finite when the tangent is not).
+    roundoff: f64,
+    /// Largest |v / V − θ|.
+    volume_error: f64,
+    /// Every entry of the condensed residual is finite.
+    residual_finite: bool,
+}
+
+impl IterateNorms {
+    /// The residual tolerance: the largest of the relative one (to the external force),
+    /// the absolute one and a multiple of the round-off floor.
+    fn tolerance(&self, s: &NewtonSettings) -> f64 {
+        (s.tolerance * self.external)
+            .max(s.absolute_tolerance)
+            .max(ROUNDOFF_FACTOR * self.roundoff)
+    }
+
+    /// Whether the iterate has converged; `Err` naming what is NaN or infinite. Every
+    /// quantity is checked before it is compared: `NaN <= tol` is false but
+    /// `inf <= inf` is true, and `f64::max` drops a NaN, so an overflowed load or
+    /// stiffness once made any residual pass.
+    fn converged(&self, s: &NewtonSettings) -> Result<bool, &'static str> {
+        if !self.external.is_finite() {
+            return Err("the external load");
+        }
+        if !(self.equilibrium.is_finite() && self.residual_finite) {
+            return Err("the residual");
+        }
+        if !self.roundoff.is_finite() {
+            return Err("the stiffness");
+        }
+        if !self.volume_error.is_finite() {
+            return Err("the volume error");
+        }
+        Ok(self.equilibrium <= self.tolerance(s) && self.volume_error <= VOLUME_TOLERANCE)
+    }
+}
+
+/// A load state in words: `1e200 kPa`, with the dead load (gravity) when on.
+fn load_text(load: LoadState) -> String {
+    let kpa = 1e3 * load.pressure_mpa;
+    let p = if kpa.is_finite() && kpa.abs() < 1e6 {
+        format!("{kpa} kPa")
+    } else {
+        format!("{kpa:e} kPa")
+    };
+    if load.dead == 0.0 {
+        p
+    } else if load.dead == 1.0 {
+        format!("{p} with gravity")
+    } else {
+        format!("{p} with {} of gravity", load.dead)
+    }
+}
+
+/// The message of a load that is not finite.
+fn load_not_finite(load: LoadState) -> String {
+    format!(
+        "the load is not finite at {}: a pressure or a density far beyond any actuator's overflows the arithmetic; check the pressures and density_g_cm3",
+        load_text(load)
+    )
 }
 
 /// Dilatations and pressures per element: one (Q1/P0), or one per Gauss point for the
@@ -2012,5 +2176,176 @@ mod assembly_tests {
             worst < 1e-5 * scale,
             "worst |K - FD| {worst} (scale {scale})"
         );
+    }
+
+    /// One unit cube clamped at x = 0 with a dead load `f` (N) along x on the nodes at
+    /// x = 1.
+    fn pulled_cube(f: f64, material: Yeoh) -> Model {
+        let nodes: Vec<Vector3<f64>> = (0..8)
+            .map(|n| Vector3::new((n & 1) as f64, ((n >> 1) & 1) as f64, (n >> 2) as f64))
+            .collect();
+        let id = |i: usize, j: usize, k: usize| i + 2 * j + 4 * k;
+        let mut fixed = vec![false; 24];
+        let mut loads = vec![0.0; 24];
+        for (a, x) in nodes.iter().enumerate() {
+            if x.x == 0.0 {
+                fixed[3 * a..3 * a + 3].fill(true);
+            } else {
+                loads[3 * a] = f / 4.0;
+            }
+        }
+        Model::solid(
+            nodes,
+            vec![super::tests::cell(id, 0, 0, 0)],
+            material,
+            fixed,
+            loads,
+        )
+    }
+
+    /// A NaN or an infinity in the norms never passes the convergence test: before the
+    /// check an overflowed load made the tolerance infinite and `inf <= inf` passed.
+    #[test]
+    fn the_convergence_test_fails_on_nan_and_inf() {
+        let s = NewtonSettings::default();
+        let ok = IterateNorms {
+            equilibrium: 1e-12,
+            external: 1.0,
+            roundoff: 1e-14,
+            volume_error: 0.0,
+            residual_finite: true,
+        };
+        assert_eq!(ok.converged(&s), Ok(true));
+        assert_eq!(
+            IterateNorms {
+                equilibrium: 1e-3,
+                ..ok
+            }
+            .converged(&s),
+            Ok(false)
+        );
+        let cases: [(IterateNorms, &str); 9] = [
+            (
+                IterateNorms {
+                    external: f64::INFINITY,
+                    equilibrium: f64::INFINITY,
+                    ..ok
+                },
+                "the external load",
+            ),
+            (
+                IterateNorms {
+                    external: f64::NAN,
+                    ..ok
+                },
+                "the external load",
+            ),
+            (
+                IterateNorms {
+                    equilibrium: f64::NAN,
+                    ..ok
+                },
+                "the residual",
+            ),
+            (
+                IterateNorms {
+                    equilibrium: f64::INFINITY,
+                    ..ok
+                },
+                "the residual",
+            ),
+            (
+                IterateNorms {
+                    residual_finite: false,
+                    ..ok
+                },
+                "the residual",
+            ),
+            (
+                IterateNorms {
+                    roundoff: f64::INFINITY,
+                    ..ok
+                },
+                "the stiffness",
+            ),
+            (
+                IterateNorms {
+                    roundoff: f64::NAN,
+                    ..ok
+                },
+                "the stiffness",
+            ),
+            (
+                IterateNorms {
+                    volume_error: f64::NAN,
+                    ..ok
+                },
+                "the volume error",
+            ),
+            (
+                IterateNorms {
+                    volume_error: f64::INFINITY,
+                    ..ok
+                },
+                "the volume error",
+            ),
+        ];
+        for (norms, what) in cases {
+            assert_eq!(norms.converged(&s), Err(what), "{norms:?}");
+        }
+        assert!(max_or_nan(0.0, f64::NAN).is_nan() && max_or_nan(f64::NAN, 1.0).is_nan());
+        assert_eq!(max_or_nan(1.0, 2.0), 2.0);
+    }
+
+    /// A load whose norm overflows (1e200 N) or that is NaN or infinite is an error that
+    /// says the load is not finite, never a converged solve (it was one, in 0 iterations,
+    /// at the rest shape); a finite load on the same cube converges.
+    #[test]
+    fn a_load_that_is_not_finite_is_an_error_never_convergence() {
+        let material = crate::fem::material::MaterialPreset::Proposed.yeoh();
+        let settings = NewtonSettings::default();
+        let r = solve_static(&pulled_cube(0.01, material), &settings).unwrap();
+        assert!(r.displacement[3] > 1e-3 && r.displacement[3] < 0.5, "{r:?}");
+        for f in [1e200, 1e300, f64::MAX, f64::INFINITY, f64::NAN, -1e200] {
+            match solve_static(&pulled_cube(f, material), &settings) {
+                Err(FemError::NotFinite { why, .. }) => {
+                    assert!(
+                        why.starts_with("the load is not finite at 0 kPa"),
+                        "{f}: {why}"
+                    )
+                }
+                other => panic!("{f}: {other:?}"),
+            }
+        }
+        // A pressure that is not finite is refused before any iteration.
+        let model = pulled_cube(0.0, material);
+        let mut solver = Solver::new(&model).unwrap();
+        for p in [f64::NAN, f64::INFINITY] {
+            let e = solver
+                .advance(
+                    LoadState {
+                        dead: 1.0,
+                        pressure_mpa: p,
+                    },
+                    &settings,
+                )
+                .unwrap_err();
+            assert!(e.to_string().contains("the load is not finite at"), "{e}");
+        }
+        // A material whose stiffness is NaN diverges (an error), it does not converge.
+        let nan = Yeoh {
+            c1: f64::NAN,
+            ..material
+        };
+        assert!(solve_static(&pulled_cube(0.01, nan), &settings).is_err());
+        // Settings that would never end the step cutting are refused.
+        let never = NewtonSettings {
+            min_step: f64::NAN,
+            ..settings
+        };
+        assert!(matches!(
+            solve_static(&pulled_cube(0.01, material), &never),
+            Err(FemError::Parameter { .. })
+        ));
     }
 }

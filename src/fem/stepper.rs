@@ -95,3 +95,44 @@ impl<'m> QuasiStaticStepper<'m> {
         bending_angle_along_markers_deg(&markers, &circle).map_err(fit_err)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fem::actuator::{build_mesh, ActuatorConfig, LoadConfig, MeshConfig};
+
+    /// A pressure that is not finite, or whose load overflows, is an error saying so,
+    /// never a converged state at the rest shape (1e200 kPa was one, in 0 iterations);
+    /// the stepper stays at its last equilibrium and goes on from it.
+    #[test]
+    fn a_pressure_that_is_not_finite_is_an_error_and_the_stepper_stays() {
+        let mesh = build_mesh(&ActuatorConfig {
+            mesh: MeshConfig {
+                size_mm: 4.0,
+                ..Default::default()
+            },
+            load: LoadConfig {
+                gravity: false,
+                ..Default::default()
+            },
+            ..Default::default()
+        })
+        .unwrap();
+        let mut stepper = QuasiStaticStepper::new(&mesh, NewtonSettings::default()).unwrap();
+        let at10 = stepper.solve_at(10.0).unwrap();
+        assert!(at10.bending_angle_deg > 0.0, "{at10:?}");
+        for p in [f64::NAN, f64::INFINITY, 1e200, 1e300] {
+            match stepper.solve_at(p) {
+                Err(FemError::NotFinite { why, .. }) => {
+                    assert!(why.starts_with("the load is not finite at"), "{p}: {why}")
+                }
+                other => panic!("{p} kPa: {other:?}"),
+            }
+        }
+        let at20 = stepper.solve_at(20.0).unwrap();
+        assert!(
+            at20.bending_angle_deg > at10.bending_angle_deg && at20.newton_iterations > 0,
+            "{at20:?} after {at10:?}"
+        );
+    }
+}
