@@ -14,7 +14,7 @@ cargo test --locked --all-targets "$@"
 # The tests that mount a tmpfs (a full disk, a read-only output folder) need root: they are
 # #[ignore]d for other users, and run here when the runner is root (CI is).
 if [ "$(id -u)" = 0 ]; then
-    cargo test --locked --test outputs --test reliability --test simulate "$@" -- --ignored
+    cargo test --locked --test outputs --test reliability --test simulate -- --ignored
 else
     echo "note: not root: the tmpfs tests (cargo test ... -- --ignored) were not run" >&2
 fi
