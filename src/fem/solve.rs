@@ -942,6 +942,11 @@ impl<'m> Solver<'m> {
                     why: load_not_finite(target),
                 });
             }
+            if let Err(NewtonFailure::OutOfMemory(bytes)) = outcome {
+                return Err(FemError::Model {
+                    why: factor_too_large(bytes),
+                });
+            }
             match outcome {
                 Ok(it) => {
                     report.iterations += it;
@@ -1053,50 +1058,71 @@ impl<'m> Solver<'m> {
     /// from equilibrium, e.g. under the pressure's load stiffness at the start of an
     /// increment); the symbolic analysis (fill-reducing ordering, elimination tree) is
     /// computed on the first call and reused.
-    fn factor_and_solve(&mut self, values: &[f64], r: &[f64]) -> Option<Vec<f64>> {
+    ///
+    /// `Ok(None)` is a singular or failed factorization (a smaller increment may do);
+    /// the factor or its scratch memory not fitting in memory is an error of its own:
+    /// allocated fallibly, so a mesh too fine for the machine is refused, not aborted.
+    fn factor_and_solve(
+        &mut self,
+        values: &[f64],
+        r: &[f64],
+    ) -> Result<Option<Vec<f64>>, NewtonFailure> {
         let k = self.pattern.matrix(values);
         if self.symbolic.is_none() {
-            let sym = factorize_symbolic_cholesky(
+            let Ok(sym) = factorize_symbolic_cholesky(
                 k.symbolic(),
                 Side::Lower,
                 Default::default(),
                 Default::default(),
-            )
-            .ok()?;
-            self.factor = vec![0.0; sym.len_val()];
+            ) else {
+                return Ok(None);
+            };
+            let len = sym.len_val();
+            let mut factor = Vec::new();
+            if factor.try_reserve_exact(len).is_err() {
+                return Err(NewtonFailure::OutOfMemory(
+                    len.saturating_mul(std::mem::size_of::<f64>()),
+                ));
+            }
+            factor.resize(len, 0.0);
+            self.factor = factor;
             self.symbolic = Some(sym);
         }
-        let sym = self.symbolic.as_ref()?;
+        let Some(sym) = self.symbolic.as_ref() else {
+            return Ok(None);
+        };
         // Sequential: faer's parallel supernodal factorization on 2 cores spent more
-        // time in thread hand-offs (sched_yield, futex: 23 s of system time in a 41 s
-        // ramp) than it saved; sequential it is 32 s. The elements are assembled in
-        // parallel.
+        // time in thread hand-offs (sched_yield, futex) than it saved. The elements are
+        // assembled in parallel.
         let par = Par::Seq;
         if self.scratch.is_none() {
-            self.scratch = Some(
-                MemBuffer::try_new(
-                    sym.factorize_numeric_ldlt_scratch::<f64>(par, Default::default())
-                        .or(sym.solve_in_place_scratch::<f64>(1, par)),
-                )
-                .ok()?,
-            );
+            let req = sym
+                .factorize_numeric_ldlt_scratch::<f64>(par, Default::default())
+                .or(sym.solve_in_place_scratch::<f64>(1, par));
+            match MemBuffer::try_new(req) {
+                Ok(buffer) => self.scratch = Some(buffer),
+                Err(_) => return Err(NewtonFailure::OutOfMemory(req.unaligned_bytes_required())),
+            }
         }
-        let stack = MemStack::new(self.scratch.as_mut()?);
-        let ldlt = sym
-            .factorize_numeric_ldlt(
-                &mut self.factor,
-                k,
-                Side::Lower,
-                LdltRegularization::default(),
-                par,
-                stack,
-                Default::default(),
-            )
-            .ok()?;
+        let Some(scratch) = self.scratch.as_mut() else {
+            return Ok(None);
+        };
+        let stack = MemStack::new(scratch);
+        let Ok(ldlt) = sym.factorize_numeric_ldlt(
+            &mut self.factor,
+            k,
+            Side::Lower,
+            LdltRegularization::default(),
+            par,
+            stack,
+            Default::default(),
+        ) else {
+            return Ok(None);
+        };
         let mut rhs = Mat::<f64>::from_fn(r.len(), 1, |i, _| -r[i]);
         ldlt.solve_in_place_with_conj(Conj::No, rhs.as_mut(), par, stack);
         let x: Vec<f64> = (0..r.len()).map(|i| rhs[(i, 0)]).collect();
-        x.iter().all(|v| v.is_finite()).then_some(x)
+        Ok(x.iter().all(|v| v.is_finite()).then_some(x))
     }
 
     /// ε ‖ |K| |u| ‖ over the free dofs (|K| the entrywise absolute tangent): the size
@@ -1405,7 +1431,7 @@ impl<'m> Solver<'m> {
                     .assemble(&u, &theta, &pressure, &modes, load)
                     .ok_or(NewtonFailure::Cut)?;
             }
-            let Some(du) = self.factor_and_solve(&cur.values, &cur.residual) else {
+            let Some(du) = self.factor_and_solve(&cur.values, &cur.residual)? else {
                 if debug {
                     eprintln!("newton {it}: singular tangent: cutting the step");
                 }
@@ -1515,6 +1541,16 @@ enum NewtonFailure {
     LoadNotFinite,
     /// The named quantity of an iterate is NaN or infinite.
     NotFinite(&'static str),
+    /// The sparse factor (bytes) cannot be allocated: no increment fits either.
+    OutOfMemory(usize),
+}
+
+/// The message of a sparse factor that does not fit in memory.
+fn factor_too_large(bytes: usize) -> String {
+    format!(
+        "the solver's sparse factor needs {:.1} GB and cannot be allocated on this machine (or under its memory limit): use a coarser mesh ([mesh] size_mm or --mesh-size)",
+        bytes as f64 / 1e9
+    )
 }
 
 /// The norms of one Newton iterate that its convergence test reads.
