@@ -1338,7 +1338,10 @@ mod tests {
         let red = read("hue_max_low = 8\nhue_min_high = 172\n").unwrap();
         assert_eq!((red.hsv.hue_min, red.hsv.hue_max), (172, 8));
         // Any case, as `--family` takes it.
-        for text in ["colour = \"Green\"\ns_min = 60\n", "colour = \"GREEN\"\ns_min = 60\n"] {
+        for text in [
+            "colour = \"Green\"\ns_min = 60\n",
+            "colour = \"GREEN\"\ns_min = 60\n",
+        ] {
             assert_eq!(read(text).unwrap(), green, "{text}");
         }
         assert_eq!(

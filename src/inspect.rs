@@ -108,12 +108,15 @@ pub fn load_frame(
                 Some(crate::rgbd::RgbdFrames::PngFolders) => session_photos(&path.join("color"))
                     .into_iter()
                     .nth(usize::try_from(frame).unwrap_or(usize::MAX))
-                    .ok_or_else(|| bad(format!("color/ has no frame {frame}: give a smaller --frame")))?,
-                None => {
-                    return Err(bad(
-                        "no video, photo or RealSense recording in the folder: give a video or image".into(),
-                    ))
-                }
+                    .ok_or_else(|| {
+                        bad(format!(
+                            "color/ has no frame {frame}: give a smaller --frame"
+                        ))
+                    })?,
+                None => return Err(bad(
+                    "no video, photo or RealSense recording in the folder: give a video or image"
+                        .into(),
+                )),
             },
         };
         (first, path.to_path_buf())
@@ -136,13 +139,17 @@ pub fn load_frame(
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("bag"))
     {
-        let mut bag = crate::rgbd::bag::BagRecording::open(&media).map_err(|e| bad(e.to_string()))?;
+        let mut bag =
+            crate::rgbd::bag::BagRecording::open(&media).map_err(|e| bad(e.to_string()))?;
         let n = bag.frames.len();
-        let k = usize::try_from(frame).ok().filter(|k| *k < n).ok_or_else(|| {
-            bad(format!(
-                "{name} has {n} colour frames, no frame {frame}: give a smaller --frame"
-            ))
-        })?;
+        let k = usize::try_from(frame)
+            .ok()
+            .filter(|k| *k < n)
+            .ok_or_else(|| {
+                bad(format!(
+                    "{name} has {n} colour frames, no frame {frame}: give a smaller --frame"
+                ))
+            })?;
         let (rgb, _) = bag.read_frame(k).map_err(bad)?;
         return Ok((rgb, format!("{name}, frame {k}"), settings));
     }

@@ -321,7 +321,11 @@ fn normalize_quotes(rec: &str, sep: u8) -> Result<Normalized, (usize, &'static s
                 filled = fields;
             }
             if i >= b.len() {
-                return Ok(Normalized { text: out, fields, filled });
+                return Ok(Normalized {
+                    text: out,
+                    fields,
+                    filled,
+                });
             }
             out.push(char::from(sep));
             i += 1;
@@ -478,7 +482,9 @@ impl Table {
             })?;
             if k == 0 {
                 header_fields = rec.fields;
-            } else if let Some(why) = row_shape_problem(separator, first.text, header_fields, r.text, &rec) {
+            } else if let Some(why) =
+                row_shape_problem(separator, first.text, header_fields, r.text, &rec)
+            {
                 return Err(TableError {
                     path: path.to_path_buf(),
                     line: Some(r.line),
@@ -917,7 +923,12 @@ mod tests {
     fn rows_with_more_fields_than_the_header_are_errors_at_their_line() {
         // A decimal comma in a comma-separated file (`20,5` is 20.5, not 20 and a stray 5).
         for (text, line, fields, header) in [
-            ("video,pressure_kpa\nGX010101.MP4,20.5\n\nGX010102.MP4,35,5\n", 4, 3, 2),
+            (
+                "video,pressure_kpa\nGX010101.MP4,20.5\n\nGX010102.MP4,35,5\n",
+                4,
+                3,
+                2,
+            ),
             ("file,pressure_bar\nA.MP4,0,2\n", 2, 3, 2),
             ("strain_pct,stress_kpa\n0,0\n10,20,5\n", 3, 3, 2),
             ("a,b\n1,2,,x\n", 2, 4, 2),
@@ -925,9 +936,17 @@ mod tests {
             let e = Table::parse(text.as_bytes(), Path::new("pressures.csv")).unwrap_err();
             assert_eq!(e.line, Some(line), "{text:?}: {e}");
             let msg = e.to_string();
-            assert!(msg.starts_with(&format!("pressures.csv: line {line}: this row has {fields} fields where the header")), "{msg}");
+            assert!(
+                msg.starts_with(&format!(
+                    "pressures.csv: line {line}: this row has {fields} fields where the header"
+                )),
+                "{msg}"
+            );
             assert!(msg.contains(&format!("has {header} (`")), "{msg}");
-            assert!(msg.contains("decimal comma? use a semicolon separator or a decimal point"), "{msg}");
+            assert!(
+                msg.contains("decimal comma? use a semicolon separator or a decimal point"),
+                "{msg}"
+            );
             assert!(!msg.contains('\n'), "{msg}");
         }
         // In a semicolon file the extra cells are named, without the decimal-comma hint.

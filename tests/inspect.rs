@@ -101,10 +101,14 @@ fn inspect_refuses_what_it_cannot_read() {
     run.assert_bad_input(&["has no frame 100000", "--frame"]);
     assert!(!dir.path().join("inspect.html").exists());
     // A negative frame: what a frame number is, not the parser's words.
-    let run = Run::new(dir.path(), &["inspect", video.to_str().unwrap(), "--frame", "-1"]);
+    let run = Run::new(
+        dir.path(),
+        &["inspect", video.to_str().unwrap(), "--frame", "-1"],
+    );
     assert_eq!(run.code, 2, "{run}");
     assert!(
-        run.stderr.contains("`-1` is not a frame number: give 0 (the first frame) or more"),
+        run.stderr
+            .contains("`-1` is not a frame number: give 0 (the first frame) or more"),
         "{run}"
     );
     assert!(!run.stderr.contains("invalid digit"), "{run}");
@@ -113,7 +117,12 @@ fn inspect_refuses_what_it_cannot_read() {
     std::fs::create_dir(&out).unwrap();
     Run::new(
         dir.path(),
-        &["inspect", video.to_str().unwrap(), "-o", out.to_str().unwrap()],
+        &[
+            "inspect",
+            video.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ],
     )
     .assert_bad_input(&[out.to_str().unwrap(), "is a folder", "pages/inspect.html"]);
 }
@@ -123,7 +132,12 @@ fn inspect_reads_a_realsense_recording() {
     let dir = tempfile::tempdir().unwrap();
     let run = Run::new(
         dir.path(),
-        &["inspect", fixture("bags/baseline").to_str().unwrap(), "--frame", "2"],
+        &[
+            "inspect",
+            fixture("bags/baseline").to_str().unwrap(),
+            "--frame",
+            "2",
+        ],
     );
     assert_eq!(run.code, 0, "{run}");
     assert!(run.stdout.contains("recording.bag, frame 2"), "{run}");

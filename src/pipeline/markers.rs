@@ -236,7 +236,12 @@ pub const CLAMP_MOTION_RATIO: f64 = 2.0;
 fn marker_motion_mm(frames: &[&FrameRecord], k: usize) -> f64 {
     let points: Vec<Vector3<f64>> = frames.iter().map(|f| position(&f.markers[k])).collect();
     let mean = points.iter().sum::<Vector3<f64>>() / points.len() as f64;
-    (points.iter().map(|p| (p - mean).norm_squared()).sum::<f64>() / points.len() as f64).sqrt()
+    (points
+        .iter()
+        .map(|p| (p - mean).norm_squared())
+        .sum::<f64>()
+        / points.len() as f64)
+        .sqrt()
 }
 
 /// A warning when marker 1, taken as the clamped end, moves over the measured `frames`
@@ -247,14 +252,24 @@ pub fn clamp_end_warning<'a>(frames: impl IntoIterator<Item = &'a FrameRecord>) 
     let frames: Vec<&FrameRecord> = frames
         .into_iter()
         .filter(|f| f.status.is_ok() && f.markers.len() >= 2)
-        .filter(|f| f.markers.iter().all(|p| p.x_mm.is_finite() && p.y_mm.is_finite()))
+        .filter(|f| {
+            f.markers
+                .iter()
+                .all(|p| p.x_mm.is_finite() && p.y_mm.is_finite())
+        })
         .collect();
     let n = frames.first()?.markers.len();
-    let frames: Vec<&FrameRecord> = frames.into_iter().filter(|f| f.markers.len() == n).collect();
+    let frames: Vec<&FrameRecord> = frames
+        .into_iter()
+        .filter(|f| f.markers.len() == n)
+        .collect();
     if frames.len() < 2 {
         return None;
     }
-    let (first, last) = (marker_motion_mm(&frames, 0), marker_motion_mm(&frames, n - 1));
+    let (first, last) = (
+        marker_motion_mm(&frames, 0),
+        marker_motion_mm(&frames, n - 1),
+    );
     (first > CLAMP_MOTION_MIN_MM && first > CLAMP_MOTION_RATIO * last).then(|| {
         format!(
             "marker 1 (taken as the clamped end) moves {first:.1} mm (rms) over the measured frames while marker {n} (taken as the tip) moves {last:.1} mm: the actuator looks clamped at the other end, so the tip values describe the clamp: set [detect] clamp_side in bendscope.toml to the side the clamp is on (left, right, top, bottom)"
@@ -348,8 +363,14 @@ mod tests {
             })
             .collect();
         let w = clamp_end_warning(&reversed).unwrap();
-        assert!(w.starts_with("marker 1 (taken as the clamped end) moves "), "{w}");
-        assert!(w.contains("while marker 6 (taken as the tip) moves 0.0 mm"), "{w}");
+        assert!(
+            w.starts_with("marker 1 (taken as the clamped end) moves "),
+            "{w}"
+        );
+        assert!(
+            w.contains("while marker 6 (taken as the tip) moves 0.0 mm"),
+            "{w}"
+        );
         assert!(w.contains("set [detect] clamp_side"), "{w}");
         // One pressure only: nothing to compare.
         assert_eq!(clamp_end_warning(&reversed[..1]), None);

@@ -152,7 +152,9 @@ mod tests {
         assert_eq!(smooth_window_warning(&frames, 1.0), None);
         let w = smooth_window_warning(&frames, 1e9).unwrap();
         assert!(
-            w.starts_with("smooth_s = 1000000000 s is longer than the 1.30 s the measured frames span"),
+            w.starts_with(
+                "smooth_s = 1000000000 s is longer than the 1.30 s the measured frames span"
+            ),
             "{w}"
         );
         assert!(w.ends_with("(e.g. smooth_s = 0.13)"), "{w}");

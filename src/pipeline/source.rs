@@ -411,7 +411,11 @@ pub fn read_photo(path: &Path) -> Result<image::RgbImage, String> {
     use image::ImageDecoder as _;
     let name = file_name(path);
     let fail = |e: image::ImageError| {
-        let e = e.to_string().split_whitespace().collect::<Vec<_>>().join(" ");
+        let e = e
+            .to_string()
+            .split_whitespace()
+            .collect::<Vec<_>>()
+            .join(" ");
         format!("{name}: not a photo bendscope can read ({e}): use JPEG, PNG or TIFF")
     };
     let bytes = std::fs::read(path).map_err(|e| match e.kind() {
@@ -573,14 +577,22 @@ mod tests {
             std::fs::write(&p, &full[..cut]).unwrap();
             let e = read_photo(&p).unwrap_err();
             assert!(
-                e.starts_with("p1.jpg: truncated (") && e.ends_with("): copy it again from the camera"),
+                e.starts_with("p1.jpg: truncated (")
+                    && e.ends_with("): copy it again from the camera"),
                 "{share}: {e}"
             );
         }
         // Not an image at all: one line, however the decoder words it.
-        std::fs::write(&p, b"\xFF\xD8\xFF\xE0\x00\x10JFIF\x00\x01\x01\x00\x00\x01\x00\x01\x00\x00\xFF\xD9").unwrap();
+        std::fs::write(
+            &p,
+            b"\xFF\xD8\xFF\xE0\x00\x10JFIF\x00\x01\x01\x00\x00\x01\x00\x01\x00\x00\xFF\xD9",
+        )
+        .unwrap();
         let e = read_photo(&p).unwrap_err();
-        assert!(e.starts_with("p1.jpg: not a photo bendscope can read"), "{e}");
+        assert!(
+            e.starts_with("p1.jpg: not a photo bendscope can read"),
+            "{e}"
+        );
         assert!(!e.contains('\n'), "{e}");
     }
 }

@@ -892,7 +892,10 @@ mod tests {
         let p = dir.path().join("x.bag");
         for (what, bytes) in [
             ("cut 1% short", bag[..bag.len() * 99 / 100].to_vec()),
-            ("joined to itself", [bag.as_slice(), bag.as_slice()].concat()),
+            (
+                "joined to itself",
+                [bag.as_slice(), bag.as_slice()].concat(),
+            ),
         ] {
             std::fs::write(&p, &bytes).unwrap();
             let e = match BagRecording::open(&p) {
@@ -903,7 +906,10 @@ mod tests {
                 e.contains("truncated") && e.contains("copy the recording again"),
                 "{what}: {e}"
             );
-            assert!(!e.contains("out of bounds") && !e.contains("rosbag"), "{what}: {e}");
+            assert!(
+                !e.contains("out of bounds") && !e.contains("rosbag"),
+                "{what}: {e}"
+            );
         }
     }
 }

@@ -444,12 +444,17 @@ mod tests {
         for (rows, line) in [
             // A row with a decimal comma among correct ones: the whole manifest stops.
             ("file,pressure_kpa\nGX010101.MP4,20\nGX010102.MP4,35,5\n", 3),
-            ("file,pressure_bar\nGX010101.MP4,0,2\nGX010102.MP4,0,35\n", 2),
+            (
+                "file,pressure_bar\nGX010101.MP4,0,2\nGX010102.MP4,0,35\n",
+                2,
+            ),
         ] {
             let d = session(rows, &files);
             let e = read_manifest(d.path()).unwrap_err().to_string();
             assert!(
-                e.contains(&format!("pressures.csv: line {line}: this row has 3 fields where the header")),
+                e.contains(&format!(
+                    "pressures.csv: line {line}: this row has 3 fields where the header"
+                )),
                 "{e}"
             );
             assert!(
@@ -464,10 +469,16 @@ mod tests {
         );
         let m = read_manifest(d.path()).unwrap();
         let kpa: Vec<f64> = m.entries.iter().map(|e| e.pressure_kpa).collect();
-        assert!((kpa[0] - 20.0).abs() < 1e-9 && (kpa[1] - 35.0).abs() < 1e-9, "{kpa:?}");
+        assert!(
+            (kpa[0] - 20.0).abs() < 1e-9 && (kpa[1] - 35.0).abs() < 1e-9,
+            "{kpa:?}"
+        );
         // A semicolon header over comma rows names the mismatch instead of each row
         // lacking its pressure.
-        let d = session("file;pressure_kpa\nGX010101.MP4,20\nGX010102.MP4,35\n", &files);
+        let d = session(
+            "file;pressure_kpa\nGX010101.MP4,20\nGX010102.MP4,35\n",
+            &files,
+        );
         let e = read_manifest(d.path()).unwrap_err().to_string();
         assert!(
             e.contains("line 2: the header is semicolon-separated but this row is comma-separated"),
@@ -491,17 +502,26 @@ mod tests {
                 .unwrap_or_default()
         };
         assert!(
-            why("p3.heic").starts_with("a .heic file, a format bendscope does not read: convert it"),
+            why("p3.heic")
+                .starts_with("a .heic file, a format bendscope does not read: convert it"),
             "{:?}",
             m.issues
         );
-        assert!(why("noext").starts_with("a file without an extension"), "{:?}", m.issues);
+        assert!(
+            why("noext").starts_with("a file without an extension"),
+            "{:?}",
+            m.issues
+        );
         assert!(
             why("nest/deeper/burst1").contains("nested paths are not supported"),
             "{:?}",
             m.issues
         );
-        assert!(why("GONE.MP4").starts_with("no such video"), "{:?}", m.issues);
+        assert!(
+            why("GONE.MP4").starts_with("no such video"),
+            "{:?}",
+            m.issues
+        );
     }
 
     #[cfg(unix)]
@@ -514,7 +534,9 @@ mod tests {
         let m = read_manifest(d.path()).unwrap();
         assert_eq!(m.issues.len(), 1, "{:?}", m.issues);
         assert!(
-            m.issues[0].message.starts_with("not a regular file (a pipe, socket or device)"),
+            m.issues[0]
+                .message
+                .starts_with("not a regular file (a pipe, socket or device)"),
             "{:?}",
             m.issues
         );
@@ -541,7 +563,10 @@ mod tests {
             &files,
         );
         let m = read_manifest(d.path()).unwrap();
-        assert_eq!((m.unit, m.entries[1].pressure_kpa), (PressureUnit::Kpa, 35.0));
+        assert_eq!(
+            (m.unit, m.entries[1].pressure_kpa),
+            (PressureUnit::Kpa, 35.0)
+        );
     }
 
     #[test]

@@ -155,16 +155,14 @@ const PRESSURE_COLUMNS_AGREE_REL: f64 = 0.01;
 /// give different pressures (`pressure_kpa` 20 beside `pressure_bar` 0.5), which one is
 /// meant is unknown, and the error names both and the line.
 fn require_pressure_column(table: &Table) -> Result<(usize, PressureUnit), TableError> {
-    let mut found = table
-        .columns()
-        .iter()
-        .enumerate()
-        .filter_map(|(i, c)| match c.to_ascii_lowercase().as_str() {
+    let mut found = table.columns().iter().enumerate().filter_map(|(i, c)| {
+        match c.to_ascii_lowercase().as_str() {
             "pressure_bar" => Some((i, PressureUnit::Bar)),
             "pressure_kpa" => Some((i, PressureUnit::Kpa)),
             "pressure_psi" => Some((i, PressureUnit::Psi)),
             _ => None,
-        });
+        }
+    });
     let first = found.next().ok_or_else(|| {
         table.header_error(format!(
             "no pressure column with a unit in the header `{}`: name it pressure_bar, pressure_kpa or pressure_psi",
