@@ -31,6 +31,7 @@
 
 pub mod actuator;
 pub mod analytic;
+mod config_doc;
 pub mod contact;
 pub mod family;
 pub mod fibre;
