@@ -141,6 +141,14 @@ impl Geometry {
             .collect()
     }
 
+    /// x extent of every chamber's cavity (length e, centred in its block).
+    pub fn cavities(&self) -> Vec<(f64, f64)> {
+        self.blocks()
+            .iter()
+            .map(|(a, b)| (0.5 * (a + b) - 0.5 * self.e, 0.5 * (a + b) + 0.5 * self.e))
+            .collect()
+    }
+
     /// x of the marker lines: centres of chambers 2..N.
     pub fn marker_x(&self) -> Vec<f64> {
         self.blocks()
@@ -1219,10 +1227,7 @@ type AxisFeatures = (Vec<f64>, Vec<(f64, f64)>);
 fn grid_features(cfg: &ActuatorConfig) -> [AxisFeatures; 3] {
     let g = &cfg.geometry;
     let blocks = g.blocks();
-    let cavities: Vec<(f64, f64)> = blocks
-        .iter()
-        .map(|(a, b)| (0.5 * (a + b) - 0.5 * g.e, 0.5 * (a + b) + 0.5 * g.e))
-        .collect();
+    let cavities = g.cavities();
     let (ch0, ch1) = (0.5 * (g.b - g.r), 0.5 * (g.b + g.r));
     let (z_channel, z_cavity) = (g.f, g.f + g.m);
     let (z_gap, z_top, a) = (z_cavity + g.roof, z_cavity + g.n, g.height());
@@ -1362,10 +1367,7 @@ pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
     let h = cfg.mesh.size_mm;
     let material = cfg.material.yeoh()?;
     let blocks = g.blocks();
-    let cavities: Vec<(f64, f64)> = blocks
-        .iter()
-        .map(|(a, b)| (0.5 * (a + b) - 0.5 * g.e, 0.5 * (a + b) + 0.5 * g.e))
-        .collect();
+    let cavities = g.cavities();
     let (ch0, ch1) = (0.5 * (g.b - g.r), 0.5 * (g.b + g.r));
     let (z_channel, z_cavity) = (g.f, g.f + g.m);
     let (z_gap, z_top, a) = (z_cavity + g.roof, z_cavity + g.n, g.height());
