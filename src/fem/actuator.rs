@@ -1169,34 +1169,11 @@ pub struct Part {
 /// was +2.5..+4.5% on the radius); two through, at the mesh size along, converge.
 pub const MIN_WALL_ELEMENTS: usize = 2;
 
-/// Coordinate lines through `features` (sorted, deduplicated), each interval cut into
-/// equal parts no longer than `h`; an interval that is one of `walls` (lo, hi) gets at
-/// least `MIN_WALL_ELEMENTS` parts.
-pub(crate) fn coordinate_lines(mut features: Vec<f64>, h: f64, walls: &[(f64, f64)]) -> Vec<f64> {
-    features.sort_by(f64::total_cmp);
-    features.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
-    let is_wall = |a: f64, b: f64| {
-        walls
-            .iter()
-            .any(|(lo, hi)| (a - lo).abs() < 1e-9 && (b - hi).abs() < 1e-9)
-    };
-    let mut out = vec![features[0]];
-    for w in features.windows(2) {
-        let mut parts = ((w[1] - w[0]) / h - 1e-9).ceil().max(1.0) as usize;
-        if is_wall(w[0], w[1]) {
-            parts = parts.max(MIN_WALL_ELEMENTS);
-        }
-        for k in 1..=parts {
-            out.push(w[0] + (w[1] - w[0]) * k as f64 / parts as f64);
-        }
-    }
-    out
-}
-
-/// The number of intervals [`coordinate_lines`] cuts, counted without building them: a
-/// float, which neither overflows nor allocates however small `h` is (infinite when the
-/// count is).
-pub(crate) fn coordinate_line_count(features: &[f64], h: f64, walls: &[(f64, f64)]) -> f64 {
+/// `features` sorted and deduplicated, with the number of equal parts no longer than `h`
+/// each interval between them is cut into (at least `MIN_WALL_ELEMENTS` for an interval
+/// that is one of `walls` (lo, hi)); the counts are floats, which neither overflow nor
+/// allocate however small `h` is.
+fn interval_parts(features: &[f64], h: f64, walls: &[(f64, f64)]) -> (Vec<f64>, Vec<f64>) {
     let mut features = features.to_vec();
     features.sort_by(f64::total_cmp);
     features.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
@@ -1205,7 +1182,7 @@ pub(crate) fn coordinate_line_count(features: &[f64], h: f64, walls: &[(f64, f64
             .iter()
             .any(|(lo, hi)| (a - lo).abs() < 1e-9 && (b - hi).abs() < 1e-9)
     };
-    features
+    let parts = features
         .windows(2)
         .map(|w| {
             let parts = ((w[1] - w[0]) / h - 1e-9).ceil().max(1.0);
@@ -1215,7 +1192,30 @@ pub(crate) fn coordinate_line_count(features: &[f64], h: f64, walls: &[(f64, f64
                 parts
             }
         })
-        .sum()
+        .collect();
+    (features, parts)
+}
+
+/// Coordinate lines through `features` (sorted, deduplicated), each interval cut into
+/// equal parts no longer than `h`; an interval that is one of `walls` (lo, hi) gets at
+/// least `MIN_WALL_ELEMENTS` parts. Callers bound the count first
+/// ([`coordinate_line_count`]).
+pub(crate) fn coordinate_lines(features: Vec<f64>, h: f64, walls: &[(f64, f64)]) -> Vec<f64> {
+    let (features, parts) = interval_parts(&features, h, walls);
+    let mut out = vec![features[0]];
+    for (w, &parts) in features.windows(2).zip(&parts) {
+        let parts = parts as usize;
+        for k in 1..=parts {
+            out.push(w[0] + (w[1] - w[0]) * k as f64 / parts as f64);
+        }
+    }
+    out
+}
+
+/// The number of intervals [`coordinate_lines`] cuts, counted without building them
+/// (infinite when the count is).
+pub(crate) fn coordinate_line_count(features: &[f64], h: f64, walls: &[(f64, f64)]) -> f64 {
+    interval_parts(features, h, walls).1.iter().sum()
 }
 
 /// Along one axis: the coordinates the grid lines go through, and the intervals that are
