@@ -1,8 +1,14 @@
 #!/usr/bin/env bash
 # Builds ccx_peer: CalculiX ccx 2.20 from Debian's own source package (calculix-ccx) with a
-# four-line patch (scripts/calculix/ccx_pressure_stiffness.patch) that adds the
+# patch to e_c3d.f (scripts/calculix/ccx_pressure_stiffness.patch) that adds the
 # follower-pressure load stiffness to the Newton tangent of NLGEOM static steps, and prints
-# its path. Reused once built (about 1-2 minutes on 2 cores).
+# its path. Reused once built from the same patch (about 1-2 minutes on 2 cores).
+#
+# The patch enables the load stiffness stock ccx computes for dynamic steps, and computes
+# the gradients along the loaded face it needs from the face's dual basis: the shape
+# routines' global derivatives (iflag=3) are not an inverse of the face's tangents on a
+# face that is not parallel to a coordinate plane, which doubled the load stiffness there
+# (scripts/calculix/rotated_cube_check.py checks every orientation).
 #
 # Why: stock ccx computes *DLOAD pressure on the deformed faces (a follower load) but adds
 # the matching load stiffness to the tangent only when a mass matrix is assembled, so its
@@ -16,7 +22,13 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 HERE="$PWD/scripts/calculix"
 OUT="$(realpath -m "${1:-target/ccx-peer}")"
-[ -x "$OUT/ccx_peer" ] && { echo "$OUT/ccx_peer"; exit 0; }
+# The binary is reused only when built from this patch and Makefile: their sha256 is kept
+# beside it (ccx_peer.sha256), so a changed patch rebuilds it.
+STAMP="$(cat "$HERE/ccx_pressure_stiffness.patch" "$HERE/Makefile_peer" | sha256sum | cut -d' ' -f1)"
+if [ -x "$OUT/ccx_peer" ] && [ "$(cat "$OUT/ccx_peer.sha256" 2>/dev/null)" = "$STAMP" ]; then
+  echo "$OUT/ccx_peer"
+  exit 0
+fi
 SUDO=""
 [ "$(id -u)" -eq 0 ] || SUDO="sudo"
 scripts/apt-need.sh ccx-peer gfortran libspooles-dev libarpack2-dev liblapack-dev libblas-dev \
@@ -49,4 +61,6 @@ make -f Makefile_peer -j"$(nproc)" ccx_peer >build.log 2>&1 || {
 mkdir -p "$OUT"
 cp ccx_peer "$OUT/ccx_peer.tmp"
 mv "$OUT/ccx_peer.tmp" "$OUT/ccx_peer"
+echo "$STAMP" >"$OUT/ccx_peer.sha256.tmp"
+mv "$OUT/ccx_peer.sha256.tmp" "$OUT/ccx_peer.sha256"
 echo "$OUT/ccx_peer"

@@ -1,14 +1,17 @@
 #!/usr/bin/env bash
-# Set-up (Debian packages when missing; ccx_peer, scripts/ccx-peer.sh), then the whole test
-# suite: the offline link check of README.md and the guide (scripts/check-links.py, under a
-# second), the cargo tests, then the Python package's tests and notebook
-# (scripts/test-python.sh).
+# Set-up (Debian packages when missing; ccx_peer, scripts/ccx-peer.sh, and its rotated-deck
+# check, scripts/calculix/rotated_cube_check.py), then the whole test suite: the offline
+# link check of README.md and the guide (scripts/check-links.py, under a second), the cargo
+# tests, then the Python package's tests and notebook (scripts/test-python.sh).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/setup.sh --no-build
 # CalculiX with the follower-pressure load stiffness, for the tests that check exported
 # decks where stock ccx gives up (built once from Debian's source, 1-2 minutes).
 scripts/ccx-peer.sh >/dev/null
+# Its load stiffness in every orientation, and its answer against stock ccx's (half a
+# minute: a rotated soft cube with a pressurised cavity).
+python3 scripts/calculix/rotated_cube_check.py
 python3 scripts/check-links.py
 cargo test --locked --all-targets "$@"
 # The tests that mount a tmpfs (a full disk, a read-only output folder) need root: they are
