@@ -31,10 +31,12 @@ pub mod output;
 pub mod overlay;
 pub mod profile;
 pub mod provenance;
-pub mod records;
+/// What a measurement produces ([`crate::measure::records`]), by its old path.
+pub use crate::measure::records;
 pub mod smooth;
 pub mod source;
-pub mod stats;
+/// Statistics of the records ([`crate::measure::stats`]), by its old path.
+pub use crate::measure::stats;
 
 use std::path::{Path, PathBuf};
 
