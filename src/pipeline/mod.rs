@@ -29,6 +29,7 @@ pub use crate::lock;
 pub mod markers;
 pub mod output;
 pub mod overlay;
+pub mod page;
 pub mod profile;
 pub mod provenance;
 /// What a measurement produces ([`crate::measure::records`]), by its old path.
