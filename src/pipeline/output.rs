@@ -17,12 +17,12 @@ use crate::table::{write_csv, Column};
 
 use crate::segments::{Segment, SegmentStats};
 
+use super::error::PipelineError;
 use super::markers::{write_markers_csv, SessionAxes};
 use super::page;
 use super::profile;
 use super::provenance::{Provenance, SESSION_JSON};
 use super::records::{FrameRecord, VideoRecord};
-use super::PipelineError;
 
 /// The marker positions of every measured frame ([`super::markers`]).
 pub const MARKERS_CSV: &str = "markers.csv";
