@@ -13,6 +13,7 @@
 //! what file systems accept; [`content_key`] is the stable fingerprint the caches use;
 //! [`is_storage_full`] tells a full disk from other write errors; [`write_advice`] says
 //! what a failed write means and what to do (free space, give another `-o`).
+//! [`non_finite`] writes NaN and infinities to JSON so that they read back.
 
 use std::fs;
 use std::io::{Read, Write};
@@ -280,6 +281,40 @@ pub fn hash_parts<'a>(parts: impl IntoIterator<Item = &'a [u8]>) -> u128 {
         h.update(p);
     }
     h.digest128()
+}
+
+/// Serde for an `f64` that may be NaN or infinite, as in the records of rejected frames:
+/// JSON has no such numbers (serde_json writes them as `null`, which does not read back
+/// as an `f64`, so a cache entry holding one would never be read). NaN is written as
+/// `null`, infinities as the strings `"inf"` and `"-inf"`.
+pub(crate) mod non_finite {
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer>(v: &f64, s: S) -> Result<S::Ok, S::Error> {
+        match *v {
+            v if v.is_finite() => s.serialize_f64(v),
+            v if v.is_nan() => s.serialize_none(),
+            v if v > 0.0 => s.serialize_str("inf"),
+            _ => s.serialize_str("-inf"),
+        }
+    }
+
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum Repr {
+        Number(f64),
+        Text(String),
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+        match Option::<Repr>::deserialize(d)? {
+            None => Ok(f64::NAN),
+            Some(Repr::Number(v)) => Ok(v),
+            Some(Repr::Text(t)) if t == "inf" => Ok(f64::INFINITY),
+            Some(Repr::Text(t)) if t == "-inf" => Ok(f64::NEG_INFINITY),
+            Some(Repr::Text(t)) => Err(serde::de::Error::custom(format!("`{t}` is not a number"))),
+        }
+    }
 }
 
 #[cfg(test)]

@@ -6,7 +6,8 @@
 //! undistortion) -> [`scale`] (mm per undistorted pixel) -> [`detect`] (red mask, hole
 //! fill, labels, centroids) -> [`select`] (the markers among red blobs) -> [`fit`]
 //! (circle, plane, bending angle, power law) -> [`pipeline`] (a session measured:
-//! sources, `measure_frame`, statistics, records, cache, outputs) -> [`report`] (plots,
+//! sources, `measure_frame`, cache, outputs; its records and statistics in [`measure`])
+//! -> [`report`] (plots,
 //! overlays, the HTML page). [`session`] (manifest, pressure log, settings), [`table`]
 //! (the one CSV layer), [`rgbd`] (colour + depth: PNG folders, RealSense bags) and
 //! [`io`] (atomic writes, content keys) serve them. Beside them: [`fem`] (the actuator model and its solver),
@@ -47,6 +48,7 @@ pub mod inspect;
 pub mod io;
 pub mod lock;
 pub mod material_fit;
+pub mod measure;
 pub mod optimize;
 pub mod pipeline;
 pub mod render;

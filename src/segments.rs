@@ -103,17 +103,17 @@ pub fn segments_from_spec(
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct SegmentFit {
     /// Radius, mm (infinite for collinear markers).
-    #[serde(with = "crate::pipeline::records::non_finite")]
+    #[serde(with = "crate::io::non_finite")]
     pub radius_mm: f64,
     /// Curvature, 1/m.
-    #[serde(with = "crate::pipeline::records::non_finite")]
+    #[serde(with = "crate::io::non_finite")]
     pub curvature_per_m: f64,
     /// Bending angle over the segment, degrees (half-angle convention, tangent at the
     /// segment's first marker vs the chord to its last).
-    #[serde(with = "crate::pipeline::records::non_finite")]
+    #[serde(with = "crate::io::non_finite")]
     pub bending_angle_deg: f64,
     /// RMS residual of the fit (px in the undistorted frame, or mm for RGB-D).
-    #[serde(with = "crate::pipeline::records::non_finite")]
+    #[serde(with = "crate::io::non_finite")]
     pub fit_rms: f64,
     /// Circle centre, undistorted px (plane sessions; for the overlay, not cached).
     #[serde(skip, default = "nan_point")]

@@ -24,7 +24,7 @@ pub const SAME_CAMERA_SHARE: f64 = 0.05;
 fn is_video(path: &Path) -> bool {
     path.extension()
         .map(|e| {
-            crate::session::VIDEO_EXTENSIONS
+            super::sources::VIDEO_EXTENSIONS
                 .contains(&e.to_string_lossy().to_ascii_lowercase().as_str())
         })
         .unwrap_or(false)

@@ -2,7 +2,7 @@
 //! order from the clamped end -> fit the circle. The same function serves videos, photos
 //! and RGB-D frames; [`Geometry`] says how image points become millimetres.
 
-use image::{GrayImage, ImageBuffer, Luma};
+use image::GrayImage;
 use nalgebra::{Point2, Point3};
 
 use crate::calib::Undistorter;
@@ -19,8 +19,8 @@ use crate::video::Pixels;
 
 use super::records::{FrameStatus, MarkerPoint};
 
-/// A 16-bit depth frame aligned to the colour frame.
-pub type DepthImage = ImageBuffer<Luma<u16>, Vec<u16>>;
+/// A 16-bit depth frame aligned to the colour frame ([`crate::rgbd`] makes them).
+pub use crate::rgbd::DepthImage;
 
 /// How image points become lengths.
 #[derive(Debug, Clone, Copy)]

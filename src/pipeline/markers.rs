@@ -28,8 +28,8 @@ use nalgebra::{Matrix3, Vector3};
 
 use crate::table::{write_csv, Column};
 
+use super::error::PipelineError;
 use super::records::{FrameRecord, MarkerPoint};
-use super::PipelineError;
 
 /// Below this share of the largest principal variance, the second one means the RGB-D
 /// markers lie on a line (a straight actuator throughout) and define no plane.

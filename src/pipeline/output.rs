@@ -17,11 +17,12 @@ use crate::table::{write_csv, Column};
 
 use crate::segments::{Segment, SegmentStats};
 
+use super::error::PipelineError;
 use super::markers::{write_markers_csv, SessionAxes};
+use super::page;
 use super::profile;
 use super::provenance::{Provenance, SESSION_JSON};
 use super::records::{FrameRecord, VideoRecord};
-use super::PipelineError;
 
 /// The marker positions of every measured frame ([`super::markers`]).
 pub const MARKERS_CSV: &str = "markers.csv";
@@ -452,16 +453,35 @@ fn write_stages(
         &html::SessionReport {
             name: s.name,
             out,
-            videos: s.videos,
-            fits: &fits,
+            videos: &page::video_rows(s.videos),
+            fits: &report_fits(&fits),
             plots: &plots,
-            provenance: Some(s.provenance),
+            setup: Some(&page::setup(s.provenance)),
             segments: s.segments,
             warnings: s.warnings,
         },
     )?;
     *done += 1;
     Ok(fits)
+}
+
+/// The fits the report page lists.
+fn report_fits(f: &SessionFits) -> html::Fits {
+    html::Fits {
+        radius_mm_vs_kpa: f.radius_mm_vs_kpa,
+        curvature_per_m_vs_kpa: f.curvature_per_m_vs_kpa,
+        bending_angle_deg_vs_kpa: f.bending_angle_deg_vs_kpa,
+        notes: f.notes.clone(),
+        segments: f
+            .segments
+            .iter()
+            .map(|s| html::SegmentFit {
+                segment: s.segment,
+                markers: s.markers.clone(),
+                radius_mm_vs_kpa: s.radius_mm_vs_kpa,
+            })
+            .collect(),
+    }
 }
 
 /// Removes `path` when it exists.

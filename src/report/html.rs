@@ -4,35 +4,128 @@
 //! browser.
 
 use std::fmt::Write as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use base64::Engine as _;
 
+use crate::fit::PowerLawFit;
 use crate::io::write_atomic;
-use crate::pipeline::output::SessionFits;
-use crate::pipeline::provenance::Provenance;
-use crate::pipeline::records::VideoRecord;
+use crate::segments::{Segment, SegmentStats};
 
 use super::ReportError;
 
-/// What the report shows.
+/// What the report shows, in the report's own terms: the measuring pipeline turns its
+/// records, fits and provenance into these, so the report (which the FEM uses too)
+/// depends on no measuring module.
 pub struct SessionReport<'a> {
     /// Session name (the title).
     pub name: &'a str,
     /// The output folder (plots and overlays are read from it).
     pub out: &'a Path,
     /// Rows of per_video.csv.
-    pub videos: &'a [VideoRecord],
+    pub videos: &'a [VideoRow],
     /// The fits of fit.json.
-    pub fits: &'a SessionFits,
+    pub fits: &'a Fits,
     /// Plot stems relative to `out` (`plots/radius_vs_pressure`), each with an .svg.
     pub plots: &'a [String],
     /// How the results were made: the scale and calibration are shown.
-    pub provenance: Option<&'a Provenance>,
+    pub setup: Option<&'a Setup>,
     /// Segments of a segmented actuator (empty: no per-segment section).
-    pub segments: &'a [crate::segments::Segment],
+    pub segments: &'a [Segment],
     /// Warnings about the measurement (one-circle check, ...), shown above the tables.
     pub warnings: &'a [String],
+}
+
+/// How a row of the per-video table is marked.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RowState {
+    /// Measured without problems.
+    Ok,
+    /// Measured, with problems.
+    Partial,
+    /// Not measured (failed or skipped).
+    Bad,
+}
+
+/// A row of the per-video table (a row of per_video.csv).
+#[derive(Debug, Clone)]
+pub struct VideoRow {
+    /// The video (or recording, or pressure bin's item).
+    pub file: String,
+    /// Its overlay, relative to the output folder.
+    pub overlay: String,
+    /// Pressure, kPa.
+    pub pressure_kpa: f64,
+    /// Mean radius, mm.
+    pub radius_mm: f64,
+    /// Median radius, mm.
+    pub radius_mm_median: f64,
+    /// Standard deviation of the radius, mm.
+    pub radius_mm_std: f64,
+    /// Mean curvature, 1/m.
+    pub curvature_per_m: f64,
+    /// Mean bending angle, degrees.
+    pub bending_angle_deg: f64,
+    /// Frames measured.
+    pub frames_used: usize,
+    /// Frames rejected.
+    pub frames_rejected: usize,
+    /// Its status as per_video.csv writes it.
+    pub status: String,
+    /// How the row is marked.
+    pub state: RowState,
+    /// Whether it counts as measured.
+    pub measured: bool,
+    /// Each segment's statistics (segmented actuators).
+    pub segments: Vec<SegmentStats>,
+}
+
+/// The power-law fits y = a x^b + c the report lists.
+#[derive(Debug, Clone)]
+pub struct Fits {
+    /// Radius (mm) vs pressure (kPa).
+    pub radius_mm_vs_kpa: Option<PowerLawFit>,
+    /// Curvature (1/m) vs pressure (kPa).
+    pub curvature_per_m_vs_kpa: Option<PowerLawFit>,
+    /// Bending angle (deg) vs pressure (kPa).
+    pub bending_angle_deg_vs_kpa: Option<PowerLawFit>,
+    /// Why a fit is missing, and the rows a fit left out.
+    pub notes: Vec<String>,
+    /// Segmented actuators: each segment's radius fit.
+    pub segments: Vec<SegmentFit>,
+}
+
+/// The radius fit of one segment.
+#[derive(Debug, Clone)]
+pub struct SegmentFit {
+    /// Segment number, from 1 at the clamped end.
+    pub segment: usize,
+    /// Its markers ("1 2 3").
+    pub markers: String,
+    /// Radius (mm) vs pressure (kPa).
+    pub radius_mm_vs_kpa: Option<PowerLawFit>,
+}
+
+/// How the results were made, as the report's setup lines say it.
+#[derive(Debug, Clone)]
+pub struct Setup {
+    /// The scale in one line (`0.528208 mm/px from s/scale.jpg (board ...)`).
+    pub scale: Option<String>,
+    /// The calibration file used.
+    pub calibration: Option<CalibrationFile>,
+    /// The RGB-D intrinsics (file or recording).
+    pub rgbd_intrinsics: Option<PathBuf>,
+    /// bendscope's version.
+    pub bendscope_version: String,
+}
+
+/// A calibration file and the hash of its content.
+#[derive(Debug, Clone)]
+pub struct CalibrationFile {
+    /// The file.
+    pub path: PathBuf,
+    /// xxh3 of its content.
+    pub content_hash: String,
 }
 
 /// Escapes text for HTML.
@@ -61,9 +154,8 @@ fn num(v: f64, digits: usize) -> String {
     }
 }
 
-/// The overlay of `file` in `out`, as an `<img>` with a data URI, if it exists.
-fn overlay_img(out: &Path, file: &str) -> Option<String> {
-    let rel = crate::pipeline::overlay::overlay_rel_path(file);
+/// The overlay of `file` in `out` (at `rel`), as an `<img>` with a data URI, if it exists.
+fn overlay_img(out: &Path, file: &str, rel: &str) -> Option<String> {
     let bytes = std::fs::read(out.join(&rel)).ok()?;
     Some(format!(
         "<figure id=\"overlay-{id}\"><img alt=\"overlay of {name}\" data-file=\"{rel_e}\" src=\"data:image/png;base64,{b64}\"><figcaption>{name}</figcaption></figure>",
@@ -86,7 +178,7 @@ td,th{{border:1px solid #ccc;padding:3px 8px;text-align:right}}td.l,th.l{{text-a
 tr.bad td{{background:#fde8e8}}tr.partial td{{background:#fff6dd}}figure{{display:inline-block;margin:1em}}\
 figure img,figure svg{{max-width:900px;height:auto}}</style></head><body>\n<h1>{title}</h1>\n"
     );
-    let measured = r.videos.iter().filter(|v| v.status.is_measured()).count();
+    let measured = r.videos.iter().filter(|v| v.measured).count();
     let _ = writeln!(
         h,
         "<p>{measured} of {} rows measured. Files: per_video.csv, per_frame.csv, markers.csv, fit.json, session.json, plots/, overlays/.</p>",
@@ -99,10 +191,10 @@ figure img,figure svg{{max-width:900px;height:auto}}</style></head><body>\n<h1>{
         }
         h.push_str("</ul>\n");
     }
-    if let Some(p) = r.provenance {
+    if let Some(p) = r.setup {
         h.push_str("<h2>Setup</h2>\n<ul>\n");
         if let Some(s) = &p.scale {
-            let _ = writeln!(h, "<li>scale: {}</li>", escape(&s.describe()));
+            let _ = writeln!(h, "<li>scale: {}</li>", escape(s));
         }
         if let Some(c) = &p.calibration {
             let _ = writeln!(
@@ -127,23 +219,23 @@ figure img,figure svg{{max-width:900px;height:auto}}</style></head><body>\n<h1>{
     }
     h.push_str("<h2>Per video</h2>\n<table><tr><th class=\"l\">file</th><th>pressure (kPa)</th><th>radius (mm)</th><th>median (mm)</th><th>std (mm)</th><th>curvature (1/m)</th><th>angle (deg)</th><th>frames used</th><th>rejected</th><th class=\"l\">status</th></tr>\n");
     for v in r.videos {
-        let class = match &v.status {
-            crate::pipeline::records::VideoStatus::Ok => "ok",
-            crate::pipeline::records::VideoStatus::Partial { .. } => "partial",
-            _ => "bad",
+        let class = match v.state {
+            RowState::Ok => "ok",
+            RowState::Partial => "partial",
+            RowState::Bad => "bad",
         };
         let _ = writeln!(
             h,
             "<tr class=\"{class}\"><td class=\"l\"><a href=\"#overlay-{id}\">{name}</a></td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td></tr>",
             num(v.pressure_kpa, 2),
-            num(v.stats.radius_mm, 3),
-            num(v.stats.radius_mm_median, 3),
-            num(v.stats.radius_mm_std, 3),
-            num(v.stats.curvature_per_m, 3),
-            num(v.stats.bending_angle_deg, 2),
-            v.stats.frames_used,
-            v.stats.frames_rejected,
-            escape(&v.status.to_string()),
+            num(v.radius_mm, 3),
+            num(v.radius_mm_median, 3),
+            num(v.radius_mm_std, 3),
+            num(v.curvature_per_m, 3),
+            num(v.bending_angle_deg, 2),
+            v.frames_used,
+            v.frames_rejected,
+            escape(&v.status),
             id = escape(&v.file),
             name = escape(&v.file),
         );
@@ -191,7 +283,7 @@ figure img,figure svg{{max-width:900px;height:auto}}</style></head><body>\n<h1>{
         if !shown.insert(v.file.as_str()) {
             continue;
         }
-        if let Some(img) = overlay_img(r.out, &v.file) {
+        if let Some(img) = overlay_img(r.out, &v.file, &v.overlay) {
             h.push_str(&img);
             h.push('\n');
         }
@@ -205,8 +297,8 @@ fn segment_section(h: &mut String, r: &SessionReport) {
     h.push_str("<h2>Per segment</h2>\n<p>Each segment's own circle (per_segment.csv), segments numbered from the clamp.</p>\n<table><tr><th class=\"l\">file</th><th>pressure (kPa)</th><th>segment</th><th class=\"l\">markers</th><th>radius (mm)</th><th>std (mm)</th><th>curvature (1/m)</th><th>angle (deg)</th><th>frames used</th></tr>\n");
     for v in r.videos {
         for (k, seg) in r.segments.iter().enumerate() {
-            let st = v.stats.segments.get(k);
-            let g = |f: fn(&crate::segments::SegmentStats) -> f64| st.map_or(f64::NAN, f);
+            let st = v.segments.get(k);
+            let g = |f: fn(&SegmentStats) -> f64| st.map_or(f64::NAN, f);
             let _ = writeln!(
                 h,
                 "<tr><td class=\"l\">{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",

@@ -17,7 +17,7 @@
 use nalgebra::{Point2, Vector3};
 
 use super::rosmsg::RigidTransform;
-use crate::pipeline::frame::DepthImage;
+use super::DepthImage;
 
 /// Fixed-point iterations of the inverse Brown model (converges to < 1e-12 in
 /// normalized coordinates for RealSense-sized coefficients).

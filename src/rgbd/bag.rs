@@ -55,8 +55,8 @@ use super::rosmsg::{
     camera_info_from_bytes, float32_from_bytes, image_from_bytes, image_header_from_bytes,
     transform_from_bytes, CameraInfoMsg, RigidTransform,
 };
+use super::DepthImage;
 use super::{RgbdError, RgbdIntrinsics};
-use crate::pipeline::frame::DepthImage;
 
 /// Colour stream name in librealsense's topics.
 pub const COLOR_STREAM: &str = "Color_0";
@@ -642,7 +642,7 @@ fn match_frames(
     let period = if steps.is_empty() {
         1.0 / 30.0
     } else {
-        crate::pipeline::stats::median(&steps)
+        crate::measure::stats::median(&steps)
     };
     let frames = colors
         .iter()

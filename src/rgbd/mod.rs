@@ -37,10 +37,13 @@ use nalgebra::{Matrix3, Point2, Point3};
 use serde::Deserialize;
 
 use crate::calib::{Calibration, CameraModel, UndistortSettings, Undistorter};
-use crate::pipeline::records::FrameStatus;
+use crate::measure::records::FrameStatus;
 
 /// Name of the intrinsics file.
 pub const INTRINSICS: &str = "intrinsics.json";
+
+/// A 16-bit depth frame aligned to the colour frame.
+pub type DepthImage = image::ImageBuffer<image::Luma<u16>, Vec<u16>>;
 
 /// What to do about a missing or unreadable intrinsics file.
 const INTRINSICS_HINT: &str = "write the colour camera's intrinsics as JSON: {\"width\", \"height\", \"fx\", \"fy\", \"cx\", \"cy\", \"depth_scale_m\", \"fps\"} (the RealSense SDK prints them)";
@@ -369,7 +372,7 @@ fn times_from_names(
     }
     let integers = numbers.iter().all(|n| n.fract() == 0.0);
     let frame_numbers =
-        integers && (steps.is_empty() || crate::pipeline::stats::median(&steps) <= 1.0);
+        integers && (steps.is_empty() || crate::measure::stats::median(&steps) <= 1.0);
     Ok(if frame_numbers {
         (
             numbers.iter().map(|n| (*n as u64, n / fps)).collect(),

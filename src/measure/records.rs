@@ -96,42 +96,12 @@ impl fmt::Display for FrameStatus {
     }
 }
 
-/// Serde for an `f64` that may be NaN or infinite, as in the records of rejected frames:
-/// JSON has no such numbers (serde_json writes them as `null`, which does not read back
-/// as an `f64`, so a cache entry holding one would never be read). NaN is written as
-/// `null`, infinities as the strings `"inf"` and `"-inf"`.
-pub(crate) mod non_finite {
-    use serde::{Deserialize, Deserializer, Serializer};
-
-    pub fn serialize<S: Serializer>(v: &f64, s: S) -> Result<S::Ok, S::Error> {
-        match *v {
-            v if v.is_finite() => s.serialize_f64(v),
-            v if v.is_nan() => s.serialize_none(),
-            v if v > 0.0 => s.serialize_str("inf"),
-            _ => s.serialize_str("-inf"),
-        }
-    }
-
-    #[derive(Deserialize)]
-    #[serde(untagged)]
-    enum Repr {
-        Number(f64),
-        Text(String),
-    }
-
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
-        match Option::<Repr>::deserialize(d)? {
-            None => Ok(f64::NAN),
-            Some(Repr::Number(v)) => Ok(v),
-            Some(Repr::Text(t)) if t == "inf" => Ok(f64::INFINITY),
-            Some(Repr::Text(t)) if t == "-inf" => Ok(f64::NEG_INFINITY),
-            Some(Repr::Text(t)) => Err(serde::de::Error::custom(format!("`{t}` is not a number"))),
-        }
-    }
-}
+/// The serde helper for non-finite `f64`s, where it was first written ([`crate::io`]
+/// holds it now, below every module that serialises records).
+pub(crate) use crate::io::non_finite;
 
 /// One measured marker of a frame, as the frame's measurement placed it (before the
-/// session's axes of `markers.csv`, [`super::markers`], are applied).
+/// session's axes of `markers.csv`, [`crate::pipeline::markers`], are applied).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct MarkerPoint {
     /// Centroid in the raw (distorted) frame, px.
@@ -202,11 +172,11 @@ pub struct FrameRecord {
     /// Tip marker's y in the session's axes, mm.
     #[serde(skip, default = "nan")]
     pub tip_y_mm: f64,
-    /// Tip angle in the session's axes, degrees ([`super::markers`]).
+    /// Tip angle in the session's axes, degrees ([`crate::pipeline::markers`]).
     #[serde(skip, default = "nan")]
     pub tip_angle_deg: f64,
     /// With `smooth_s` (ramp and RGB-D): the radius of the smoothed marker tracks, mm
-    /// ([`super::smooth`]; set after the recording is measured, never cached).
+    /// ([`crate::pipeline::smooth`]; set after the recording is measured, never cached).
     #[serde(skip, default = "nan")]
     pub radius_mm_smooth: f64,
     /// With `smooth_s`: curvature of the smoothed tracks, 1/m.
