@@ -34,6 +34,7 @@ use super::layer::{LayerConfig, LayerElement};
 use super::material::{MaterialPreset, Yeoh, DEFAULT_BULK_TO_SHEAR};
 use super::membrane::MembraneElement;
 use super::plate::Mirror;
+pub use super::params::{config_table_at, parse_range};
 use super::pressure::CLOSED;
 use super::solve::{Model, NewtonSettings};
 use super::FemError;
@@ -600,47 +601,6 @@ impl Default for LoadConfig {
     }
 }
 
-/// The table at `path` in a config document: sections by name; in an array of tables
-/// (`[[layer]]`) an element by its number from 1 or its `name` (`layer.2`,
-/// `layer.fabric`). For sweeps and fits naming `section.field` or `layer.NAME.field`.
-pub fn config_table_at<'a>(
-    doc: &'a mut toml::Table,
-    path: &[&str],
-) -> Result<&'a mut toml::Table, String> {
-    let mut table = doc;
-    for (k, s) in path.iter().enumerate() {
-        let here = path[..=k].join(".");
-        table = match table.get_mut(*s) {
-            Some(toml::Value::Table(t)) => t,
-            Some(toml::Value::Array(items)) => {
-                let Some(next) = path.get(k + 1) else {
-                    return Err(format!("'{here}' is a list: name one of its entries, e.g. {here}.1"));
-                };
-                let count = items.len();
-                let hit = match next.parse::<usize>() {
-                    Ok(n) => n.checked_sub(1).and_then(|i| items.get_mut(i)),
-                    Err(_) => items
-                        .iter_mut()
-                        .find(|v| v.get("name").and_then(|n| n.as_str()) == Some(*next)),
-                };
-                let Some(toml::Value::Table(t)) = hit else {
-                    return Err(format!(
-                        "no entry '{next}' in '{here}' ({count} there: number them from 1 or use their name)"
-                    ));
-                };
-                // The entry's name or number is consumed with it.
-                return config_table_at(t, &path[k + 2..]);
-            }
-            _ => {
-                return Err(format!(
-                    "no section '{here}' (sections: geometry, material, mesh, load, solver, layer, contact)"
-                ))
-            }
-        };
-    }
-    Ok(table)
-}
-
 /// Refuses a pressure above [`crate::session::MAX_PLAUSIBLE_PRESSURE_KPA`] in magnitude
 /// (where `process` warns): no soft actuator sees it, and the solve would run for long
 /// before diverging.
@@ -665,58 +625,6 @@ fn number_text(v: f64) -> String {
     } else {
         format!("{v}")
     }
-}
-
-/// Parses "start:stop:step" (inclusive) or "a,b,c" into values; `what` names the
-/// quantity in messages.
-pub fn parse_range(text: &str, what: &str) -> Result<Vec<f64>, FemError> {
-    let num = |s: &str| -> Result<f64, FemError> {
-        let v: f64 = s.trim().parse().map_err(|_| {
-            bad(
-                what,
-                format!(
-                    "'{}' is not a number (expected start:stop:step or a,b,c)",
-                    s.trim()
-                ),
-            )
-        })?;
-        if v.is_finite() {
-            Ok(v)
-        } else {
-            Err(bad(what, format!("'{}' is not finite", s.trim())))
-        }
-    };
-    let parts: Vec<&str> = text.split(':').collect();
-    let values = match parts.len() {
-        1 => text.split(',').map(num).collect::<Result<Vec<_>, _>>()?,
-        3 => {
-            let (a, b, s) = (num(parts[0])?, num(parts[1])?, num(parts[2])?);
-            if !(s > 0.0) || b < a {
-                return Err(bad(
-                    what,
-                    format!("'{text}': need start <= stop and a positive step"),
-                ));
-            }
-            let count = ((b - a) / s + 1e-9).floor() as usize + 1;
-            if count > 10_000 {
-                return Err(bad(
-                    what,
-                    format!("'{text}' gives {count} values: use a larger step"),
-                ));
-            }
-            (0..count).map(|k| a + k as f64 * s).collect()
-        }
-        _ => {
-            return Err(bad(
-                what,
-                format!("'{text}': expected start:stop:step or a comma-separated list"),
-            ))
-        }
-    };
-    if values.is_empty() {
-        return Err(bad(what, "no values".into()));
-    }
-    Ok(values)
 }
 
 impl ActuatorConfig {
@@ -978,102 +886,13 @@ impl ActuatorConfig {
         Ok(())
     }
 
-    /// Sets one parameter by name to a number, for sweeps: a field of any section (`f`,
+    /// Sets one parameter by name to a number, for sweeps: a field of one section (`f`,
     /// `chambers`, `c2`, `bulk_modulus_mpa`, `size_mm`), or a dotted path naming its
     /// section (`geometry.f`, `tube.outer_material.c1`, `layer.paper.thickness_mm`,
-    /// `layer.2.youngs_modulus_mpa`).
+    /// `layer.2.youngs_modulus_mpa`); the rules of [`super::params::config_with`].
     pub fn with_parameter(&self, name: &str, value: f64) -> Result<Self, FemError> {
-        let mut doc = toml::Table::try_from(self).map_err(|e| FemError::Model {
-            why: format!("config: {e}"),
-        })?;
-        let hit = match name.rsplit_once('.') {
-            Some((sections, field)) => {
-                let path: Vec<&str> = sections.split('.').collect();
-                let table = config_table_at(&mut doc, &path).map_err(|e| bad(name, e))?;
-                set_number(table, name, field, value)?
-            }
-            None => {
-                let mut hit = false;
-                for (_, section) in doc.iter_mut() {
-                    if let Some(table) = section.as_table_mut() {
-                        hit |= set_number(table, name, name, value)?;
-                    }
-                }
-                hit
-            }
-        };
-        if !hit {
-            return Err(bad(
-                name,
-                format!(
-                    "no such parameter of this config; a layer's is layer.NAME.field ({})",
-                    numeric_keys(&doc)
-                ),
-            ));
-        }
-        doc.try_into()
-            .map_err(|e: toml::de::Error| FemError::Model {
-                why: format!("config: {}", e.message()),
-            })
+        Ok(super::params::config_with_number(self, name, value)?)
     }
-}
-
-/// Sets `field` of `table` to `value` (an integer where the field is one) if the table
-/// has that number (or is a material, whose coefficients are optional); false if not.
-fn set_number(
-    table: &mut toml::Table,
-    name: &str,
-    field: &str,
-    value: f64,
-) -> Result<bool, FemError> {
-    match table.get(field) {
-        Some(old) if old.is_integer() || field == "chambers" => {
-            if !(value.fract() == 0.0 && value >= 0.0 && value < i64::MAX as f64) {
-                return Err(bad(name, format!("{value}: must be a whole number >= 0")));
-            }
-            table.insert(field.to_string(), toml::Value::Integer(value as i64));
-            Ok(true)
-        }
-        Some(old) if old.is_float() => {
-            table.insert(field.to_string(), toml::Value::Float(value));
-            Ok(true)
-        }
-        None if ["c1", "c2", "c3", "bulk_modulus_mpa"].contains(&field)
-            && table.contains_key("preset") =>
-        {
-            table.insert(field.to_string(), toml::Value::Float(value));
-            Ok(true)
-        }
-        _ => Ok(false),
-    }
-}
-
-/// The numbers of a config's sections, as `section: key key ...; ...` (what
-/// [`ActuatorConfig::with_parameter`] can set: each family's own sections are there, e.g.
-/// `tube` for the fibre-reinforced family).
-fn numeric_keys(doc: &toml::Table) -> String {
-    let mut out = Vec::new();
-    for (section, value) in doc {
-        let Some(table) = value.as_table() else {
-            continue;
-        };
-        let mut keys: Vec<&str> = table
-            .iter()
-            .filter(|(_, v)| v.is_integer() || v.is_float())
-            .map(|(k, _)| k.as_str())
-            .collect();
-        if table.contains_key("preset") {
-            for k in ["c1", "c2", "c3", "bulk_modulus_mpa"] {
-                if !keys.contains(&k) {
-                    keys.push(k);
-                }
-            }
-        }
-        if !keys.is_empty() {
-            out.push(format!("{section}: {}", keys.join(" ")));
-        }
-    }
-    out.join("; ")
 }
 
 /// The meshed half actuator and the nodes results are read at.

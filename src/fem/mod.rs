@@ -41,6 +41,7 @@ pub mod layer;
 pub mod material;
 pub mod membrane;
 pub mod output;
+pub mod params;
 pub mod plate;
 pub mod pressure;
 pub mod simulate;

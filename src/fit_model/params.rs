@@ -2,15 +2,13 @@
 //! with new values.
 
 use crate::fem::actuator::ActuatorConfig;
+use crate::fem::params;
 
 use super::FitModelError;
 
 /// Default bounds of a parameter without explicit ones: its initial value divided and
 /// multiplied by this factor.
 pub const DEFAULT_BOUND_FACTOR: f64 = 5.0;
-
-/// Material fields that are optional in a config (absent until set).
-const OPTIONAL_MATERIAL_FIELDS: [&str; 4] = ["c1", "c2", "c3", "bulk_modulus_mpa"];
 
 /// A config field the fit varies.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -40,11 +38,12 @@ fn config_table(cfg: &ActuatorConfig) -> Result<toml::Table, FitModelError> {
     toml::Table::try_from(cfg).map_err(|e| bad("config", e.to_string()))
 }
 
-/// Parses `NAME[=LO:HI][,NAME[=LO:HI]...]`: NAME is `section.field` or a field name
-/// found in exactly one section (`f`, `scale`); bounds default to the initial value / and
+/// Parses `NAME[=LO:HI][,NAME[=LO:HI]...]`: NAME is `section.field` (`layer.NAME.field`)
+/// or a field name found in exactly one section (`f`, `scale`), as every command names
+/// one ([`crate::fem::params`]); bounds default to the initial value / and
 /// x [`DEFAULT_BOUND_FACTOR`].
 pub fn parse_free(spec: &str, cfg: &ActuatorConfig) -> Result<Vec<FreeParameter>, FitModelError> {
-    let mut doc = config_table(cfg)?;
+    let doc = config_table(cfg)?;
     let material = cfg
         .material
         .yeoh()
@@ -55,32 +54,14 @@ pub fn parse_free(spec: &str, cfg: &ActuatorConfig) -> Result<Vec<FreeParameter>
             Some((n, b)) => (n.trim(), Some(b.trim())),
             None => (item, None),
         };
-        let (section, field) = match name.rsplit_once('.') {
-            Some((s, f)) => (s.to_string(), f.to_string()),
-            None => {
-                let hits: Vec<&String> = doc
-                    .iter()
-                    .filter(|(_, t)| t.as_table().is_some_and(|t| t.contains_key(name)))
-                    .map(|(s, _)| s)
-                    .collect();
-                match hits.as_slice() {
-                    [s] => (s.to_string(), name.to_string()),
-                    [] if OPTIONAL_MATERIAL_FIELDS.contains(&name) => {
-                        ("material".to_string(), name.to_string())
-                    }
-                    [] => return Err(bad(name, "no such config field: use section.field, e.g. geometry.f or material.scale (see bendscope simulate --print-config)")),
-                    _ => return Err(bad(name, "in several sections: write section.field")),
-                }
-            }
-        };
-        let full = format!("{section}.{field}");
-        let path: Vec<&str> = section.split('.').collect();
-        let table =
-            crate::fem::actuator::config_table_at(&mut doc, &path).map_err(|e| bad(&full, e))?;
+        let at = params::resolve(&doc, name).map_err(|e| bad(&e.name, e.why))?;
+        let (section, field) = (at.section(), at.field.clone());
+        let full = at.name();
+        let current = params::value_at(&doc, &at).map_err(|e| bad(&full, e.why))?;
         // Unscaled coefficients: `scale` multiplies them in the material.
         let s = cfg.material.scale;
-        let initial = match table.get(&field) {
-            Some(toml::Value::Float(v)) => *v,
+        let initial = match current {
+            Some(toml::Value::Float(v)) => v,
             Some(toml::Value::Integer(_)) => {
                 return Err(bad(
                     &full,
@@ -193,16 +174,10 @@ pub fn with_values(
     params: &[FreeParameter],
     values: &[f64],
 ) -> Result<ActuatorConfig, FitModelError> {
-    let mut doc = config_table(base)?;
+    let mut cfg = base.clone();
     for (p, v) in params.iter().zip(values) {
-        let path: Vec<&str> = p.section.split('.').collect();
-        let table =
-            crate::fem::actuator::config_table_at(&mut doc, &path).map_err(|e| bad(&p.name, e))?;
-        table.insert(p.field.clone(), toml::Value::Float(*v));
+        cfg = params::config_with_number(&cfg, &p.name, *v).map_err(|e| bad(&e.name, e.why))?;
     }
-    let cfg: ActuatorConfig = doc
-        .try_into()
-        .map_err(|e: toml::de::Error| bad("config", e.to_string()))?;
     cfg.validate().map_err(FitModelError::Fem)?;
     Ok(cfg)
 }
@@ -229,7 +204,8 @@ mod tests {
         assert!((y.bulk_modulus - 0.5 * 2000.0 * 0.10744).abs() < 1e-9);
         for (spec, needle) in [
             ("chambers", "whole number"),
-            ("zz", "no such config field"),
+            ("zz", "no such parameter of this config"),
+            ("layer.zz", "no section 'layer'"),
             ("f=8:4", "LO < HI"),
             ("f=1:3", "outside the bounds"),
             ("f,geometry.f", "named twice"),

@@ -21,7 +21,6 @@ use serde::Serialize;
 pub use plan::{load_plan, Goal, LoadedPlan, Op, Plan, PlanConstraint};
 
 use crate::fem::actuator::ActuatorConfig;
-use crate::fem::FemError;
 use crate::report::{plot_xy, write_json, Series};
 use crate::surrogate::{
     fit_surrogate, read_designs, FitSettings, Prediction, SurrogateError, SurrogateModel,
@@ -69,31 +68,18 @@ pub enum OptimizeError {
     },
 }
 
-/// Config sections a design input may name (`geometry.f`).
-pub const SECTIONS: [&str; 5] = ["geometry", "material", "mesh", "load", "solver"];
-
-/// Sets design input `name` (`section.field`, or a bare field) of `cfg` to `value`.
+/// Sets design input `name` of `cfg` to `value`: a config field as every command names
+/// one (`geometry.f`, `layer.paper.thickness_mm`, a bare field of one section:
+/// [`crate::fem::params`]).
 pub fn set_input(
     cfg: &ActuatorConfig,
     name: &str,
     value: f64,
 ) -> Result<ActuatorConfig, OptimizeError> {
-    let err = |why: String| OptimizeError::Input {
-        name: name.to_string(),
-        why,
-    };
-    let field = match name.split_once('.') {
-        Some((section, field)) if SECTIONS.contains(&section) => field,
-        Some((section, _)) => {
-            return Err(err(format!(
-                "unknown section `{section}` (sections: {})",
-                SECTIONS.join(", ")
-            )))
-        }
-        None => name,
-    };
-    cfg.with_parameter(field, value)
-        .map_err(|e: FemError| err(e.to_string()))
+    crate::fem::params::config_with_number(cfg, name, value).map_err(|e| OptimizeError::Input {
+        name: e.name,
+        why: e.why,
+    })
 }
 
 /// A design as the surrogates see it.

@@ -19,10 +19,12 @@
 //! ```
 //!
 //! A factor may name any field of the actuator config (`geometry.*`, `material.*`,
-//! `mesh.size_mm`, `load.gravity`, `solver.*`): the base config is turned into a TOML
-//! table, the field set, and the table read back as a config, so a misspelt field is
-//! refused by the config's own checks. Integer fields (`geometry.chambers`) stay integers;
-//! a Latin-hypercube value for one is rounded.
+//! `mesh.size_mm`, `load.gravity`, `solver.*`, `layer.NAME.*`, or a bare field of one
+//! section), as every command names one ([`crate::fem::params`]): the base config is
+//! turned into a TOML table, the field set, and the table read back as a config, so a
+//! misspelt field is refused by the config's own checks. Integer fields
+//! (`geometry.chambers`, `layer.N.strips`) stay integers; a Latin-hypercube value for one
+//! is rounded.
 
 use std::path::{Path, PathBuf};
 
@@ -31,6 +33,7 @@ use serde::{Deserialize, Serialize};
 use super::design::{DesignKind, Factor, FactorLevels};
 use super::SweepError;
 use crate::fem::actuator::{parse_range, ActuatorConfig};
+use crate::fem::params;
 
 /// Resources of one point on a cluster (`--emit slurm`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -145,36 +148,14 @@ pub fn value_text(v: &toml::Value) -> String {
     }
 }
 
-/// `cfg` with the field `name` (`section.field`) set to `value`.
+/// `cfg` with the field `name` set to `value` ([`crate::fem::params::config_with`]: the
+/// naming and type rules of every command that sets a config field by name).
 pub fn config_with(
     cfg: &ActuatorConfig,
     name: &str,
     value: &toml::Value,
 ) -> Result<ActuatorConfig, String> {
-    let mut doc = toml::Table::try_from(cfg).map_err(|e| format!("config: {e}"))?;
-    let parts: Vec<&str> = name.split('.').collect();
-    let Some((field, sections)) = parts.split_last().filter(|(_, s)| !s.is_empty()) else {
-        return Err(format!(
-            "'{name}': name a config field as section.field (geometry.f, material.c1, load.gravity, mesh.size_mm ...)"
-        ));
-    };
-    let table = crate::fem::actuator::config_table_at(&mut doc, sections)
-        .map_err(|e| format!("'{name}': {e}"))?;
-    let new = match (table.get(*field), value) {
-        (Some(toml::Value::Integer(_)), toml::Value::Float(f)) => {
-            if f.fract() != 0.0 {
-                return Err(format!("'{name}' = {f}: must be a whole number"));
-            }
-            toml::Value::Integer(*f as i64)
-        }
-        (Some(toml::Value::Float(_)) | None, toml::Value::Integer(i)) => {
-            toml::Value::Float(*i as f64)
-        }
-        (_, v) => v.clone(),
-    };
-    table.insert(field.to_string(), new);
-    doc.try_into::<ActuatorConfig>()
-        .map_err(|e| format!("'{name}' = {}: {}", value_text(value), e.message()))
+    params::config_with(cfg, name, value).map_err(|e| format!("{}: {}", e.name, e.why))
 }
 
 fn plan_err(path: &Path, why: impl Into<String>) -> SweepError {
@@ -307,12 +288,19 @@ impl Plan {
             ));
         }
         let mut factors = Vec::new();
+        let mut fields = Vec::new();
+        let doc = params::config_document(&base).map_err(|e| plan_err(path, e.why))?;
         for f in &file.factor {
-            if factors.iter().any(|g: &Factor| g.name == f.name) {
+            let field = params::resolve(&doc, &f.name)
+                .map_err(|e| plan_err(path, format!("factor {}: {}", e.name, e.why)))?;
+            // `f` and `geometry.f` are one field.
+            if fields.contains(&field) {
                 return Err(plan_err(path, format!("factor {} is listed twice", f.name)));
             }
-            let doc = toml::Table::try_from(&base).map_err(|e| plan_err(path, e.to_string()))?;
-            let integer = lookup(&doc, &f.name).is_some_and(|v| v.is_integer());
+            let integer = params::value_at(&doc, &field)
+                .map_err(|e| plan_err(path, format!("factor {}: {}", e.name, e.why)))?
+                .is_some_and(|v| v.is_integer());
+            fields.push(field);
             let levels = match (&design, &f.levels, f.range) {
                 (DesignKind::Factorial, Some(l), _) if !l.is_empty() => {
                     // A NaN or inf level is no design (the point would run something else).
@@ -404,16 +392,6 @@ impl Plan {
         cfg.validate().map_err(|e| e.to_string())?;
         Ok(cfg)
     }
-}
-
-/// The value at a dotted path of a TOML table.
-fn lookup<'a>(doc: &'a toml::Table, name: &str) -> Option<&'a toml::Value> {
-    let mut parts = name.split('.');
-    let mut v = doc.get(parts.next()?)?;
-    for p in parts {
-        v = v.as_table()?.get(p)?;
-    }
-    Some(v)
 }
 
 #[cfg(test)]
@@ -538,8 +516,20 @@ levels = [8, 9]
     fn mistakes_in_a_plan_are_refused_with_the_field_named() {
         let e = parse(&TWO.replace("geometry.f\"", "geometry.ff\"")).unwrap_err();
         assert!(e.to_string().contains("ff"), "{e}");
-        let e = parse(&TWO.replace("geometry.f\"", "f\"")).unwrap_err();
-        assert!(e.to_string().contains("section.field"), "{e}");
+        // A bare field of one section is that field, once.
+        let bare = parse(&TWO.replace("geometry.f\"", "f\"")).unwrap();
+        let cfg = bare
+            .point_config(&[toml::Value::Float(5.0), toml::Value::Integer(9)])
+            .unwrap();
+        assert_eq!((cfg.geometry.f, cfg.geometry.chambers), (5.0, 9));
+        let twice = TWO.replace("geometry.chambers", "f");
+        let e = parse(&twice).unwrap_err();
+        assert!(e.to_string().contains("factor f is listed twice"), "{e}");
+        let e = parse(&TWO.replace("geometry.f\"", "zz\"")).unwrap_err();
+        assert!(
+            e.to_string().contains("factor zz: no such parameter"),
+            "{e}"
+        );
         let e = parse(&TWO.replace("[8, 9]", "[8.5, 9]")).unwrap_err();
         assert!(e.to_string().contains("whole number"), "{e}");
         let e = parse(&TWO.replace("factorial", "grid")).unwrap_err();

@@ -1,0 +1,577 @@
+//! Assembly: each element's force, tangent and condensed volume terms (Q1/P0, or with
+//! incompatible modes condensed per element), then sheets, fibres, plates, follower
+//! pressure, contact and dead loads scattered into the condensed residual and the lower
+//! triangle of the tangent in the fixed [`super::pattern::Pattern`].
+
+use nalgebra::Vector3;
+use rayon::prelude::*;
+
+use super::model::{volume_points, LoadState, Model};
+use super::pattern::SKIP;
+use super::solver::Solver;
+use crate::fem::contact::contact_terms;
+use crate::fem::hex::{
+    element_kinematics, enhanced_kinematics, ElementMatrix, ElementVector, HexGeometry, Modes,
+    ENHANCED_DOFS, MODES,
+};
+use crate::fem::material::Yeoh;
+use crate::fem::membrane::{membrane_response, MembraneMatrix, MembraneVector};
+use crate::fem::plate::PLATE_NODES;
+use crate::fem::pressure::{face_volume, FaceMatrix, FaceVector};
+use crate::fem::truss::{truss_response, TrussMatrix, TrussVector, TRUSS_DOFS};
+
+/// An element's force, tangent and condensed terms at the current state.
+pub(super) type ElementPart = (ElementVector, ElementMatrix, Condensed);
+
+/// Per-element terms of the condensation, kept to update θ_e and p_e after a step.
+#[derive(Clone)]
+pub(super) struct Condensed {
+    /// ∂v_e/∂u.
+    pub(super) g: ElementVector,
+    /// Volume residual v_e − V_e θ_e.
+    pub(super) r_volume: f64,
+    /// Constitutive residual V_e (U'(θ_e) − p_e).
+    pub(super) r_pressure: f64,
+    /// U''(θ_e).
+    pub(super) ddu: f64,
+    /// The condensation of the incompatible modes, for the element with them.
+    pub(super) modes: Option<Box<ModesCondensed>>,
+}
+
+/// Number of mode unknowns per element.
+pub(super) const MODE_DOFS: usize = 3 * MODES;
+
+/// An element's incompatible modes condensed out of its system
+/// [K_uu K_ua; K_au K_aa] [Δu; Δa] = −[r_u; r_a] (θ_e and p_e already condensed):
+/// the nodes see K_uu − K_ua K_aa⁻¹ K_au and r_u − K_ua K_aa⁻¹ r_a, and after the
+/// solve Δa = −K_aa⁻¹ (r_a + K_au Δu).
+#[derive(Clone)]
+pub(super) struct ModesCondensed {
+    pub(super) kaa_inv: nalgebra::SMatrix<f64, MODE_DOFS, MODE_DOFS>,
+    pub(super) kau: nalgebra::SMatrix<f64, MODE_DOFS, 24>,
+    /// r_a: the modes' force with the volume terms of the θ, p condensation.
+    pub(super) ra: nalgebra::SVector<f64, MODE_DOFS>,
+    /// The volume terms of each Gauss point: ∂v_g/∂(u, a), and (R_θ, R_p, U''(θ_g)) as
+    /// in [`Condensed`].
+    pub(super) g_points: [nalgebra::SVector<f64, ENHANCED_DOFS>; 8],
+    pub(super) points: [(f64, f64, f64); 8],
+    /// The nodes' condensed residual beyond their force: Σ_g G_g,u w_g − K_ua K_aa⁻¹ r_a.
+    pub(super) shift: ElementVector,
+    /// |f_a|²: the modes' equilibrium residual (in the convergence test).
+    pub(super) residual_sq: f64,
+    /// Largest |v_g / V_g − θ_g|.
+    pub(super) volume_error: f64,
+}
+
+/// The linearized system at a state: condensed residual (free dofs), norms for the
+/// convergence test, the lower triangle of the condensed tangent, and the element terms.
+pub(super) struct Assembled {
+    pub(super) residual: Vec<f64>,
+    pub(super) equilibrium_norm: f64,
+    pub(super) external_norm: f64,
+    /// ε ‖ |K| |u| ‖: the round-off floor of the residual ([`Solver::roundoff_norm`]).
+    pub(super) roundoff_norm: f64,
+    pub(super) volume_error: f64,
+    /// Values of the lower triangle in the fixed pattern of [`Pattern`].
+    pub(super) values: Vec<f64>,
+    pub(super) condensed: Vec<Condensed>,
+    /// Node pairs a contact term couples that the pattern lacks (a slave node meeting a
+    /// master face for the first time): the pattern is then extended and the state
+    /// assembled again.
+    pub(super) missing: Vec<(usize, usize)>,
+}
+
+pub(super) fn gather<const N: usize>(u: &[f64], nodes: &[usize; N]) -> [Vector3<f64>; N] {
+    std::array::from_fn(|a| Vector3::new(u[3 * nodes[a]], u[3 * nodes[a] + 1], u[3 * nodes[a] + 2]))
+}
+
+/// The larger of `a` and `b`, NaN when either is (`f64::max` drops a NaN, which would
+/// hide it from the convergence test).
+pub(super) fn max_or_nan(a: f64, b: f64) -> f64 {
+    if a.is_nan() || b.is_nan() {
+        f64::NAN
+    } else {
+        a.max(b)
+    }
+}
+
+/// Euclidean norm; infinite when the squares overflow (a load near 1e154 or more), which
+/// the convergence test takes as a load that is not finite.
+pub(super) fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+/// One element's force, tangent and condensed terms at displacement `u`, dilatation
+/// `th` and pressure `p`; zeros for an element whose nodes are all fixed; `None` when the
+/// element is inverted.
+#[allow(clippy::too_many_arguments)]
+fn element_part(
+    model: &Model,
+    e: usize,
+    el: &[usize; 8],
+    g: &HexGeometry,
+    th: &[f64],
+    p: &[f64],
+    modes: Option<&Modes>,
+    active: bool,
+    u: &[f64],
+) -> Option<ElementPart> {
+    let material = model.material_of(e);
+    if let (Some(m), true) = (modes, active) {
+        return enhanced_part(material, el, g, th, p, m, u);
+    }
+    let (th, p) = (th[0], p[0]);
+    if !active {
+        // Every node fixed: u = 0, θ = 1, p = 0 stay the exact state; nothing
+        // to assemble (the clamped chamber of the actuator).
+        return Some((
+            ElementVector::zeros(),
+            ElementMatrix::zeros(),
+            Condensed {
+                g: ElementVector::zeros(),
+                r_volume: 0.0,
+                r_pressure: 0.0,
+                ddu: material.ddu(th),
+                modes: None,
+            },
+        ));
+    }
+    let e = element_kinematics(g, material, &gather(u, el))?;
+    if th.is_nan() || th <= 0.0 {
+        return None;
+    }
+    let vol = g.volume;
+    let ddu = material.ddu(th);
+    let c = Condensed {
+        r_volume: e.v - vol * th,
+        r_pressure: vol * (material.du(th) - p),
+        ddu,
+        g: e.g,
+        modes: None,
+    };
+    // Equilibrium with the element's own pressure, and the condensed system.
+    let force = e.force_iso + e.g * p;
+    let k = e.k_iso + e.h * p + e.g * e.g.transpose() * (ddu / vol);
+    Some((force, k, c))
+}
+
+/// [`element_part`] of the element with incompatible modes at amplitudes `modes`: the
+/// volume constrained at each Gauss point (dilatations `th` and pressures `p`, 8 each,
+/// condensed as the element's one pair is for Q1/P0: with the modes' normal strains and
+/// one pressure per element, a wall one element thick bends with a free dilatation
+/// linear through it, 1.6 x too soft in the thin cantilever test), then the modes
+/// condensed ([`ModesCondensed`]). `None` when the element is inverted (or its modes'
+/// block singular).
+fn enhanced_part(
+    material: &Yeoh,
+    el: &[usize; 8],
+    g: &HexGeometry,
+    th: &[f64],
+    p: &[f64],
+    modes: &Modes,
+    u: &[f64],
+) -> Option<ElementPart> {
+    if th.iter().any(|t| t.is_nan() || *t <= 0.0) {
+        return None;
+    }
+    let e = enhanced_kinematics(
+        g,
+        material,
+        &gather(u, el),
+        modes,
+        &std::array::from_fn(|q| p[q]),
+    )?;
+    let mut force = e.force_iso;
+    let mut k = e.k_iso + e.h;
+    let mut shift = nalgebra::SVector::<f64, ENHANCED_DOFS>::zeros();
+    let mut points = [(0.0, 0.0, 0.0); 8];
+    let mut volume_error: f64 = 0.0;
+    for q in 0..8 {
+        let vq = g.weights[q];
+        let ddu = material.ddu(th[q]);
+        let r_volume = e.v_points[q] - vq * th[q];
+        let r_pressure = vq * (material.du(th[q]) - p[q]);
+        let gq = &e.g_points[q];
+        force += gq * p[q];
+        k += gq * gq.transpose() * (ddu / vq);
+        shift += gq * ((ddu * r_volume + r_pressure) / vq);
+        points[q] = (r_volume, r_pressure, ddu);
+        volume_error = max_or_nan(volume_error, (r_volume / vq).abs());
+    }
+    let kaa_inv = k
+        .fixed_view::<MODE_DOFS, MODE_DOFS>(24, 24)
+        .into_owned()
+        .try_inverse()?;
+    let kau = k.fixed_view::<MODE_DOFS, 24>(24, 0).into_owned();
+    let fa = force.fixed_rows::<MODE_DOFS>(24).into_owned();
+    let ra = fa + shift.fixed_rows::<MODE_DOFS>(24);
+    let kua_kaa_inv = kau.transpose() * kaa_inv;
+    let k_nodes = k.fixed_view::<24, 24>(0, 0) - kua_kaa_inv * kau;
+    let c = Condensed {
+        g: ElementVector::zeros(),
+        r_volume: 0.0,
+        r_pressure: 0.0,
+        ddu: 0.0,
+        modes: Some(Box::new(ModesCondensed {
+            kaa_inv,
+            kau,
+            ra,
+            g_points: e.g_points,
+            points,
+            shift: shift.fixed_rows::<24>(0) - kua_kaa_inv * ra,
+            residual_sq: fa.norm_squared(),
+            volume_error,
+        })),
+    };
+    Some((force.fixed_rows::<24>(0).into_owned(), k_nodes, c))
+}
+
+impl<'m> Solver<'m> {
+    /// ε ‖ |K| |u| ‖ over the free dofs (|K| the entrywise absolute tangent): the size
+    /// of the residual that the rounding of the displacements alone (|δu| ≤ ε |u|) makes.
+    /// A residual cannot be driven below it: with a sheet 10³-10⁴ times stiffer than the
+    /// silicone (a 0.1 mm, 3 GPa layer) it is ~1e-10 N under gravity alone, where the
+    /// external force is 3e-4 N and the absolute tolerance 1e-10 N.
+    pub(super) fn roundoff_norm(&self, values: &[f64], u: &[f64]) -> f64 {
+        let mut u_free = vec![0.0; self.n_eq];
+        for (d, e) in self.eq.iter().enumerate() {
+            if let Some(i) = e {
+                u_free[*i] = u[d].abs();
+            }
+        }
+        let col_ptr = self.pattern.symbolic.col_ptr();
+        let row_idx = self.pattern.symbolic.row_idx();
+        let mut y = vec![0.0; self.n_eq];
+        for c in 0..self.n_eq {
+            for (r, v) in row_idx[col_ptr[c]..col_ptr[c + 1]]
+                .iter()
+                .zip(&values[col_ptr[c]..col_ptr[c + 1]])
+            {
+                y[*r] += v.abs() * u_free[c];
+                if *r != c {
+                    y[c] += v.abs() * u_free[*r];
+                }
+            }
+        }
+        f64::EPSILON * norm(&y)
+    }
+
+    pub(super) fn assemble(
+        &self,
+        u: &[f64],
+        theta: &[f64],
+        pressure: &[f64],
+        modes: &[Modes],
+        load: LoadState,
+    ) -> Option<Assembled> {
+        let model = self.model;
+        let points = volume_points(model);
+        let mut parts = self.parts.lock().ok()?;
+        parts.resize_with(model.elements.len(), || None);
+        parts
+            .par_iter_mut()
+            .zip(&model.elements)
+            .zip(&self.geom)
+            .zip(theta.par_chunks(points).zip(pressure.par_chunks(points)))
+            .zip(&self.pattern.active)
+            .enumerate()
+            .for_each(|(e, ((((slot, el), g), (th, p)), &active))| {
+                *slot = element_part(model, e, el, g, th, p, modes.get(e), active, u);
+            });
+        if parts.iter().any(Option::is_none) {
+            return None;
+        }
+        let faces: Vec<(f64, FaceVector, FaceMatrix)> = model
+            .pressure_faces
+            .par_iter()
+            .map(|f| {
+                let du = gather(u, f);
+                let x: [Vector3<f64>; 4] = std::array::from_fn(|k| model.nodes[f[k]] + du[k]);
+                face_volume(&x, &model.volume_weights)
+            })
+            .collect();
+        let membranes: Vec<(f64, MembraneVector, MembraneMatrix)> = model
+            .membranes
+            .par_iter()
+            .zip(&self.membrane_geom)
+            .map(|(m, g)| membrane_response(g, &m.section, &gather(u, &m.nodes)))
+            .collect();
+        let trusses: Vec<(f64, TrussVector, TrussMatrix)> = model
+            .trusses
+            .par_iter()
+            .map(|t| truss_response(t, &model.nodes, u))
+            .collect();
+        let eq = &self.eq;
+        let mut r = vec![0.0; self.n_eq]; // equilibrium residual R_u
+        let mut shift = vec![0.0; self.n_eq]; // G (U'' R_p + R_θ) / V
+        let mut ext = vec![0.0; self.n_eq];
+        let mut values = vec![0.0; self.pattern.symbolic.row_idx().len()];
+        let mut volume_error: f64 = 0.0;
+        let mut modes_residual_sq = 0.0;
+        for (((el, (f, k, c)), g), slots) in model
+            .elements
+            .iter()
+            .zip(parts.iter().flatten())
+            .zip(&self.geom)
+            .zip(&self.pattern.element_slots)
+        {
+            let w = (c.ddu * c.r_volume + c.r_pressure) / g.volume;
+            for a in 0..24 {
+                if let Some(i) = eq[3 * el[a / 3] + a % 3] {
+                    r[i] += f[a];
+                    shift[i] += c.g[a] * w;
+                    if let Some(m) = &c.modes {
+                        shift[i] += m.shift[a];
+                    }
+                }
+            }
+            if let Some(m) = &c.modes {
+                modes_residual_sq += m.residual_sq;
+                volume_error = max_or_nan(volume_error, m.volume_error);
+            }
+            for (s, v) in slots.iter().zip(k.as_slice()) {
+                if *s != SKIP {
+                    values[*s as usize] += v;
+                }
+            }
+            volume_error = max_or_nan(volume_error, (c.r_volume / g.volume).abs());
+        }
+        for ((m, (_, f, k)), slots) in model
+            .membranes
+            .iter()
+            .zip(&membranes)
+            .zip(&self.pattern.membrane_slots)
+        {
+            for a in 0..12 {
+                if let Some(i) = eq[3 * m.nodes[a / 3] + a % 3] {
+                    r[i] += f[a];
+                }
+            }
+            for (s, v) in slots.iter().zip(k.as_slice()) {
+                if *s != SKIP {
+                    values[*s as usize] += v;
+                }
+            }
+        }
+        for ((t, (_, f, k)), slots) in model
+            .trusses
+            .iter()
+            .zip(&trusses)
+            .zip(&self.pattern.truss_slots)
+        {
+            let nodes = t.nodes();
+            for a in 0..TRUSS_DOFS {
+                if let Some(i) = eq[3 * nodes[a / 3] + a % 3] {
+                    r[i] += f[a];
+                }
+            }
+            for (s, v) in slots.iter().zip(k.as_slice()) {
+                if *s != SKIP {
+                    values[*s as usize] += v;
+                }
+            }
+        }
+        for (t, slots) in model.plates.iter().zip(&self.pattern.plate_slots) {
+            for (a, fa) in t.force(u).iter().enumerate() {
+                if let Some(i) = eq[3 * t.nodes[a / 3] + a % 3] {
+                    r[i] += fa;
+                }
+            }
+            let n = 3 * PLATE_NODES;
+            for (ab, s) in slots.iter().enumerate() {
+                if *s != SKIP {
+                    let (a, b) = (ab % n, ab / n);
+                    values[*s as usize] += t.tangent(a / 3, a % 3, b / 3, b % 3);
+                }
+            }
+        }
+        let p = load.pressure_mpa;
+        if p != 0.0 {
+            for ((face, (_, g, h)), slots) in model
+                .pressure_faces
+                .iter()
+                .zip(&faces)
+                .zip(&self.pattern.face_slots)
+            {
+                let f = -p * g;
+                for a in 0..12 {
+                    if let Some(i) = eq[3 * face[a / 3] + a % 3] {
+                        ext[i] -= f[a];
+                        r[i] += f[a];
+                    }
+                }
+                for (s, v) in slots.iter().zip(h.as_slice()) {
+                    if *s != SKIP {
+                        values[*s as usize] -= p * v;
+                    }
+                }
+            }
+        }
+        let mut missing = Vec::new();
+        if let Some(contact) = &model.contact {
+            let position =
+                |a: usize| model.nodes[a] + Vector3::new(u[3 * a], u[3 * a + 1], u[3 * a + 2]);
+            for t in contact_terms(contact, &position) {
+                let d: [Option<usize>; 15] =
+                    std::array::from_fn(|a| eq[3 * t.nodes[a / 3] + a % 3]);
+                for a in 0..15 {
+                    let Some(i) = d[a] else { continue };
+                    r[i] += t.force[a];
+                    for (b, db) in d.iter().enumerate() {
+                        match db {
+                            Some(j) if i >= *j => {
+                                let s = self.pattern.slot(i, *j);
+                                if s != SKIP {
+                                    values[s as usize] += t.stiffness[(a, b)];
+                                } else {
+                                    missing.push((t.nodes[a / 3], t.nodes[b / 3]));
+                                }
+                            }
+                            _ => {}
+                        }
+                    }
+                }
+            }
+        }
+        for (d, e) in eq.iter().enumerate() {
+            if let Some(i) = e {
+                let f = load.dead * model.loads[d];
+                r[*i] -= f;
+                ext[*i] += f;
+            }
+        }
+        let equilibrium_norm = (norm(&r).powi(2) + modes_residual_sq).sqrt();
+        let roundoff_norm = self.roundoff_norm(&values, u);
+        for (ri, si) in r.iter_mut().zip(&shift) {
+            *ri += si;
+        }
+        Some(Assembled {
+            residual: r,
+            equilibrium_norm,
+            external_norm: norm(&ext),
+            roundoff_norm,
+            volume_error,
+            values,
+            condensed: parts.iter().flatten().map(|(_, _, c)| c.clone()).collect(),
+            missing,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fem::actuator::{build_mesh, ActuatorConfig, MeshConfig};
+    use crate::fem::hex::element_response;
+
+    /// θ_e = v_e / V_e and p_e = U'(θ_e): the state the three-field iteration converges to.
+    fn consistent(solver: &Solver, u: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        solver
+            .model
+            .elements
+            .iter()
+            .zip(&solver.geom)
+            .enumerate()
+            .map(|(e, (el, g))| {
+                let m = solver.model.material_of(e);
+                let th = element_kinematics(g, m, &gather(u, el)).unwrap().v / g.volume;
+                (th, m.du(th))
+            })
+            .unzip()
+    }
+
+    /// Potential energy Π(u) of the displacement-only form.
+    fn energy(solver: &Solver, u: &[f64], load: LoadState) -> f64 {
+        let m = solver.model;
+        let mut e: f64 = m
+            .elements
+            .iter()
+            .zip(&solver.geom)
+            .enumerate()
+            .map(|(e, (el, g))| {
+                element_response(g, m.material_of(e), &gather(u, el), None)
+                    .unwrap()
+                    .0
+            })
+            .sum();
+        e += m.plates.iter().map(|t| t.energy(u)).sum::<f64>();
+        for f in &m.pressure_faces {
+            let du = gather(u, f);
+            let x: [Vector3<f64>; 4] = std::array::from_fn(|k| m.nodes[f[k]] + du[k]);
+            e -= load.pressure_mpa * face_volume(&x, &m.volume_weights).0;
+        }
+        for d in 0..u.len() {
+            if !m.fixed[d] {
+                e -= load.dead * m.loads[d] * u[d];
+            }
+        }
+        e
+    }
+
+    /// At a consistent state, the condensed residual is the gradient of the potential
+    /// energy and the condensed tangent (with the pressure's load stiffness) its Hessian,
+    /// on the actuator mesh.
+    #[test]
+    fn condensed_tangent_and_residual_are_derivatives_of_the_energy() {
+        let mesh = build_mesh(&ActuatorConfig {
+            mesh: MeshConfig {
+                size_mm: 4.0,
+                ..Default::default()
+            },
+            ..Default::default()
+        })
+        .unwrap();
+        let solver = Solver::new(&mesh.model).unwrap();
+        let n = mesh.model.nodes.len();
+        let u: Vec<f64> = (0..3 * n)
+            .map(|d| {
+                if mesh.model.fixed[d] {
+                    0.0
+                } else {
+                    0.05 * ((d as f64) * 0.37).sin()
+                }
+            })
+            .collect();
+        let load = LoadState {
+            dead: 1.0,
+            pressure_mpa: 0.05,
+        };
+        let at = |u: &[f64]| {
+            let (th, p) = consistent(&solver, u);
+            solver.assemble(u, &th, &p, &[], load).unwrap()
+        };
+        let a = at(&u);
+        assert!(a.volume_error < 1e-14);
+        let dense = solver.pattern.matrix(&a.values).to_dense();
+        let free: Vec<usize> = (0..3 * n).filter(|d| !mesh.model.fixed[*d]).collect();
+        let h = 1e-6;
+        let mut worst: f64 = 0.0;
+        let scale = dense.norm_max();
+        for (col, &d) in free.iter().enumerate().step_by(97) {
+            let mut up = u.clone();
+            let mut um = u.clone();
+            up[d] += h;
+            um[d] -= h;
+            let de = (energy(&solver, &up, load) - energy(&solver, &um, load)) / (2.0 * h);
+            assert!(
+                (de - a.residual[col]).abs() < 1e-6 * scale,
+                "dE/du {de} vs r {}",
+                a.residual[col]
+            );
+            let (ap, am) = (at(&up), at(&um));
+            for row in 0..solver.n_eq {
+                let fd = (ap.residual[row] - am.residual[row]) / (2.0 * h);
+                let kv = if row >= col {
+                    dense[(row, col)]
+                } else {
+                    dense[(col, row)]
+                };
+                worst = worst.max((fd - kv).abs());
+            }
+        }
+        assert!(
+            worst < 1e-5 * scale,
+            "worst |K - FD| {worst} (scale {scale})"
+        );
+    }
+}

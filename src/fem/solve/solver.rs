@@ -1,0 +1,313 @@
+//! The incremental solver: the state it holds (displacement, element dilatations and
+//! pressures, the modes' amplitudes, the load), its set-up from a [`Model`], and what it
+//! reports of a state (positions, cavity volume, stresses, reactions, warm-start state).
+
+use std::sync::Mutex;
+
+use faer::dyn_stack::MemBuffer;
+use faer::sparse::linalg::cholesky::SymbolicCholesky;
+use nalgebra::{Matrix3, Vector3};
+use rayon::prelude::*;
+
+use super::assembly::{gather, ElementPart, MODE_DOFS};
+use super::model::{volume_points, LoadState, Model};
+use super::pattern::Pattern;
+use crate::fem::contact::contact_terms;
+use crate::fem::hex::{element_cauchy_stress, element_response, HexGeometry, Modes};
+use crate::fem::membrane::{membrane_response, MembraneGeometry};
+use crate::fem::pressure::face_volume;
+use crate::fem::truss::{truss_response, TRUSS_DOFS};
+use crate::fem::FemError;
+
+/// A solver's state ([`Solver::state`]), to warm-start a solve of a nearby model.
+#[derive(Debug, Clone)]
+pub struct SolverState {
+    u: Vec<f64>,
+    theta: Vec<f64>,
+    pressure: Vec<f64>,
+    modes: Vec<Modes>,
+    load: LoadState,
+}
+
+/// An incremental solver: holds the current displacement and load state of a model.
+pub struct Solver<'m> {
+    pub(super) model: &'m Model,
+    pub(super) geom: Vec<HexGeometry>,
+    pub(super) membrane_geom: Vec<MembraneGeometry>,
+    pub(super) eq: Vec<Option<usize>>,
+    pub(super) n_eq: usize,
+    pub(super) pattern: Pattern,
+    /// Node pairs added to the pattern during the solve: slave nodes and the nodes of the
+    /// master faces they have met. Coupling every wall node to the facing wall from the
+    /// start made the default actuator's ramp 1.7x dearer even with no contact (the
+    /// couplings across the gaps turn the comb of chambers into a solid bar for the
+    /// fill-reducing ordering); coupled on demand, contact costs nothing until it happens.
+    pub(super) extra_couplings: Vec<(usize, usize)>,
+    pub(super) symbolic: Option<SymbolicCholesky<usize>>,
+    pub(super) factor: Vec<f64>,
+    /// Scratch memory of the numeric factorization and solve, kept between Newton
+    /// iterations (allocated anew each time it cost ~8% of a ramp in page faults).
+    pub(super) scratch: Option<MemBuffer>,
+    /// Each element's force, tangent and condensed terms from the last assembly, kept so
+    /// that an assembly allocates nothing (a fresh ~55 MB vector per Newton iteration at
+    /// the default mesh cost page faults and moves).
+    pub(super) parts: Mutex<Vec<Option<ElementPart>>>,
+    pub(super) u: Vec<f64>,
+    /// Element dilatations θ_e.
+    pub(super) theta: Vec<f64>,
+    /// Element pressures p_e, MPa.
+    pub(super) pressure: Vec<f64>,
+    /// Amplitudes of each element's incompatible modes (empty for the plain element).
+    pub(super) modes: Vec<Modes>,
+    pub(super) load: LoadState,
+    /// The converged state before the current one and its load: the secant predictor.
+    pub(super) previous: Option<(State, LoadState)>,
+}
+
+/// A state of the three-field iteration: u, θ_e, p_e and the modes' amplitudes.
+pub(super) type State = (Vec<f64>, Vec<f64>, Vec<f64>, Vec<Modes>);
+
+impl<'m> Solver<'m> {
+    /// Checks the model and precomputes the reference geometry.
+    pub fn new(model: &'m Model) -> Result<Self, FemError> {
+        let n = model.nodes.len();
+        if model.fixed.len() != 3 * n || model.loads.len() != 3 * n {
+            return Err(FemError::Model {
+                why: "fixed and loads need 3 entries per node".into(),
+            });
+        }
+        if !model.element_material.is_empty()
+            && (model.element_material.len() != model.elements.len()
+                || model
+                    .element_material
+                    .iter()
+                    .any(|k| usize::from(*k) > model.extra_materials.len()))
+        {
+            return Err(FemError::Model {
+                why: "element_material needs one valid material index per element".into(),
+            });
+        }
+        if model
+            .contact
+            .iter()
+            .flat_map(|c| &c.pairs)
+            .any(|p| p.slave_nodes.len() != p.slave_areas_mm2.len())
+        {
+            return Err(FemError::Model {
+                why: "a contact pair needs one area per slave node".into(),
+            });
+        }
+        if let Some(bad) = model
+            .elements
+            .iter()
+            .flatten()
+            .chain(model.pressure_faces.iter().flatten())
+            .chain(model.membranes.iter().flat_map(|m| &m.nodes))
+            .chain(model.plates.iter().flat_map(|t| &t.nodes))
+            .chain(
+                model
+                    .trusses
+                    .iter()
+                    .flat_map(|t| t.ends.iter().flat_map(|e| &e.nodes)),
+            )
+            .chain(model.contact.iter().flat_map(|c| {
+                c.pairs
+                    .iter()
+                    .flat_map(|p| p.slave_nodes.iter().chain(p.master_faces.iter().flatten()))
+            }))
+            .find(|a| **a >= n)
+        {
+            return Err(FemError::Model {
+                why: format!("node index {bad} out of range ({n} nodes)"),
+            });
+        }
+        let mut geom = Vec::with_capacity(model.elements.len());
+        for (i, el) in model.elements.iter().enumerate() {
+            let x: [Vector3<f64>; 8] = std::array::from_fn(|a| model.nodes[el[a]]);
+            geom.push(HexGeometry::new(&x).ok_or(FemError::Model {
+                why: format!("element {i} is inverted or degenerate"),
+            })?);
+        }
+        let mut membrane_geom = Vec::with_capacity(model.membranes.len());
+        for (i, m) in model.membranes.iter().enumerate() {
+            let x: [Vector3<f64>; 4] = std::array::from_fn(|a| model.nodes[m.nodes[a]]);
+            membrane_geom.push(MembraneGeometry::new(&x).ok_or(FemError::Model {
+                why: format!("membrane {i} is degenerate"),
+            })?);
+        }
+        let mut eq = vec![None; 3 * n];
+        let mut n_eq = 0;
+        for (d, fixed) in model.fixed.iter().enumerate() {
+            if !fixed {
+                eq[d] = Some(n_eq);
+                n_eq += 1;
+            }
+        }
+        let pattern = Pattern::new(model, &eq, n_eq, &[])?;
+        let points = volume_points(model);
+        Ok(Self {
+            model,
+            geom,
+            membrane_geom,
+            eq,
+            n_eq,
+            pattern,
+            extra_couplings: Vec::new(),
+            symbolic: None,
+            factor: Vec::new(),
+            scratch: None,
+            parts: Mutex::new(Vec::new()),
+            u: vec![0.0; 3 * n],
+            theta: vec![1.0; points * model.elements.len()],
+            pressure: vec![0.0; points * model.elements.len()],
+            modes: if model.incompatible_modes {
+                vec![[0.0; MODE_DOFS]; model.elements.len()]
+            } else {
+                Vec::new()
+            },
+            load: LoadState::default(),
+            previous: None,
+        })
+    }
+
+    /// Nodal displacements, mm (3 per node).
+    pub fn displacement(&self) -> &[f64] {
+        &self.u
+    }
+
+    /// The load state of [`Self::displacement`].
+    pub fn load(&self) -> LoadState {
+        self.load
+    }
+
+    /// Degrees of freedom solved for.
+    pub fn free_dofs(&self) -> usize {
+        self.n_eq
+    }
+
+    /// Current position of node `a`.
+    pub fn position(&self, a: usize) -> Vector3<f64> {
+        self.model.nodes[a] + Vector3::new(self.u[3 * a], self.u[3 * a + 1], self.u[3 * a + 2])
+    }
+
+    /// Current volume enclosed by the pressure faces (and the symmetry planes through the
+    /// origin), mm³.
+    pub fn cavity_volume(&self) -> f64 {
+        self.model
+            .pressure_faces
+            .iter()
+            .map(|f| {
+                let x: [Vector3<f64>; 4] = std::array::from_fn(|k| self.position(f[k]));
+                face_volume(&x, &self.model.volume_weights).0
+            })
+            .sum()
+    }
+
+    /// Cauchy stress of every element, MPa (`None` never happens on a converged state).
+    pub fn element_stresses(&self) -> Vec<Matrix3<f64>> {
+        self.model
+            .elements
+            .par_iter()
+            .zip(&self.geom)
+            .enumerate()
+            .map(|(e, (el, g))| {
+                element_cauchy_stress(
+                    g,
+                    self.model.material_of(e),
+                    &gather(&self.u, el),
+                    self.modes.get(e),
+                )
+                .unwrap_or_else(|| Matrix3::from_element(f64::NAN))
+            })
+            .collect()
+    }
+
+    /// Support reactions: internal minus external force at every dof, N (zero up to the
+    /// tolerance at free dofs; the force the supports exert at fixed ones).
+    pub fn reactions(&self) -> Vec<f64> {
+        let mut f = vec![0.0; self.u.len()];
+        for (e, (el, g)) in self.model.elements.iter().zip(&self.geom).enumerate() {
+            if let Some((_, fe, _)) = element_response(
+                g,
+                self.model.material_of(e),
+                &gather(&self.u, el),
+                self.modes.get(e),
+            ) {
+                for a in 0..24 {
+                    f[3 * el[a / 3] + a % 3] += fe[a];
+                }
+            }
+        }
+        for (m, g) in self.model.membranes.iter().zip(&self.membrane_geom) {
+            let (_, fm, _) = membrane_response(g, &m.section, &gather(&self.u, &m.nodes));
+            for a in 0..12 {
+                f[3 * m.nodes[a / 3] + a % 3] += fm[a];
+            }
+        }
+        for t in &self.model.trusses {
+            let (_, ft, _) = truss_response(t, &self.model.nodes, &self.u);
+            let nodes = t.nodes();
+            for a in 0..TRUSS_DOFS {
+                f[3 * nodes[a / 3] + a % 3] += ft[a];
+            }
+        }
+        for t in &self.model.plates {
+            for (a, fa) in t.force(&self.u).iter().enumerate() {
+                f[3 * t.nodes[a / 3] + a % 3] += fa;
+            }
+        }
+        let p = self.load.pressure_mpa;
+        for face in &self.model.pressure_faces {
+            let x: [Vector3<f64>; 4] = std::array::from_fn(|k| self.position(face[k]));
+            let (_, g, _) = face_volume(&x, &self.model.volume_weights);
+            for a in 0..12 {
+                f[3 * face[a / 3] + a % 3] -= p * g[a];
+            }
+        }
+        if let Some(contact) = &self.model.contact {
+            for t in contact_terms(contact, &|a| self.position(a)) {
+                for a in 0..15 {
+                    f[3 * t.nodes[a / 3] + a % 3] += t.force[a];
+                }
+            }
+        }
+        for (fd, l) in f.iter_mut().zip(&self.model.loads) {
+            *fd -= self.load.dead * l;
+        }
+        f
+    }
+
+    /// The current state (displacement, element dilatations and pressures, load), to
+    /// warm-start another solver of a mesh with the same numbering ([`Self::set_state`]).
+    pub fn state(&self) -> SolverState {
+        SolverState {
+            u: self.u.clone(),
+            theta: self.theta.clone(),
+            pressure: self.pressure.clone(),
+            modes: self.modes.clone(),
+            load: self.load,
+        }
+    }
+
+    /// Restores a state taken by [`Self::state`] (of this mesh or one with the same node
+    /// and element counts): the next [`Self::advance`] starts from it. Refused when the
+    /// sizes differ.
+    pub fn set_state(&mut self, state: &SolverState) -> Result<(), FemError> {
+        if state.u.len() != self.u.len()
+            || state.theta.len() != self.theta.len()
+            || state.modes.len() != self.modes.len()
+        {
+            return Err(FemError::Model {
+                why: "a warm-start state of another mesh".into(),
+            });
+        }
+        self.u.clone_from(&state.u);
+        self.theta.clone_from(&state.theta);
+        self.pressure.clone_from(&state.pressure);
+        self.modes.clone_from(&state.modes);
+        self.load = state.load;
+        // The secant predictor's last state belongs to the old path.
+        self.previous = None;
+        Ok(())
+    }
+}
