@@ -18,69 +18,12 @@
 //!   10, a Kevlar thread wound both ways or one way, a strip in the flat bottom as a
 //!   `[[layer]]` with `[tube] bottom_strip = true` ([`super::fibre`]).
 
-use serde::{Deserialize, Serialize};
-
-use super::actuator::{ActuatorConfig, Geometry, LoadConfig, MaterialConfig};
+pub use super::config::Family;
+use super::config::TubeConfig;
+use super::config::{ActuatorConfig, Geometry, LoadConfig, MaterialConfig};
 use super::contact::ContactConfig;
-use super::fibre::TubeConfig;
 use super::layer::{LayerConfig, LayerElement};
 use super::material::MaterialPreset;
-
-/// The actuator designs the model knows (`[geometry] family`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "kebab-case")]
-pub enum Family {
-    /// The reference PneuNets actuator (method.md §4).
-    #[default]
-    Pneunets,
-    /// The glove actuator: PneuNets in Ecoflex 00-50 with a paper layer.
-    Glove,
-    /// The soft strap: Ecoflex 00-30 chambers, PLA strips and a fabric sheet, hanging.
-    Strap,
-    /// The fibre-reinforced tube: D-section, two silicones, wound thread ([`super::fibre`]).
-    FibreReinforced,
-}
-
-impl Family {
-    /// Every family, in the order of the docs.
-    pub const ALL: [Family; 4] = [
-        Family::Pneunets,
-        Family::Glove,
-        Family::Strap,
-        Family::FibreReinforced,
-    ];
-
-    /// The name in configs and on the command line.
-    pub fn name(self) -> &'static str {
-        match self {
-            Family::Pneunets => "pneunets",
-            Family::Glove => "glove",
-            Family::Strap => "strap",
-            Family::FibreReinforced => "fibre-reinforced",
-        }
-    }
-}
-
-impl std::str::FromStr for Family {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        Family::ALL
-            .into_iter()
-            .find(|f| f.name() == s.to_ascii_lowercase())
-            .ok_or_else(|| {
-                format!(
-                    "unknown actuator family '{s}': use {}",
-                    Family::ALL.map(Family::name).join(", ")
-                )
-            })
-    }
-}
-
-impl std::fmt::Display for Family {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
 
 /// The family's whole default configuration.
 pub fn defaults(family: Family) -> ActuatorConfig {

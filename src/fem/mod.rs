@@ -31,6 +31,7 @@
 
 pub mod actuator;
 pub mod analytic;
+pub mod config;
 mod config_doc;
 pub mod contact;
 pub mod family;
@@ -40,6 +41,7 @@ pub mod inp;
 pub mod layer;
 pub mod material;
 pub mod membrane;
+pub mod mesh;
 pub mod output;
 pub mod plate;
 pub mod pressure;
