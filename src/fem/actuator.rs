@@ -20,21 +20,13 @@
 //! cells next to cavity cells) carry the pressure. Markers: side face y = i/2, centre of
 //! blocks 2..N in x, mid cavity height z = f + m + n/2: mesh nodes by construction.
 
-use nalgebra::Vector3;
 use serde::Deserialize;
 
+use super::config::Family;
 use super::config::{bad, number_text};
 use super::config_doc::{
     check_layer_tables, merge_over, strip_nulls, type_error, UserValue, RESERVED_PART_NAMES,
 };
-use super::contact::{Contact, ContactPair};
-use super::family::{self, Family};
-use super::layer::{LayerConfig, LayerElement};
-use super::membrane::MembraneElement;
-use super::mesh::{coordinate_line_count, coordinate_lines, gravity_loads};
-use super::plate::Mirror;
-use super::pressure::CLOSED;
-use super::solve::Model;
 use super::FemError;
 
 // The config and mesh types, at their old paths.
@@ -57,8 +49,7 @@ impl<'de> Deserialize<'de> for ActuatorConfig {
         };
         let mut doc = serde_json::to_value(Self::for_family(family)).map_err(D::Error::custom)?;
         // `bottom_strip = false` without layers of the file's own: the family's strip
-        // goes; `true`: the fibre-reinforced tube's default strip is the family's layer
-        // (a `[layer]` table updates it, `[[layer]]` tables replace it).
+        // goes; the shape adjusts the rest (the tube's `true`: its default strip).
         let strip = user
             .get("tube")
             .and_then(|t| t.get("bottom_strip"))
@@ -68,12 +59,7 @@ impl<'de> Deserialize<'de> for ActuatorConfig {
                 Some(false) if user.get("layer").is_none() => {
                     o.remove("layer");
                 }
-                Some(true) if family == Family::FibreReinforced => {
-                    let layer = serde_json::to_value(vec![family::bottom_strip_layer()])
-                        .map_err(D::Error::custom)?;
-                    o.insert("layer".into(), layer);
-                }
-                _ => {}
+                _ => family.shape().adjust_defaults(&user, o),
             }
         }
         check_layer_tables(&user, &doc, family).map_err(D::Error::custom)?;
@@ -270,40 +256,7 @@ impl ActuatorConfig {
                 format!("{d:?}: give a non-zero direction, e.g. [0, 0, -1] (lying) or [1, 0, 0] (hanging)"),
             ));
         }
-        match (&self.tube, self.geometry.family) {
-            (Some(t), Family::FibreReinforced) => {
-                t.validate()?;
-                super::fibre::validate_strips(self, t)?;
-                if !t.bottom_strip && !self.layer.is_empty() {
-                    return Err(bad(
-                        "tube.bottom_strip",
-                        "false, but the config has [[layer]]s (the strip): remove them or set bottom_strip = true".into(),
-                    ));
-                }
-            }
-            (None, Family::FibreReinforced) => {
-                return Err(bad(
-                    "tube",
-                    "the fibre-reinforced family needs a [tube] section (see bendscope simulate --family fibre-reinforced --print-config)".into(),
-                ))
-            }
-            (Some(_), f) => {
-                return Err(bad(
-                    "tube",
-                    format!("[tube] describes the fibre-reinforced family, and this config is family = \"{f}\": remove [tube] or set family = \"fibre-reinforced\""),
-                ))
-            }
-            (None, _) => {}
-        }
-        if matches!(self.geometry.family, Family::Glove | Family::Strap) && self.layer.is_empty() {
-            return Err(bad(
-                "layer",
-                format!(
-                    "the {} family is a PneuNets with strain-limiting layers, and this config has none: add a [[layer]] (see bendscope simulate --family {} --print-config) or use family = \"pneunets\"",
-                    self.geometry.family, self.geometry.family
-                ),
-            ));
-        }
+        self.shape().validate(self)?;
         if let Some(contact) = &self.contact {
             contact.validate()?;
         }
@@ -330,21 +283,7 @@ impl ActuatorConfig {
     /// its default (the fibre-reinforced tube's shape is its `[tube]`, not `[geometry]`).
     pub fn warnings(&self) -> Vec<String> {
         let mut out = self.material.warnings();
-        if self.geometry.family == Family::FibreReinforced {
-            let given = serde_json::to_value(&self.geometry).unwrap_or_default();
-            let default = serde_json::to_value(Self::for_family(self.geometry.family).geometry)
-                .unwrap_or_default();
-            if let (Some(given), Some(default)) = (given.as_object(), default.as_object()) {
-                for (key, v) in given {
-                    if default.get(key) != Some(v) {
-                        out.push(format!(
-                            "[geometry] {key} = {v} is ignored by the {} family (its shape is [tube]): remove it",
-                            self.geometry.family
-                        ));
-                    }
-                }
-            }
-        }
+        out.extend(self.shape().warnings(self));
         out
     }
 
@@ -379,9 +318,9 @@ impl ActuatorConfig {
         ))
     }
 
-    /// The family's whole default configuration ([`super::family::defaults`]).
+    /// The family's whole default configuration ([`super::shapes::Shape::defaults`]).
     pub fn for_family(family: Family) -> Self {
-        family::defaults(family)
+        family.shape().defaults(family)
     }
 
     /// Checks every layer against the base and the others: each fits in the base and the
@@ -413,53 +352,7 @@ impl ActuatorConfig {
                 ));
             }
         }
-        if self.geometry.family == Family::FibreReinforced {
-            // The strip is checked against the tube ([`super::fibre::validate_strips`]).
-            return Ok(());
-        }
-        let g = &self.geometry;
-        for (k, layer) in self.layer.iter().enumerate() {
-            layer
-                .validate(g.f)
-                .and_then(|_| layer.validate_width(g.i))
-                .map_err(|e| match e {
-                    FemError::Parameter { name, why } if self.layer.len() > 1 => {
-                        FemError::Parameter {
-                            name: format!("{name} (layer {}, '{}')", k + 1, layer.name),
-                            why,
-                        }
-                    }
-                    e => e,
-                })?;
-        }
-        let solid: Vec<(usize, &LayerConfig)> = self
-            .layer
-            .iter()
-            .enumerate()
-            .filter(|(_, l)| l.element == LayerElement::Solid)
-            .collect();
-        for (a, (ka, la)) in solid.iter().enumerate() {
-            for (kb, lb) in &solid[a + 1..] {
-                let z = la.height_mm < lb.height_mm + lb.thickness_mm
-                    && lb.height_mm < la.height_mm + la.thickness_mm;
-                let y = la.half_y_ranges(g.i).iter().any(|(a0, a1)| {
-                    lb.half_y_ranges(g.i)
-                        .iter()
-                        .any(|(b0, b1)| a0 < b1 && b0 < a1)
-                });
-                if z && y {
-                    return Err(bad(
-                        "layer",
-                        format!(
-                            "solid layers {} and {} overlap: give them different height_mm",
-                            ka + 1,
-                            kb + 1
-                        ),
-                    ));
-                }
-            }
-        }
-        Ok(())
+        self.shape().validate_layers(self)
     }
 
     /// Sets one parameter by name to a number, for sweeps: a field of any section (`f`,
@@ -560,58 +453,10 @@ fn numeric_keys(doc: &toml::Table) -> String {
     out.join("; ")
 }
 
-/// Along one axis: the coordinates the grid lines go through, and the intervals that are
-/// walls.
-type AxisFeatures = (Vec<f64>, Vec<(f64, f64)>);
-
-/// Coordinates every line of the PneuNets grid goes through, with the intervals that are
-/// walls (at least [`MIN_WALL_ELEMENTS`] across), along x, y and z.
-fn grid_features(cfg: &ActuatorConfig) -> [AxisFeatures; 3] {
-    let g = &cfg.geometry;
-    let blocks = g.blocks();
-    let cavities = g.cavities();
-    let (ch0, ch1) = (0.5 * (g.b - g.r), 0.5 * (g.b + g.r));
-    let (z_channel, z_cavity) = (g.f, g.f + g.m);
-    let (z_gap, z_top, a) = (z_cavity + g.roof, z_cavity + g.n, g.height());
-    let mut fx = vec![0.0, g.b, ch0, ch1];
-    for ((b0, b1), (c0, c1)) in blocks.iter().zip(&cavities) {
-        fx.extend([*b0, *b1, *c0, *c1, 0.5 * (b0 + b1)]);
-    }
-    let x_walls: Vec<(f64, f64)> = blocks
-        .iter()
-        .zip(&cavities)
-        .flat_map(|((b0, b1), (c0, c1))| [(*b0, *c0), (*c1, *b1)])
-        .collect();
-    let mut fy = vec![0.0, 0.5 * g.p, 0.5 * g.l, 0.5 * g.i];
-    for layer in &cfg.layer {
-        for (y0, y1) in layer.half_y_ranges(g.i) {
-            fy.extend([y0, y1]);
-        }
-    }
-    let y_walls = vec![(0.5 * g.l, 0.5 * g.i), (0.5 * g.p, 0.5 * g.i)];
-    let mut fz = vec![0.0, z_channel, z_cavity, z_gap, g.marker_z(), z_top, a];
-    for layer in &cfg.layer {
-        match layer.element {
-            LayerElement::Solid => {
-                fz.extend([layer.height_mm, layer.height_mm + layer.thickness_mm])
-            }
-            LayerElement::Membrane | LayerElement::Plate => fz.push(layer.membrane_height_mm()),
-        }
-    }
-    let z_walls = vec![(0.0, z_channel), (z_cavity, z_gap), (z_top, a)];
-    [(fx, x_walls), (fy, y_walls), (fz, z_walls)]
-}
-
 /// The number of elements (hexahedra, and the tube's thread segments) a mesh of size `h`
 /// mm of `cfg` would have, counted without building it (a float: no overflow).
 pub fn element_estimate(cfg: &ActuatorConfig, h: f64) -> f64 {
-    match (&cfg.tube, cfg.geometry.family) {
-        (Some(t), Family::FibreReinforced) => super::fibre::element_estimate(cfg, t, h),
-        _ => grid_features(cfg)
-            .iter()
-            .map(|(f, w)| coordinate_line_count(f, h, w))
-            .product(),
-    }
+    cfg.shape().element_estimate(cfg, h)
 }
 
 /// The smallest mesh size, mm, rounded up to two significant digits, whose mesh of `cfg`
@@ -647,435 +492,16 @@ pub fn smallest_mesh_size(cfg: &ActuatorConfig) -> Option<f64> {
     Some(round(k * step))
 }
 
-fn index_of(lines: &[f64], v: f64) -> usize {
-    lines
-        .iter()
-        .enumerate()
-        .min_by(|a, b| (a.1 - v).abs().total_cmp(&(b.1 - v).abs()))
-        .map(|(k, _)| k)
-        .unwrap_or(0)
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Cell {
-    Solid,
-    Cavity,
-    Outside,
-}
-
-/// Meshes the half actuator (y ≥ 0) described by `cfg`.
+/// Meshes the actuator `cfg` describes (its shape's mesh: [`super::shapes`]), validated
+/// first.
 pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
     cfg.validate()?;
-    if cfg.geometry.family == Family::FibreReinforced {
-        return super::fibre::build_mesh(cfg);
-    }
-    let g = &cfg.geometry;
-    let h = cfg.mesh.size_mm;
-    let material = cfg.material.yeoh()?;
-    let blocks = g.blocks();
-    let cavities = g.cavities();
-    let (ch0, ch1) = (0.5 * (g.b - g.r), 0.5 * (g.b + g.r));
-    let (z_channel, z_cavity) = (g.f, g.f + g.m);
-    let (z_gap, z_top, a) = (z_cavity + g.roof, z_cavity + g.n, g.height());
-
-    let [(fx, wx), (fy, wy), (fz, wz)] = grid_features(cfg);
-    let xs = coordinate_lines(fx, h, &wx);
-    let ys = coordinate_lines(fy, h, &wy);
-    let zs = coordinate_lines(fz, h, &wz);
-    let (nx, ny, nz) = (xs.len() - 1, ys.len() - 1, zs.len() - 1);
-    // validate() bounded the count (element_estimate); this is the count itself.
-    if nx.saturating_mul(ny).saturating_mul(nz) > MAX_ELEMENTS {
-        return Err(bad(
-            "mesh size",
-            format!(
-                "{h} mm gives {} cells, more than the {MAX_ELEMENTS} this solver is sized for: use a larger mesh size",
-                nx.saturating_mul(ny).saturating_mul(nz)
-            ),
-        ));
-    }
-
-    let inside = |v: f64, lo: f64, hi: f64| v > lo && v < hi;
-    let classify = |x: f64, y: f64, z: f64| -> Cell {
-        if inside(x, ch0, ch1) && y < 0.5 * g.p && inside(z, z_channel, z_cavity) {
-            return Cell::Cavity;
-        }
-        if y < 0.5 * g.l
-            && inside(z, z_cavity, z_top)
-            && cavities.iter().any(|(c0, c1)| inside(x, *c0, *c1))
-        {
-            return Cell::Cavity;
-        }
-        if z > z_gap && blocks.windows(2).any(|w| inside(x, w[0].1, w[1].0)) {
-            return Cell::Outside;
-        }
-        Cell::Solid
-    };
-    let cell_id = |i: usize, j: usize, k: usize| (k * ny + j) * nx + i;
-    let mut cells = vec![Cell::Solid; nx * ny * nz];
-    for k in 0..nz {
-        for j in 0..ny {
-            for i in 0..nx {
-                cells[cell_id(i, j, k)] = classify(
-                    0.5 * (xs[i] + xs[i + 1]),
-                    0.5 * (ys[j] + ys[j + 1]),
-                    0.5 * (zs[k] + zs[k + 1]),
-                );
-            }
-        }
-    }
-
-    // Nodes used by solid cells, numbered compactly.
-    let grid_id = |i: usize, j: usize, k: usize| (k * (ny + 1) + j) * (nx + 1) + i;
-    let mut node_of = vec![usize::MAX; (nx + 1) * (ny + 1) * (nz + 1)];
-    let mut nodes = Vec::new();
-    let mut node = |i: usize, j: usize, k: usize, nodes: &mut Vec<Vector3<f64>>| -> usize {
-        let gi = grid_id(i, j, k);
-        if node_of[gi] == usize::MAX {
-            node_of[gi] = nodes.len();
-            nodes.push(Vector3::new(xs[i], ys[j], zs[k]));
-        }
-        node_of[gi]
-    };
-    let mut elements = Vec::new();
-    let mut element_material = Vec::new();
-    // Material of a cell: 0 silicone, k the k-th solid layer (extra_materials[k - 1]).
-    let solid_layers: Vec<(&LayerConfig, Vec<(f64, f64)>)> = cfg
-        .layer
-        .iter()
-        .filter(|l| l.element == LayerElement::Solid)
-        .map(|l| (l, l.half_y_ranges(g.i)))
-        .collect();
-    let in_layer = |j: usize, k: usize| -> u8 {
-        let (yc, zc) = (0.5 * (ys[j] + ys[j + 1]), 0.5 * (zs[k] + zs[k + 1]));
-        solid_layers
-            .iter()
-            .position(|(l, ranges)| {
-                zc > l.height_mm
-                    && zc < l.height_mm + l.thickness_mm
-                    && ranges.iter().any(|(y0, y1)| yc > *y0 && yc < *y1)
-            })
-            .map_or(0, |k| (k + 1) as u8)
-    };
-    for k in 0..nz {
-        for j in 0..ny {
-            for i in 0..nx {
-                if cells[cell_id(i, j, k)] != Cell::Solid {
-                    continue;
-                }
-                element_material.push(in_layer(j, k));
-                let corners = [
-                    (i, j, k),
-                    (i + 1, j, k),
-                    (i + 1, j + 1, k),
-                    (i, j + 1, k),
-                    (i, j, k + 1),
-                    (i + 1, j, k + 1),
-                    (i + 1, j + 1, k + 1),
-                    (i, j + 1, k + 1),
-                ];
-                elements.push(corners.map(|(a, b, c)| node(a, b, c, &mut nodes)));
-            }
-        }
-    }
-
-    // Membrane layers: a quad on the layer's plane under (or over) every solid cell
-    // within its y ranges (the base is solid through its whole length there).
-    let mut membranes = Vec::new();
-    // Each layer's membranes (none for a solid layer), in the config's order.
-    let mut layer_membranes: Vec<Vec<usize>> = Vec::new();
-    for layer in &cfg.layer {
-        if !layer.is_sheet() {
-            layer_membranes.push(Vec::new());
-            continue;
-        }
-        let km = index_of(&zs, layer.membrane_height_mm());
-        let section = layer.section();
-        let ranges = layer.half_y_ranges(g.i);
-        let mut part = Vec::new();
-        for j in 0..ny {
-            let yc = 0.5 * (ys[j] + ys[j + 1]);
-            if !ranges.iter().any(|(y0, y1)| yc > *y0 && yc < *y1) {
-                continue;
-            }
-            for i in 0..nx {
-                let above = km < nz && cells[cell_id(i, j, km)] == Cell::Solid;
-                let below = km > 0 && cells[cell_id(i, j, km - 1)] == Cell::Solid;
-                if above || below {
-                    let corners = [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)];
-                    part.push(membranes.len());
-                    membranes.push(MembraneElement {
-                        nodes: corners.map(|(a, b)| node_of[grid_id(a, b, km)]),
-                        section,
-                    });
-                }
-            }
-        }
-        layer_membranes.push(part);
-    }
-
-    // Cavity faces: between a cavity cell and a solid neighbour, normal into the solid.
-    let mut pressure_faces = Vec::new();
-    for k in 0..nz {
-        for j in 0..ny {
-            for i in 0..nx {
-                if cells[cell_id(i, j, k)] != Cell::Cavity {
-                    continue;
-                }
-                let solid = |di: isize, dj: isize, dk: isize| {
-                    let (a, b, c) = (i as isize + di, j as isize + dj, k as isize + dk);
-                    a >= 0
-                        && b >= 0
-                        && c >= 0
-                        && (a as usize) < nx
-                        && (b as usize) < ny
-                        && (c as usize) < nz
-                        && cells[cell_id(a as usize, b as usize, c as usize)] == Cell::Solid
-                };
-                let (i1, j1, k1) = (i + 1, j + 1, k + 1);
-                let mut quads: Vec<[(usize, usize, usize); 4]> = Vec::new();
-                if solid(1, 0, 0) {
-                    quads.push([(i1, j, k), (i1, j1, k), (i1, j1, k1), (i1, j, k1)]);
-                }
-                if solid(-1, 0, 0) {
-                    quads.push([(i, j, k), (i, j, k1), (i, j1, k1), (i, j1, k)]);
-                }
-                if solid(0, 1, 0) {
-                    quads.push([(i, j1, k), (i, j1, k1), (i1, j1, k1), (i1, j1, k)]);
-                }
-                if solid(0, -1, 0) {
-                    quads.push([(i, j, k), (i1, j, k), (i1, j, k1), (i, j, k1)]);
-                }
-                if solid(0, 0, 1) {
-                    quads.push([(i, j, k1), (i1, j, k1), (i1, j1, k1), (i, j1, k1)]);
-                }
-                if solid(0, 0, -1) {
-                    quads.push([(i, j, k), (i, j1, k), (i1, j1, k), (i1, j, k)]);
-                }
-                for q in quads {
-                    pressure_faces.push(q.map(|(a, b, c)| node_of[grid_id(a, b, c)]));
-                }
-            }
-        }
-    }
-    if pressure_faces.iter().flatten().any(|n| *n == usize::MAX) {
-        return Err(FemError::Model {
-            why: "a cavity face has a node outside the solid (mesh bug)".into(),
-        });
-    }
-
-    // Facing walls across each gap: faces between a gap cell and a solid cell beside it
-    // in x, normal out of the wall's block into the gap (ξ along y, η along z for the
-    // left wall's +x normal; ξ along z, η along y for the right wall's -x).
-    let gaps = blocks.len().saturating_sub(1);
-    let mut left_walls: Vec<Vec<[usize; 4]>> = vec![Vec::new(); gaps];
-    let mut right_walls: Vec<Vec<[usize; 4]>> = vec![Vec::new(); gaps];
-    for k in 0..nz {
-        for j in 0..ny {
-            for i in 0..nx {
-                if cells[cell_id(i, j, k)] != Cell::Outside {
-                    continue;
-                }
-                let xc = 0.5 * (xs[i] + xs[i + 1]);
-                let Some(gap) = blocks.windows(2).position(|w| inside(xc, w[0].1, w[1].0)) else {
-                    continue;
-                };
-                let (j1, k1) = (j + 1, k + 1);
-                let node = |a: usize, b: usize, c: usize| node_of[grid_id(a, b, c)];
-                if i > 0 && cells[cell_id(i - 1, j, k)] == Cell::Solid {
-                    left_walls[gap].push([
-                        node(i, j, k),
-                        node(i, j1, k),
-                        node(i, j1, k1),
-                        node(i, j, k1),
-                    ]);
-                }
-                if i + 1 < nx && cells[cell_id(i + 1, j, k)] == Cell::Solid {
-                    let i1 = i + 1;
-                    right_walls[gap].push([
-                        node(i1, j, k),
-                        node(i1, j, k1),
-                        node(i1, j1, k1),
-                        node(i1, j1, k),
-                    ]);
-                }
-            }
-        }
-    }
-    if left_walls
-        .iter()
-        .chain(&right_walls)
-        .flatten()
-        .flatten()
-        .any(|n| *n == usize::MAX)
-    {
-        return Err(FemError::Model {
-            why: "a chamber wall face has a node outside the solid (mesh bug)".into(),
-        });
-    }
-    let wall_pairs: Vec<ContactPair> = left_walls
-        .iter()
-        .zip(&right_walls)
-        .flat_map(|(l, r)| [slave_against(r, l, &nodes), slave_against(l, r, &nodes)])
-        .collect();
-
-    // Supports: the first chamber is clamped; y = 0 is the symmetry plane.
-    let n_nodes = nodes.len();
-    let mut fixed = vec![false; 3 * n_nodes];
-    for (a, x) in nodes.iter().enumerate() {
-        if x.x <= g.c + 1e-9 {
-            fixed[3 * a] = true;
-            fixed[3 * a + 1] = true;
-            fixed[3 * a + 2] = true;
-        }
-        if x.y.abs() < 1e-9 {
-            fixed[3 * a + 1] = true;
-        }
-    }
-
-    // A solid layer is moulded in the silicone's volume: it weighs as the silicone.
-    let densities_g_cm3 = vec![cfg.material.density_g_cm3; 1 + solid_layers.len()];
-    let loads = gravity_loads(cfg, &nodes, &elements, &element_material, &densities_g_cm3)?;
-
-    let at = |x: f64, y: f64, z: f64| {
-        node_of[grid_id(index_of(&xs, x), index_of(&ys, y), index_of(&zs, z))]
-    };
-    let markers: Vec<usize> = g
-        .marker_x()
-        .iter()
-        .map(|x| at(*x, 0.5 * g.i, g.marker_z()))
-        .collect();
-    let tip = at(g.b, 0.0, 0.0);
-    let side_face: Vec<[usize; 4]> = (0..nz)
-        .flat_map(|k| (0..nx).map(move |i| (i, k)))
-        .filter(|(i, k)| cells[cell_id(*i, ny - 1, *k)] == Cell::Solid)
-        .map(|(i, k)| {
-            [(i, k), (i + 1, k), (i + 1, k + 1), (i, k + 1)]
-                .map(|(a, c)| node_of[grid_id(a, ny, c)])
-        })
-        .collect();
-    let tip_support: Vec<usize> = (0..=ny).map(|j| node_of[grid_id(nx, j, 0)]).collect();
-    let bottom_line: Vec<usize> = (0..=nx)
-        .filter(|i| xs[*i] >= g.c - 1e-9)
-        .map(|i| node_of[grid_id(i, 0, 0)])
-        .collect();
-    let mut parts = vec![Part {
-        name: "silicone".into(),
-        tensile_strength_mpa: Some(cfg.material.tensile_strength_mpa),
-        solid_material: Some(0),
-        membranes: Vec::new(),
-        plate: false,
-        trusses: Vec::new(),
-    }];
-    let mut solid_id = 0u8;
-    for (layer, membranes) in cfg.layer.iter().zip(layer_membranes) {
-        let solid_material = (layer.element == LayerElement::Solid).then(|| {
-            solid_id += 1;
-            solid_id
-        });
-        parts.push(Part {
-            name: layer.name.clone(),
-            tensile_strength_mpa: layer.tensile_strength_mpa,
-            solid_material,
-            membranes,
-            plate: layer.element == LayerElement::Plate,
-            trusses: Vec::new(),
-        });
-    }
-    let twist_pair = (tip, at(g.b, 0.0, a));
-    let bottom_wall = {
-        let (x0, x1) = blocks[1];
-        let xm = 0.5 * (x0 + x1);
-        BottomWall {
-            ends: [at(x0, 0.0, 0.0), at(x1, 0.0, 0.0)],
-            centre: at(xm, 0.0, 0.0),
-            inside: at(xm, 0.0, g.f),
-        }
-    };
-    if markers
-        .iter()
-        .chain(&tip_support)
-        .chain(&bottom_wall.ends)
-        .chain(&[bottom_wall.centre, bottom_wall.inside])
-        .chain(&[twist_pair.1])
-        .chain(&bottom_line)
-        .chain(std::iter::once(&tip))
-        .chain(side_face.iter().flatten())
-        .any(|n| *n == usize::MAX)
-    {
-        return Err(FemError::Model {
-            why: "a marker or support point is not on the solid (mesh bug)".into(),
-        });
-    }
-    // The half model's symmetry plane y = 0 mirrors a sheet.
-    let mirror = [Mirror { axis: 1, at: 0.0 }];
-    let plates = cfg
-        .layer
-        .iter()
-        .zip(&parts[1..])
-        .flat_map(|(layer, part)| layer.plate_terms(&nodes, &membranes, &part.membranes, &mirror))
-        .collect();
-    Ok(ActuatorMesh {
-        model: Model {
-            nodes,
-            elements,
-            material,
-            fixed,
-            loads,
-            pressure_faces,
-            volume_weights: CLOSED,
-            element_material,
-            extra_materials: solid_layers.iter().map(|(l, _)| l.material()).collect(),
-            membranes,
-            trusses: Vec::new(),
-            plates,
-            contact: cfg.contact.as_ref().filter(|c| c.enabled).map(|c| Contact {
-                pairs: wall_pairs.clone(),
-                penalty_mpa_per_mm: c.penalty_for(&material, h),
-            }),
-            incompatible_modes: cfg.mesh.element.incompatible_modes(),
-        },
-        markers,
-        tip,
-        tip_support,
-        bottom_line,
-        side_face,
-        clamp_mm: g.c,
-        wall_pairs,
-        parts,
-        twist_pair,
-        bottom_wall: Some(bottom_wall),
-        densities_g_cm3,
-        half_model: true,
-    })
-}
-
-/// The pair with the nodes of `slave` faces (each with half its share of their areas:
-/// the walls are paired both ways) against the `master` faces.
-fn slave_against(
-    slave: &[[usize; 4]],
-    master: &[[usize; 4]],
-    nodes: &[Vector3<f64>],
-) -> ContactPair {
-    let mut area = std::collections::BTreeMap::new();
-    for f in slave {
-        let x = f.map(|a| nodes[a]);
-        // A planar quad's area; each corner takes a quarter (∫ N_a dA of a parallelogram).
-        let a = 0.5 * (x[2] - x[0]).cross(&(x[3] - x[1])).norm();
-        for n in f {
-            *area.entry(*n).or_insert(0.0) += 0.5 * 0.25 * a;
-        }
-    }
-    ContactPair {
-        slave_nodes: area.keys().copied().collect(),
-        slave_areas_mm2: area.values().copied().collect(),
-        master_faces: master.to_vec(),
-    }
+    cfg.shape().build(cfg)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fem::hex::HexGeometry;
 
     /// A config file reads back as written; a missing or malformed one is refused with
     /// its path named and what to do.
@@ -1311,7 +737,7 @@ mod tests {
     /// (which is accepted); the count is the built mesh's.
     #[test]
     fn a_mesh_too_fine_to_fit_is_refused_before_anything_is_built() {
-        for family in Family::ALL {
+        for family in Family::all() {
             let base = ActuatorConfig::for_family(family);
             for h in [1e-9, 1e-300, 5e-324, 1e-7, 0.05] {
                 let cfg = ActuatorConfig {
@@ -1432,73 +858,6 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("no entry 'card' in 'layer'"), "{e}");
-    }
-
-    #[test]
-    fn reference_layout_matches_the_table() {
-        let g = Geometry::default();
-        assert!((g.chambers_length() - 116.0).abs() < 1e-12);
-        assert!((g.height() - 23.5).abs() < 1e-12);
-        let b = g.blocks();
-        assert_eq!(b.len(), 9);
-        assert!((b[8].1 - 116.0).abs() < 1e-12 && (b[1].0 - 14.75).abs() < 1e-12);
-        assert_eq!(g.marker_x().len(), 8);
-        assert!((g.marker_x()[0] - 20.5).abs() < 1e-12);
-        let with_f2 = Geometry { f: 2.0, ..g };
-        assert!((with_f2.height() - 19.5).abs() < 1e-12);
-    }
-
-    #[test]
-    fn mesh_volume_and_cavity_volume_are_those_of_the_geometry() {
-        let cfg = ActuatorConfig {
-            mesh: MeshConfig {
-                size_mm: 2.0,
-                ..Default::default()
-            },
-            ..Default::default()
-        };
-        let mesh = build_mesh(&cfg).unwrap();
-        let g = &cfg.geometry;
-        let volume: f64 = mesh
-            .model
-            .elements
-            .iter()
-            .map(|el| {
-                let x: [Vector3<f64>; 8] = std::array::from_fn(|a| mesh.model.nodes[el[a]]);
-                HexGeometry::new(&x).unwrap().volume
-            })
-            .sum();
-        // Half of: box - gaps - cavities - channel (all exact on the conforming grid).
-        let gaps = (g.chambers - 1) as f64 * g.d * g.i * (g.height() - g.f - g.m - g.roof);
-        let cavities = g.chambers as f64 * g.e * g.l * g.n;
-        let channel = g.r * g.p * g.m;
-        let solid = g.b * g.i * g.height() - gaps - cavities - channel;
-        assert!(
-            (2.0 * volume - solid).abs() < 1e-6 * solid,
-            "{} vs {solid}",
-            2.0 * volume
-        );
-        let faces_volume: f64 = mesh
-            .model
-            .pressure_faces
-            .iter()
-            .map(|f| {
-                let x: [Vector3<f64>; 4] = std::array::from_fn(|k| mesh.model.nodes[f[k]]);
-                crate::fem::pressure::face_volume(&x, &CLOSED).0
-            })
-            .sum();
-        // Channel (z ∈ [f, f+m]) and chamber cavities (above) do not overlap.
-        let cavity = cavities + channel;
-        assert!(
-            (2.0 * faces_volume - cavity).abs() < 1e-6 * cavity,
-            "{} vs {cavity}",
-            2.0 * faces_volume
-        );
-        // Markers on the side face at mid cavity height, centre of chambers 2..9.
-        for (n, x) in mesh.markers.iter().zip(g.marker_x()) {
-            let p = mesh.model.nodes[*n];
-            assert!((p - Vector3::new(x, 7.5, 14.0)).norm() < 1e-9, "{p}");
-        }
     }
 
     #[test]

@@ -39,7 +39,6 @@
 
 use nalgebra::{Vector2, Vector3};
 
-use super::config::tube::bad;
 pub use super::config::tube::{FibreModel, TubeConfig, Winding};
 use super::config::ActuatorConfig;
 use super::hex::C3D8_FACES;
@@ -788,27 +787,6 @@ fn compact(mut mesh: ActuatorMesh) -> ActuatorMesh {
         map(&mut w.inside);
     }
     mesh
-}
-
-/// Checks the bottom strips against the tube: membranes, inside the bottom wall.
-pub fn validate_strips(cfg: &ActuatorConfig, t: &TubeConfig) -> Result<(), FemError> {
-    if t.bottom_strip && cfg.layer.is_empty() {
-        return Err(bad(
-            "bottom_strip",
-            "true, but the config's layer list is empty: leave out layer = [] for the family's glass-fibre strip, add a [[layer]] or set bottom_strip = false".into(),
-        ));
-    }
-    for layer in &cfg.layer {
-        if !layer.is_sheet() {
-            return Err(FemError::Parameter {
-                name: "layer.element".into(),
-                why: format!("'{}': the fibre-reinforced tube takes sheet strips only: set element = \"plate\" (or \"membrane\")", layer.name),
-            });
-        }
-        layer.validate(t.floor_mm())?;
-        layer.validate_width(t.width_mm())?;
-    }
-    Ok(())
 }
 
 #[cfg(test)]

@@ -595,24 +595,18 @@ const CALCULIX_BULK_TO_SHEAR: f64 = 200.0;
 /// default bulk modulus of 1000 mu0, and it stalls on smeared threads' membranes near 10 kPa.
 pub fn caveats(cfg: &ActuatorConfig) -> Vec<String> {
     let mut out = Vec::new();
-    let stiff = std::iter::once(&cfg.material)
-        .chain(cfg.tube.as_ref().map(|t| &t.outer_material))
-        .filter_map(|m| m.yeoh().ok())
+    let shape = cfg.shape();
+    let stiff = shape
+        .silicones(cfg)
+        .into_iter()
+        .filter_map(|(_, m)| m.yeoh().ok())
         .any(|y| y.bulk_modulus > CALCULIX_BULK_TO_SHEAR * 2.0 * y.c1);
     if stiff {
         out.push(
             format!("a bulk modulus above {CALCULIX_BULK_TO_SHEAR} mu0, where CalculiX's C3D8I may lock (the reference's default deck, 1000 mu0, stops at 10 kPa in CalculiX; at 100 mu0 it gets to 100 kPa): for CalculiX set about 100 mu0 (--bulk-modulus, or bulk_modulus_mpa in [material] and [tube.outer_material])"),
         );
     }
-    if cfg
-        .tube
-        .as_ref()
-        .is_some_and(|t| t.fibre_model == super::config::tube::FibreModel::Smeared)
-    {
-        out.push(
-            "smeared threads go out as orthotropic M3D4 membranes, on which CalculiX stalls near 10 kPa; [tube] fibre_model = \"line\" exports them as springs it runs to full pressure".into(),
-        );
-    }
+    out.extend(shape.deck_caveats(cfg));
     out
 }
 
@@ -648,9 +642,9 @@ pub fn for_calculix(cfg: &ActuatorConfig) -> (ActuatorConfig, Vec<String>) {
             y.bulk_modulus / mu0
         ));
     };
-    soften(&mut deck.material, "[material]", &mut notes);
-    if let Some(t) = deck.tube.as_mut() {
-        soften(&mut t.outer_material, "[tube.outer_material]", &mut notes);
+    let shape = deck.shape();
+    for (key, m) in shape.silicones_mut(&mut deck) {
+        soften(m, key, &mut notes);
     }
     (deck, notes)
 }

@@ -45,6 +45,7 @@ pub mod mesh;
 pub mod output;
 pub mod plate;
 pub mod pressure;
+pub mod shapes;
 pub mod simulate;
 pub mod solve;
 pub mod stepper;

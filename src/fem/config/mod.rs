@@ -17,59 +17,33 @@ use super::solve::NewtonSettings;
 use super::FemError;
 pub use tube::TubeConfig;
 
-/// The actuator designs the model knows (`[geometry] family`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "kebab-case")]
-pub enum Family {
-    /// The reference PneuNets actuator (method.md §4).
-    #[default]
-    Pneunets,
-    /// The glove actuator: PneuNets in Ecoflex 00-50 with a paper layer.
-    Glove,
-    /// The soft strap: Ecoflex 00-30 chambers, PLA strips and a fabric sheet, hanging.
-    Strap,
-    /// The fibre-reinforced tube: D-section, two silicones, wound thread ([`super::fibre`]).
-    FibreReinforced,
-}
+/// An actuator family (`[geometry] family`): a published design, a preset of one of the
+/// shapes ([`super::shapes`], where each family's name, defaults and mesh are; reading a
+/// name checks it against them).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Family(&'static str);
 
 impl Family {
-    /// Every family, in the order of the docs.
-    pub const ALL: [Family; 4] = [
-        Family::Pneunets,
-        Family::Glove,
-        Family::Strap,
-        Family::FibreReinforced,
-    ];
+    /// The family called `name` (a shape's preset: [`super::shapes::Shape::families`]).
+    pub(crate) const fn named(name: &'static str) -> Family {
+        Family(name)
+    }
 
     /// The name in configs and on the command line.
     pub fn name(self) -> &'static str {
-        match self {
-            Family::Pneunets => "pneunets",
-            Family::Glove => "glove",
-            Family::Strap => "strap",
-            Family::FibreReinforced => "fibre-reinforced",
-        }
-    }
-}
-
-impl std::str::FromStr for Family {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        Family::ALL
-            .into_iter()
-            .find(|f| f.name() == s.to_ascii_lowercase())
-            .ok_or_else(|| {
-                format!(
-                    "unknown actuator family '{s}': use {}",
-                    Family::ALL.map(Family::name).join(", ")
-                )
-            })
+        self.0
     }
 }
 
 impl std::fmt::Display for Family {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(self.name())
+    }
+}
+
+impl Serialize for Family {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.name())
     }
 }
 
