@@ -1,24 +1,12 @@
-//! The parametric PneuNets actuator of method.md §4: configuration, checks and a
-//! structured hexahedral mesh of its symmetric half.
+//! The actuator a config describes: the document read over its family's defaults,
+//! the checks across its sections, and its mesh built by its shape ([`super::shapes`]).
+//! The config types ([`super::config`]) and the mesh types ([`super::mesh`]) are
+//! re-exported here at their old paths.
 //!
-//! Coordinates: x along the length (clamped end at x = 0), y across the width, z up;
-//! mm. Only the half y ≥ 0 is meshed: y = 0 is a symmetry plane (u_y = 0 there), the
-//! cavity volume and the forces of the whole actuator are twice those of the half.
-//!
-//! Layout (fillets o, h ignored): `chambers` blocks along x, the first and last of
-//! profile length c, the others g, separated by gaps d; a remainder of b beyond the
-//! blocks is a solid tip. Every block has a centred cavity of length e (x), width l (y)
-//! and height n (z) starting at the channel top z = f + m; the channel (height m, width
-//! p, length r, centred in x) runs at z ∈ [f, f + m] and joins every cavity. The gaps
-//! between blocks are open from the top down to `roof` mm above the channel top (the
-//! table leaves the roof of the channel under a gap open; 1 mm by default, a parameter).
-//! Total height a = f + m + n + top_wall (23.5 mm for the reference f = 6).
-//!
-//! The mesh: coordinate lines through every feature (block, gap, cavity and channel
-//! boundaries, the marker lines), each interval cut into equal elements no longer than
-//! the mesh size; cells inside a cavity or a gap are left out. The cavity faces (solid
-//! cells next to cavity cells) carry the pressure. Markers: side face y = i/2, centre of
-//! blocks 2..N in x, mid cavity height z = f + m + n/2: mesh nodes by construction.
+//! Coordinates (every shape): x along the length (clamped end at x = 0), y across the
+//! width, z up; mm. A mirror-symmetric actuator is meshed as its half y ≥ 0: y = 0 is a
+//! symmetry plane (u_y = 0 there), the cavity volume and the forces of the whole actuator
+//! are twice those of the half.
 
 use serde::Deserialize;
 

@@ -435,7 +435,7 @@ pub fn inp_from_mesh(
     if !symmetry_shell.is_empty() {
         s.push_str("SYMMETRY_SHELL, 4, 4\nSYMMETRY_SHELL, 6, 6\n");
     }
-    let contact_pairs = write_contact(&mut s, &mesh, &faces)?;
+    let contact_pairs = write_contact(&mut s, mesh, &faces)?;
     let step_head = format!(
         "*STEP, NLGEOM, INC={MAX_INCREMENTS}\n*STATIC\n{INITIAL_INCREMENT}, 1., {MIN_INCREMENT:e}, 1.\n"
     );

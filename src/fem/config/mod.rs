@@ -35,6 +35,14 @@ impl Family {
     }
 }
 
+/// The reference actuator's (method.md §4), a config without a family's; the registry's
+/// first ([`super::shapes::REGISTRY`]).
+impl Default for Family {
+    fn default() -> Self {
+        Family("pneunets")
+    }
+}
+
 impl std::fmt::Display for Family {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(self.name())
@@ -88,7 +96,7 @@ pub struct Geometry {
 impl Default for Geometry {
     fn default() -> Self {
         Self {
-            family: Family::Pneunets,
+            family: Family::default(),
             chambers: 9,
             b: 116.0,
             i: 15.0,

@@ -117,13 +117,6 @@ impl Family {
     }
 }
 
-/// The reference actuator: the registry's first family.
-impl Default for Family {
-    fn default() -> Self {
-        REGISTRY[0].families()[0]
-    }
-}
-
 impl ActuatorConfig {
     /// The shape of this config's family.
     pub fn shape(&self) -> &'static dyn Shape {
@@ -213,6 +206,7 @@ mod tests {
             assert_eq!(f.name().parse::<Family>(), Ok(*f));
         }
         assert_eq!(Family::default(), Family::Pneunets);
+        assert_eq!(Family::default(), REGISTRY[0].families()[0]);
         let err = "bellows".parse::<Family>().unwrap_err();
         assert_eq!(
             err,

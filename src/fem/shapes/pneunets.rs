@@ -5,6 +5,15 @@
 //! strips under a fabric sheet, hanging). The values chosen where a publication leaves
 //! them open are listed in the README ("Actuator families").
 //!
+//! Layout (fillets o, h ignored): `chambers` blocks along x, the first and last of
+//! profile length c, the others g, separated by gaps d; a remainder of b beyond the
+//! blocks is a solid tip. Every block has a centred cavity of length e (x), width l (y)
+//! and height n (z) starting at the channel top z = f + m; the channel (height m, width
+//! p, length r, centred in x) runs at z ∈ [f, f + m] and joins every cavity. The gaps
+//! between blocks are open from the top down to `roof` mm above the channel top (the
+//! table leaves the roof of the channel under a gap open; 1 mm by default, a parameter).
+//! Total height a = f + m + n + top_wall (23.5 mm for the reference f = 6).
+//!
 //! The mesh: coordinate lines through every feature (block, gap, cavity and channel
 //! boundaries, the marker lines, the layers), each interval cut into equal elements no
 //! longer than the mesh size; cells inside a cavity or a gap are left out. The cavity
