@@ -31,26 +31,24 @@ impl Shape for FibreTube {
 
     fn defaults(&self, family: Family) -> ActuatorConfig {
         let reference = ActuatorConfig::default();
-        match family {
-            _ => ActuatorConfig {
-                geometry: Geometry {
-                    family,
-                    ..Geometry::default()
-                },
-                material: MaterialConfig {
-                    preset: MaterialPreset::DragonSkin20,
-                    // Smooth-On Dragon Skin 20: specific gravity 1.08, tensile strength 550 psi.
-                    density_g_cm3: 1.08,
-                    tensile_strength_mpa: 3.79,
-                    ..MaterialConfig::default()
-                },
-                load: LoadConfig {
-                    pressures_kpa: FIBRE_PRESSURES.into(),
-                    ..LoadConfig::default()
-                },
-                tube: Some(TubeConfig::default()),
-                ..reference
+        ActuatorConfig {
+            geometry: Geometry {
+                family,
+                ..Geometry::default()
             },
+            material: MaterialConfig {
+                preset: MaterialPreset::DragonSkin20,
+                // Smooth-On Dragon Skin 20: specific gravity 1.08, tensile strength 550 psi.
+                density_g_cm3: 1.08,
+                tensile_strength_mpa: 3.79,
+                ..MaterialConfig::default()
+            },
+            load: LoadConfig {
+                pressures_kpa: FIBRE_PRESSURES.into(),
+                ..LoadConfig::default()
+            },
+            tube: Some(TubeConfig::default()),
+            ..reference
         }
     }
 
@@ -122,8 +120,13 @@ impl Shape for FibreTube {
         fibre::build_mesh(cfg)
     }
 
+    /// The D-section's height: the flat bottom's floor and the outer radius above it
+    /// (without a `[tube]`, refused by validate, the `[geometry]`'s).
     fn height_mm(&self, cfg: &ActuatorConfig) -> f64 {
-        cfg.geometry.height()
+        match &cfg.tube {
+            Some(t) => t.floor_mm() + t.radii().1,
+            None => cfg.geometry.height(),
+        }
     }
 
     fn analytic_refusal(&self) -> Option<&'static str> {
@@ -207,4 +210,33 @@ pub fn validate_strips(cfg: &ActuatorConfig, t: &TubeConfig) -> Result<(), FemEr
         layer.validate_width(t.width_mm())?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The tube's height (sweep's and optimize's `height_mm`) is its D-section's, floor
+    /// (inner + outer wall) plus outer radius, not the ignored `[geometry]`'s 23.5 mm.
+    #[test]
+    fn the_tubes_height_is_its_d_sections() {
+        let cfg = ActuatorConfig::for_family(Family::FibreReinforced);
+        // Floor 1.5 + 1.0 mm, outer radius 6 + 1.5 + 1.0 mm.
+        assert!(
+            (cfg.height_mm() - 11.0).abs() < 1e-12,
+            "{}",
+            cfg.height_mm()
+        );
+        let mut thicker = cfg.clone();
+        if let Some(t) = thicker.tube.as_mut() {
+            t.outer_wall_mm = 2.0;
+        }
+        assert!(
+            (thicker.height_mm() - 13.0).abs() < 1e-12,
+            "{}",
+            thicker.height_mm()
+        );
+        let reference = ActuatorConfig::default();
+        assert!((reference.height_mm() - 23.5).abs() < 1e-12);
+    }
 }
