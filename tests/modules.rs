@@ -15,9 +15,10 @@ use std::path::{Path, PathBuf};
 const SCOPES: &[&str] = &[
     "",
     "pipeline",
-    // fem's submodules still import each other in a cycle; the FEM's restructuring
-    // (issue 40) removes it and enables this line.
-    // "fem",
+    "fem",
+    "detect",
+    "video",
+    "fit",
 ];
 
 /// A token of Rust source, comments and literals left out.

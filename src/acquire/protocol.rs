@@ -21,7 +21,7 @@ use std::path::Path;
 use serde::Deserialize;
 
 use super::AcquireError;
-use crate::fem::actuator::parse_range;
+use crate::fem::params::parse_range;
 use crate::session::{KPA_PER_BAR, KPA_PER_PSI};
 
 /// The one `[regulator] kind` (the default): a device speaking the serial line protocol

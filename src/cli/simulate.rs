@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, Result};
-use bendscope::fem::actuator::{parse_range, ActuatorConfig};
+use bendscope::fem::actuator::{build_mesh, parse_range, ActuatorConfig};
 use bendscope::fem::analytic::analytic_to;
 use bendscope::fem::family::Family;
 use bendscope::fem::inp::{caveats, for_calculix, write_inp};
@@ -208,7 +208,7 @@ pub fn run(args: &SimulateArgs) -> Result<u8> {
         if args.blocked {
             notes.push("the deck holds the free ramp only: the rigid support under the tip of --blocked (force.csv) has no counterpart in it".into());
         }
-        match write_inp(path, &deck_cfg, &notes) {
+        match build_mesh(&deck_cfg).and_then(|mesh| write_inp(path, &mesh, &deck_cfg, &notes)) {
             Ok(deck) => {
                 eprintln!("note: {deck} -> {}", path.display());
                 caveats(&deck_cfg)

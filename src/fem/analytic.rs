@@ -160,10 +160,10 @@ pub fn analytic_config(
     cfg: &super::actuator::ActuatorConfig,
     pressures_kpa: &[f64],
 ) -> Result<Vec<AnalyticStep>, FemError> {
-    if cfg.geometry.family == super::family::Family::FibreReinforced {
+    if let Some(why) = cfg.shape().analytic_refusal() {
         return Err(FemError::Parameter {
             name: "family".into(),
-            why: "the analytic model is of PneuNets chambers and the fibre-reinforced tube has none: use --model fem".into(),
+            why: why.into(),
         });
     }
     analytic_ramp(&cfg.geometry, &cfg.material.yeoh()?, pressures_kpa)

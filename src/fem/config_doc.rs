@@ -3,7 +3,7 @@
 //! medium, has no NaN and would make it null, "not given"), the `[layer]` rules checked,
 //! the two merged, and serde's type errors put in a config file's words.
 
-use super::family::Family;
+use super::config::Family;
 
 /// One step of a key's path in a config document: a table's key or a list's entry.
 #[derive(Debug, Clone, PartialEq)]

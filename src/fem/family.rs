@@ -4,7 +4,8 @@
 //!
 //! A config file names its family and overrides what it wants: the family's defaults
 //! fill the rest ([`super::actuator::ActuatorConfig`]'s deserializer merges the file
-//! over [`defaults`]). Every value a publication leaves open is a parameter; the values
+//! over [`defaults`]). Each family is a preset of a shape ([`super::shapes`]), which holds
+//! its values. Every value a publication leaves open is a parameter; the values
 //! chosen here and their sources are listed in the README ("Actuator families").
 //!
 //! - `pneunets`: the reference actuator of method.md §4 (Dragon Skin 30).
@@ -18,235 +19,23 @@
 //!   10, a Kevlar thread wound both ways or one way, a strip in the flat bottom as a
 //!   `[[layer]]` with `[tube] bottom_strip = true` ([`super::fibre`]).
 
-use serde::{Deserialize, Serialize};
+use super::config::ActuatorConfig;
+pub use super::config::Family;
+pub use super::shapes::{bottom_strip_layer, FIBRE_PRESSURES};
 
-use super::actuator::{ActuatorConfig, Geometry, LoadConfig, MaterialConfig};
-use super::contact::ContactConfig;
-use super::fibre::TubeConfig;
-use super::layer::{LayerConfig, LayerElement};
-use super::material::MaterialPreset;
-
-/// The actuator designs the model knows (`[geometry] family`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "kebab-case")]
-pub enum Family {
-    /// The reference PneuNets actuator (method.md §4).
-    #[default]
-    Pneunets,
-    /// The glove actuator: PneuNets in Ecoflex 00-50 with a paper layer.
-    Glove,
-    /// The soft strap: Ecoflex 00-30 chambers, PLA strips and a fabric sheet, hanging.
-    Strap,
-    /// The fibre-reinforced tube: D-section, two silicones, wound thread ([`super::fibre`]).
-    FibreReinforced,
-}
-
-impl Family {
-    /// Every family, in the order of the docs.
-    pub const ALL: [Family; 4] = [
-        Family::Pneunets,
-        Family::Glove,
-        Family::Strap,
-        Family::FibreReinforced,
-    ];
-
-    /// The name in configs and on the command line.
-    pub fn name(self) -> &'static str {
-        match self {
-            Family::Pneunets => "pneunets",
-            Family::Glove => "glove",
-            Family::Strap => "strap",
-            Family::FibreReinforced => "fibre-reinforced",
-        }
-    }
-}
-
-impl std::str::FromStr for Family {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        Family::ALL
-            .into_iter()
-            .find(|f| f.name() == s.to_ascii_lowercase())
-            .ok_or_else(|| {
-                format!(
-                    "unknown actuator family '{s}': use {}",
-                    Family::ALL.map(Family::name).join(", ")
-                )
-            })
-    }
-}
-
-impl std::fmt::Display for Family {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-/// The family's whole default configuration.
+/// The family's whole default configuration (its shape's preset:
+/// [`super::shapes::Shape::defaults`]).
 pub fn defaults(family: Family) -> ActuatorConfig {
-    let reference = ActuatorConfig::default();
-    match family {
-        Family::Pneunets => reference,
-        Family::Glove => ActuatorConfig {
-            geometry: Geometry {
-                family,
-                ..Geometry::default()
-            },
-            material: MaterialConfig {
-                preset: MaterialPreset::Ecoflex0050,
-                // Smooth-On Ecoflex 00-50: specific gravity 1.07, tensile strength 315 psi.
-                density_g_cm3: 1.07,
-                tensile_strength_mpa: 2.17,
-                ..MaterialConfig::default()
-            },
-            load: LoadConfig {
-                pressures_kpa: "1:6:0.5".into(),
-                // The study's rig orientation is not given; lying on its bottom, the
-                // 116 mm Ecoflex 00-50 cantilever would sag past vertical under its weight.
-                gravity: false,
-                ..LoadConfig::default()
-            },
-            // The chamber walls meet from ~5.5 kPa.
-            contact: Some(ContactConfig::default()),
-            layer: vec![LayerConfig {
-                name: "paper".into(),
-                thickness_mm: 0.1,
-                youngs_modulus_mpa: 3000.0,
-                poisson_ratio: 0.3,
-                // Between two silicone layers: centred in the 6 mm base.
-                height_mm: 2.95,
-                // A plate: as a bare membrane the compressed paper wrinkles (148 Newton
-                // iterations over the ramp against 77) and its own bending, beside
-                // Ecoflex 00-50's, moves the radius 4%.
-                element: LayerElement::Plate,
-                // Printer paper, in plane: ~30-50 MPa.
-                tensile_strength_mpa: Some(30.0),
-                ..LayerConfig::default()
-            }],
-            ..reference
-        },
-        Family::Strap => ActuatorConfig {
-            geometry: Geometry {
-                family,
-                ..strap_geometry()
-            },
-            material: MaterialConfig {
-                preset: MaterialPreset::Ecoflex0030,
-                // Smooth-On Ecoflex 00-30: specific gravity 1.07, tensile strength 200 psi.
-                density_g_cm3: 1.07,
-                tensile_strength_mpa: 1.38,
-                ..MaterialConfig::default()
-            },
-            load: LoadConfig {
-                pressures_kpa: "3:15:3".into(),
-                gravity: true,
-                // Hanging from its clamp: gravity along the actuator.
-                gravity_direction: [1.0, 0.0, 0.0],
-            },
-            // The 4 mm gaps stay open to 15 kPa (0.53 mm at the default mesh): no contact.
-            layer: vec![
-                LayerConfig {
-                    name: "pla".into(),
-                    thickness_mm: 0.5,
-                    youngs_modulus_mpa: 4000.0,
-                    poisson_ratio: 0.36,
-                    height_mm: 0.5,
-                    // A plate: the strips lie below the sheet, on the compressed side of
-                    // the bend, and as bare membranes they wrinkled (59 Newton iterations
-                    // over the ramp, 25 in one step, and 11.0 deg at 15 kPa against 7.7 as
-                    // plates; CalculiX, its S4 shells, within 0.7%: docs/src/howto/fem.md).
-                    element: LayerElement::Plate,
-                    width_mm: Some(4.0),
-                    strips: 2,
-                    spacing_mm: 10.0,
-                    tensile_strength_mpa: Some(50.0),
-                },
-                LayerConfig {
-                    name: "fabric".into(),
-                    thickness_mm: 0.1,
-                    youngs_modulus_mpa: 2500.0,
-                    poisson_ratio: 0.3,
-                    height_mm: 1.5,
-                    element: LayerElement::Membrane,
-                    tensile_strength_mpa: Some(100.0),
-                    ..LayerConfig::default()
-                },
-            ],
-            ..reference
-        },
-        Family::FibreReinforced => ActuatorConfig {
-            geometry: Geometry {
-                family,
-                ..Geometry::default()
-            },
-            material: MaterialConfig {
-                preset: MaterialPreset::DragonSkin20,
-                // Smooth-On Dragon Skin 20: specific gravity 1.08, tensile strength 550 psi.
-                density_g_cm3: 1.08,
-                tensile_strength_mpa: 3.79,
-                ..MaterialConfig::default()
-            },
-            load: LoadConfig {
-                pressures_kpa: FIBRE_PRESSURES.into(),
-                ..LoadConfig::default()
-            },
-            tube: Some(TubeConfig::default()),
-            ..reference
-        },
-    }
-}
-
-/// The fibre-reinforced bending actuator's strip (`[tube] bottom_strip = true` without
-/// `[[layer]]`s of the config's own): a glass-fibre sheet 0.5 mm thick across the flat
-/// bottom (the DOE study's strip; its modulus, 6.5 GPa, ν = 0.2, is chosen for a woven
-/// glass-fibre sheet, no strength given), centred in the outer silicone under the
-/// cavity (0.25..0.75 mm), meshed as a plate: compressed where the tube sags or
-/// bends, a membrane alone wrinkles ([`super::plate`]).
-pub fn bottom_strip_layer() -> LayerConfig {
-    LayerConfig {
-        name: "glass".into(),
-        thickness_mm: 0.5,
-        youngs_modulus_mpa: 6500.0,
-        poisson_ratio: 0.2,
-        height_mm: 0.25,
-        element: LayerElement::Plate,
-        tensile_strength_mpa: None,
-        ..LayerConfig::default()
-    }
-}
-
-/// The fibre-reinforced family's default ramp, kPa.
-pub const FIBRE_PRESSURES: &str = "10:60:10";
-
-/// The strap's chambers: a longer, wider, thinner-walled PneuNets than the reference
-/// (the strap study gives no drawing; values stated in the README).
-fn strap_geometry() -> Geometry {
-    Geometry {
-        chambers: 11,
-        b: 175.0,
-        i: 20.0,
-        f: 2.0,
-        m: 2.0,
-        p: 8.0,
-        r: 165.0,
-        c: 13.0,
-        g: 12.0,
-        d: 4.0,
-        e: 9.0,
-        l: 17.0,
-        n: 10.0,
-        top_wall: 1.5,
-        // The reference's roof (the study gives none): under a 0.5 mm roof the radius
-        // stiffened by 1.4-1.6% at each mesh refinement (docs/src/howto/fem.md).
-        roof: 1.0,
-        ..Geometry::default()
-    }
+    family.shape().defaults(family)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::fem::actuator::build_mesh;
+    use crate::fem::config::Geometry;
+    use crate::fem::layer::LayerElement;
+    use crate::fem::material::MaterialPreset;
     use crate::fem::simulate::{run_ramp, RampSettings};
 
     #[test]
@@ -280,7 +69,7 @@ mod tests {
         assert!(plain.layer.is_empty());
         // Every family's printed config reads back as itself, in TOML and in JSON (whose
         // nulls are "not given").
-        for f in Family::ALL {
+        for f in Family::all() {
             let cfg = defaults(f);
             cfg.validate().unwrap();
             let text = cfg.to_toml().unwrap();

@@ -415,6 +415,16 @@ pub fn enhanced_response(
     Some((energy, force, k))
 }
 
+/// The faces of a C3D8 element: CalculiX/Abaqus face k + 1 has these local nodes.
+pub const C3D8_FACES: [[usize; 4]; 6] = [
+    [0, 1, 2, 3],
+    [4, 7, 6, 5],
+    [0, 4, 5, 1],
+    [1, 5, 6, 2],
+    [2, 6, 7, 3],
+    [3, 7, 4, 0],
+];
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,7 +1,8 @@
 //! The model `simulate` solves as an Abaqus/CalculiX input deck (`--export-inp`).
 //!
 //! Written by hand: the deck is a few keyword cards of plain text, and no crate writes
-//! them. The deck is the model of [`super::actuator::build_mesh`] as it is (the half
+//! them. The deck is the model of [`super::actuator::build_mesh`] as it is built, given to
+//! [`inp_from_mesh`] (the half
 //! actuator of a mirror-symmetric family, the whole of the fibre-reinforced tube):
 //! nodes (mm); hexahedra as `C3D8I` (incompatible modes: CalculiX has no hybrid
 //! elements and plain C3D8 locks on nearly incompressible silicone), an element set,
@@ -39,20 +40,13 @@ use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
-use super::actuator::{build_mesh, ActuatorConfig, ActuatorMesh, GRAVITY_M_S2};
+use super::config::{ActuatorConfig, MaterialConfig};
 use super::membrane::MembraneSection;
+use super::mesh::{ActuatorMesh, Part, GRAVITY_M_S2};
 use super::truss::EmbeddedPoint;
 use super::FemError;
 
-/// The faces of a C3D8 element: CalculiX/Abaqus face k + 1 has these local nodes.
-pub const C3D8_FACES: [[usize; 4]; 6] = [
-    [0, 1, 2, 3],
-    [4, 7, 6, 5],
-    [0, 4, 5, 1],
-    [1, 5, 6, 2],
-    [2, 6, 7, 3],
-    [3, 7, 4, 0],
-];
+pub use super::hex::C3D8_FACES;
 
 /// Initial increment of each `*STATIC` step, as a fraction of the step.
 pub const INITIAL_INCREMENT: f64 = 0.25;
@@ -161,16 +155,18 @@ pub fn pressure_face_loads(mesh: &ActuatorMesh) -> Result<Vec<(usize, usize)>, F
     element_faces(&solid_faces(mesh), &mesh.model.pressure_faces, "cavity")
 }
 
-/// The deck of the model `cfg` describes (see the module doc), and what it holds.
-pub fn inp_from_config(cfg: &ActuatorConfig) -> Result<(String, InpSummary), FemError> {
+/// The deck of `mesh`, the model `cfg` describes as built (see the module doc; its
+/// loads, ramp and notes are `cfg`'s), and what it holds.
+pub fn inp_from_mesh(
+    mesh: &ActuatorMesh,
+    cfg: &ActuatorConfig,
+) -> Result<(String, InpSummary), FemError> {
     let pressures_kpa = cfg.pressures_kpa()?;
-    let mesh = build_mesh(cfg)?;
-    let faces = solid_faces(&mesh);
+    let faces = solid_faces(mesh);
     let loads = element_faces(&faces, &mesh.model.pressure_faces, "cavity")?;
     let m = &mesh.model;
-    let names = part_names(&mesh);
-    let in_parts =
-        |of: fn(&super::actuator::Part) -> usize| mesh.parts.iter().map(of).sum::<usize>();
+    let names = part_names(mesh);
+    let in_parts = |of: fn(&Part) -> usize| mesh.parts.iter().map(of).sum::<usize>();
     if in_parts(|p| p.membranes.len()) != m.membranes.len()
         || in_parts(|p| p.trusses.len()) != m.trusses.len()
     {
@@ -439,7 +435,7 @@ pub fn inp_from_config(cfg: &ActuatorConfig) -> Result<(String, InpSummary), Fem
     if !symmetry_shell.is_empty() {
         s.push_str("SYMMETRY_SHELL, 4, 4\nSYMMETRY_SHELL, 6, 6\n");
     }
-    let contact_pairs = write_contact(&mut s, &mesh, &faces)?;
+    let contact_pairs = write_contact(&mut s, mesh, &faces)?;
     let step_head = format!(
         "*STEP, NLGEOM, INC={MAX_INCREMENTS}\n*STATIC\n{INITIAL_INCREMENT}, 1., {MIN_INCREMENT:e}, 1.\n"
     );
@@ -599,24 +595,18 @@ const CALCULIX_BULK_TO_SHEAR: f64 = 200.0;
 /// default bulk modulus of 1000 mu0, and it stalls on smeared threads' membranes near 10 kPa.
 pub fn caveats(cfg: &ActuatorConfig) -> Vec<String> {
     let mut out = Vec::new();
-    let stiff = std::iter::once(&cfg.material)
-        .chain(cfg.tube.as_ref().map(|t| &t.outer_material))
-        .filter_map(|m| m.yeoh().ok())
+    let shape = cfg.shape();
+    let stiff = shape
+        .silicones(cfg)
+        .into_iter()
+        .filter_map(|(_, m)| m.yeoh().ok())
         .any(|y| y.bulk_modulus > CALCULIX_BULK_TO_SHEAR * 2.0 * y.c1);
     if stiff {
         out.push(
             format!("a bulk modulus above {CALCULIX_BULK_TO_SHEAR} mu0, where CalculiX's C3D8I may lock (the reference's default deck, 1000 mu0, stops at 10 kPa in CalculiX; at 100 mu0 it gets to 100 kPa): for CalculiX set about 100 mu0 (--bulk-modulus, or bulk_modulus_mpa in [material] and [tube.outer_material])"),
         );
     }
-    if cfg
-        .tube
-        .as_ref()
-        .is_some_and(|t| t.fibre_model == super::fibre::FibreModel::Smeared)
-    {
-        out.push(
-            "smeared threads go out as orthotropic M3D4 membranes, on which CalculiX stalls near 10 kPa; [tube] fibre_model = \"line\" exports them as springs it runs to full pressure".into(),
-        );
-    }
+    out.extend(shape.deck_caveats(cfg));
     out
 }
 
@@ -636,7 +626,7 @@ pub const CALCULIX_DECK_BULK_TO_SHEAR: f64 = 100.0;
 pub fn for_calculix(cfg: &ActuatorConfig) -> (ActuatorConfig, Vec<String>) {
     let mut deck = cfg.clone();
     let mut notes = Vec::new();
-    let soften = |m: &mut super::actuator::MaterialConfig, key: &str, notes: &mut Vec<String>| {
+    let soften = |m: &mut MaterialConfig, key: &str, notes: &mut Vec<String>| {
         let Ok(y) = m.yeoh() else { return };
         let mu0 = 2.0 * y.c1;
         if y.bulk_modulus <= CALCULIX_BULK_TO_SHEAR * mu0 {
@@ -652,22 +642,23 @@ pub fn for_calculix(cfg: &ActuatorConfig) -> (ActuatorConfig, Vec<String>) {
             y.bulk_modulus / mu0
         ));
     };
-    soften(&mut deck.material, "[material]", &mut notes);
-    if let Some(t) = deck.tube.as_mut() {
-        soften(&mut t.outer_material, "[tube.outer_material]", &mut notes);
+    let shape = deck.shape();
+    for (key, m) in shape.silicones_mut(&mut deck) {
+        soften(m, key, &mut notes);
     }
     (deck, notes)
 }
 
-/// Writes the deck of `cfg` to `path` atomically ([`crate::io::write_atomic`]), with
-/// `notes` (what the deck leaves out of the run it was exported from) as `** note:`
-/// comment lines under its first line, beside [`caveats`].
+/// Writes the deck of `mesh` (built from `cfg`) to `path` atomically
+/// ([`crate::io::write_atomic`]), with `notes` (what the deck leaves out of the run it was
+/// exported from) as `** note:` comment lines under its first line, beside [`caveats`].
 pub fn write_inp(
     path: &Path,
+    mesh: &ActuatorMesh,
     cfg: &ActuatorConfig,
     notes: &[String],
 ) -> Result<InpSummary, FemError> {
-    let (mut text, summary) = inp_from_config(cfg)?;
+    let (mut text, summary) = inp_from_mesh(mesh, cfg)?;
     if !notes.is_empty() {
         let at = text.find('\n').map_or(text.len(), |i| i + 1);
         let lines: String = notes
@@ -696,7 +687,12 @@ fn write_set(s: &mut String, kind: &str, name: &str, ids: &[usize]) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fem::actuator::{LoadConfig, MeshConfig};
+    use crate::fem::actuator::{build_mesh, LoadConfig, MeshConfig};
+
+    /// The deck of the model `cfg` describes, as `simulate --export-inp` writes it.
+    fn inp_from_config(cfg: &ActuatorConfig) -> Result<(String, InpSummary), FemError> {
+        inp_from_mesh(&build_mesh(cfg)?, cfg)
+    }
     use nalgebra::Vector3;
 
     /// Normal of a quad (a, b, c, d) by the right-hand rule: (c − a) × (d − b).

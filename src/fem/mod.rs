@@ -10,8 +10,11 @@
 //! sheets, [`layer`]; [`plate`] their bending stiffness) and [`truss`] (fibre segments embedded in the hexahedra, cables
 //! optionally tension-only) and [`contact`] (frictionless node-to-surface
 //! penalty contact between the facing chamber walls, optional) -> [`solve`] (Newton on
-//! the three-field form, adaptive load steps) -> [`actuator`] (the parametric PneuNets geometry and its half
-//! mesh, with the published designs as [`family`] defaults; [`tube`]: the fibre-wound circular tube) -> [`simulate`] (the pressure ramp and the quantities read off each step),
+//! the three-field form, adaptive load steps) -> [`config`] (the config's sections) and [`shapes`] (each actuator shape's presets,
+//! checks and [`mesh::ActuatorMesh`]: the PneuNets chambers with the published designs as
+//! presets, [`family`]; the fibre-reinforced tube of [`fibre`]) -> [`actuator`] (a config
+//! read over its family's defaults and meshed by its shape; [`tube`]: the fibre-wound
+//! circular tube) -> [`simulate`] (the pressure ramp and the quantities read off each step),
 //! [`vtu`] (ParaView files), [`output`] (every result file of a run or a sweep) and
 //! [`inp`] (the model as an Abaqus/CalculiX deck).
 //!
@@ -31,6 +34,7 @@
 
 pub mod actuator;
 pub mod analytic;
+pub mod config;
 mod config_doc;
 pub mod contact;
 pub mod family;
@@ -40,10 +44,12 @@ pub mod inp;
 pub mod layer;
 pub mod material;
 pub mod membrane;
+pub mod mesh;
 pub mod output;
 pub mod params;
 pub mod plate;
 pub mod pressure;
+pub mod shapes;
 pub mod simulate;
 pub mod solve;
 pub mod stepper;

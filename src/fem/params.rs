@@ -15,7 +15,7 @@
 //! bulk_modulus_mpa beside its preset, a layer's width_mm) may be set too: the value
 //! must then be in the config read back, so a misspelt field is refused.
 
-use super::actuator::ActuatorConfig;
+use super::config::ActuatorConfig;
 use super::FemError;
 
 /// Material coefficients a material table may leave to its preset (absent until set).

@@ -721,46 +721,12 @@ mod contact_tests {
     }
 }
 
-/// The thinnest wall of the actuator, mm, with its name: the top wall, the bottom under
-/// the channel, the side walls beside the cavities and channel, and the chamber walls.
-pub fn thinnest_wall_mm(g: &super::actuator::Geometry) -> (f64, &'static str) {
-    let inner = if g.chambers > 2 { g.g } else { g.c };
-    [
-        (g.top_wall, "top wall"),
-        (g.f, "bottom (f)"),
-        (
-            (g.i - g.l) / 2.0,
-            "side wall beside the chambers ((i - l) / 2)",
-        ),
-        (
-            (g.i - g.p) / 2.0,
-            "side wall beside the channel ((i - p) / 2)",
-        ),
-        ((inner - g.e) / 2.0, "chamber wall ((g - e) / 2)"),
-    ]
-    .into_iter()
-    .min_by(|a, b| a.0.total_cmp(&b.0))
-    .unwrap_or((f64::NAN, "wall"))
-}
+pub use super::shapes::thinnest_wall_mm;
 
-/// A note when the mesh is coarser than the thinnest wall (the walls are graded to
-/// [`super::actuator::MIN_WALL_ELEMENTS`] through, but the elements are then much longer
-/// than thick).
+/// Notes on the mesh of `cfg` before a run ([`super::shapes::Shape::mesh_notes`]: a mesh
+/// coarser than the thinnest wall).
 pub fn mesh_notes(cfg: &super::actuator::ActuatorConfig) -> Vec<String> {
-    let (t, name) = match &cfg.tube {
-        // The tube's layers are meshed by thickness (one element through at least).
-        Some(_) => return vec![],
-        None => thinnest_wall_mm(&cfg.geometry),
-    };
-    let h = cfg.mesh.size_mm;
-    if h > t + 1e-9 {
-        vec![format!(
-            "mesh size {h} mm is coarser than the thinnest wall ({name}, {t} mm): the walls get {} elements through but are long and thin along them and the results are far from converged; use {t} mm or less",
-            super::actuator::MIN_WALL_ELEMENTS
-        )]
-    } else {
-        vec![]
-    }
+    cfg.shape().mesh_notes(cfg)
 }
 
 /// Total turning of the marker chain from the clamp to the tip, degrees: the turns

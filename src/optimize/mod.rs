@@ -238,7 +238,7 @@ impl Problem {
                     .iter()
                     .map(|x| {
                         self.config(x).map(|c| Prediction {
-                            mean: c.geometry.height(),
+                            mean: c.height_mm(),
                             std: 0.0,
                         })
                     })

@@ -87,7 +87,7 @@ pub fn resimulate(
                 ),
                 Err(err) => (Vec::new(), format!("failed: {err}")),
             };
-        let height = cfg.geometry.height();
+        let height = cfg.height_mm();
         let fem: Vec<f64> = problem
             .columns
             .iter()

@@ -113,7 +113,7 @@ pub fn collect(dir: &Path) -> Result<Collected, SweepError> {
                 .map_or(f64::NAN, |s| s.seconds),
         );
         let cfg = read_point_config(&point).ok();
-        height.push(cfg.as_ref().map_or(f64::NAN, |c| c.geometry.height()));
+        height.push(cfg.as_ref().map_or(f64::NAN, |c| c.height_mm()));
         let steps = state
             .finished()
             .then(|| Table::read(&point.join("steps.csv")).ok())

@@ -1,0 +1,192 @@
+//! The meshed actuator every shape builds and everything downstream takes (the solve,
+//! the outputs, the CalculiX deck): the model, its named parts, markers, clamp and the
+//! other nodes results are read at; and the grid helpers the structured meshers share.
+
+use nalgebra::Vector3;
+
+use super::config::ActuatorConfig;
+use super::contact::ContactPair;
+use super::hex::{nodal_volumes, HexGeometry};
+use super::solve::Model;
+use super::FemError;
+
+/// Standard gravity, m/s².
+pub const GRAVITY_M_S2: f64 = 9.806_65;
+
+/// The meshed half actuator and the nodes results are read at.
+#[derive(Debug, Clone)]
+pub struct ActuatorMesh {
+    /// The finite-element model (dead loads: gravity).
+    pub model: Model,
+    /// Marker nodes (side face, centre of chambers 2..N, mid cavity height), from the
+    /// clamp towards the tip.
+    pub markers: Vec<usize>,
+    /// Tip node: bottom edge of the free end on the symmetry plane (x = b, y = 0, z = 0).
+    pub tip: usize,
+    /// Nodes of the free end's bottom edge (x = b, z = 0): the blocked-force support.
+    pub tip_support: Vec<usize>,
+    /// Bottom centre line (y = 0, z = 0) beyond the clamp (x >= c), ordered by x.
+    pub bottom_line: Vec<usize>,
+    /// The side face y = i/2 (the filmed face): quads of nodes, counter-clockwise in x-z.
+    pub side_face: Vec<[usize; 4]>,
+    /// Clamped length (first chamber), mm.
+    pub clamp_mm: f64,
+    /// The facing walls across every gap between chambers, paired both ways (each with
+    /// half the node areas, [`super::contact`]): where `min_wall_gap_mm` is measured,
+    /// and the contact pairs when `[contact]` is on.
+    pub wall_pairs: Vec<ContactPair>,
+    /// The parts whose stress is reported, the main silicone first.
+    pub parts: Vec<Part>,
+    /// Two nodes of the free end's face, the first below the second on the actuator's
+    /// axis plane: the tip face's twist about the axis is read off them.
+    pub twist_pair: (usize, usize),
+    /// The model is the half y >= 0 of a mirror-symmetric actuator (forces and volumes
+    /// of the whole are twice the model's).
+    pub half_model: bool,
+    /// Density of each solid material, g/cm³, by material id ([`Model::element_material`]:
+    /// 0 the main silicone, k `extra_materials[k - 1]`): the gravity loads' and the
+    /// exported deck's.
+    pub densities_g_cm3: Vec<f64>,
+    /// Where the bottom wall's inflation is read ([`BottomWall`]).
+    pub bottom_wall: Option<BottomWall>,
+}
+
+/// A bottom wall whose inflation is reported: its centre's distance from the chord of its
+/// ends, positive away from the cavity.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct BottomWall {
+    /// The chord's ends, bottom-face nodes. The same node twice on a half model: the chord
+    /// from it to its mirror image across the symmetry plane y = 0.
+    pub ends: [usize; 2],
+    /// The bottom-face node between the ends.
+    pub centre: usize,
+    /// A node on the cavity's side of the centre (the cavity's floor above it): the
+    /// inflation is positive away from it.
+    pub inside: usize,
+}
+
+impl BottomWall {
+    /// The inflation, mm, with the nodes at `position`.
+    pub fn inflation_mm(&self, position: impl Fn(usize) -> Vector3<f64>) -> f64 {
+        let [a, b] = self.ends.map(&position);
+        let b = if self.ends[0] == self.ends[1] {
+            Vector3::new(b.x, -b.y, b.z)
+        } else {
+            b
+        };
+        let c = position(self.centre);
+        let d = (b - a).normalize();
+        let w = (c - a) - (c - a).dot(&d) * d;
+        w.norm() * w.dot(&(c - position(self.inside))).signum()
+    }
+}
+
+/// A part of the model (a silicone, a layer, a fibre set) and the elements it is made of.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Part {
+    /// Name (silicone, a layer's name, fibre): the stress columns' suffix.
+    pub name: String,
+    /// Tensile strength, MPa, for its safety factor (None: not reported).
+    pub tensile_strength_mpa: Option<f64>,
+    /// Solid elements of this material id ([`Model::element_material`]), if any.
+    pub solid_material: Option<u8>,
+    /// Membrane elements (indices into [`Model::membranes`]).
+    pub membranes: Vec<usize>,
+    /// The membranes carry the sheet's bending stiffness ([`Model::plates`], a layer
+    /// with `element = "plate"`).
+    pub plate: bool,
+    /// Fibre segments (indices into [`Model::trusses`]).
+    pub trusses: Vec<usize>,
+}
+
+/// Least number of elements through every wall (side walls beside the chambers and the
+/// channel, chamber walls, top wall, bottom, the roof over the channel under the gaps):
+/// one trilinear element through a wall in
+/// bending is far too stiff (the 2 mm mesh with one element through the 2 mm side walls
+/// was +2.5..+4.5% on the radius); two through, at the mesh size along, converge.
+pub const MIN_WALL_ELEMENTS: usize = 2;
+
+/// `features` sorted and deduplicated, with the number of equal parts no longer than `h`
+/// each interval between them is cut into (at least `MIN_WALL_ELEMENTS` for an interval
+/// that is one of `walls` (lo, hi)); the counts are floats, which neither overflow nor
+/// allocate however small `h` is.
+fn interval_parts(features: &[f64], h: f64, walls: &[(f64, f64)]) -> (Vec<f64>, Vec<f64>) {
+    let mut features = features.to_vec();
+    features.sort_by(f64::total_cmp);
+    features.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+    let is_wall = |a: f64, b: f64| {
+        walls
+            .iter()
+            .any(|(lo, hi)| (a - lo).abs() < 1e-9 && (b - hi).abs() < 1e-9)
+    };
+    let parts = features
+        .windows(2)
+        .map(|w| {
+            let parts = ((w[1] - w[0]) / h - 1e-9).ceil().max(1.0);
+            if is_wall(w[0], w[1]) {
+                parts.max(MIN_WALL_ELEMENTS as f64)
+            } else {
+                parts
+            }
+        })
+        .collect();
+    (features, parts)
+}
+
+/// Coordinate lines through `features` (sorted, deduplicated), each interval cut into
+/// equal parts no longer than `h`; an interval that is one of `walls` (lo, hi) gets at
+/// least `MIN_WALL_ELEMENTS` parts. Callers bound the count first
+/// ([`coordinate_line_count`]).
+pub(crate) fn coordinate_lines(features: Vec<f64>, h: f64, walls: &[(f64, f64)]) -> Vec<f64> {
+    let (features, parts) = interval_parts(&features, h, walls);
+    let mut out = vec![features[0]];
+    for (w, &parts) in features.windows(2).zip(&parts) {
+        let parts = parts as usize;
+        for k in 1..=parts {
+            out.push(w[0] + (w[1] - w[0]) * k as f64 / parts as f64);
+        }
+    }
+    out
+}
+
+/// The number of intervals [`coordinate_lines`] cuts, counted without building them
+/// (infinite when the count is).
+pub(crate) fn coordinate_line_count(features: &[f64], h: f64, walls: &[(f64, f64)]) -> f64 {
+    interval_parts(features, h, walls).1.iter().sum()
+}
+
+/// Nodal gravity loads at load factor 1 (zero when `cfg.load.gravity` is off): ρ g ∫ N_a dV
+/// along the gravity direction (N per mm³ = g/cm³ · 1e-6 kg/mm³ · g), element e of density
+/// `densities_g_cm3[element_material[e]]` (material 0 where `element_material` is empty).
+pub(crate) fn gravity_loads(
+    cfg: &ActuatorConfig,
+    nodes: &[Vector3<f64>],
+    elements: &[[usize; 8]],
+    element_material: &[u8],
+    densities_g_cm3: &[f64],
+) -> Result<Vec<f64>, FemError> {
+    let density_g_cm3 = |e: usize| {
+        let k = element_material.get(e).map_or(0, |&k| usize::from(k));
+        densities_g_cm3.get(k).copied().ok_or(FemError::Model {
+            why: format!("material {k} has no density (mesh bug)"),
+        })
+    };
+    let mut loads = vec![0.0; 3 * nodes.len()];
+    if !cfg.load.gravity {
+        return Ok(loads);
+    }
+    let down = Vector3::from(cfg.load.gravity_direction).normalize();
+    for (e, el) in elements.iter().enumerate() {
+        let weight_per_mm3 = density_g_cm3(e)? * 1e-6 * GRAVITY_M_S2;
+        let x: [Vector3<f64>; 8] = std::array::from_fn(|a| nodes[el[a]]);
+        let geom = HexGeometry::new(&x).ok_or(FemError::Model {
+            why: "degenerate element (mesh bug)".into(),
+        })?;
+        for (a, v) in nodal_volumes(&geom).iter().enumerate() {
+            for d in 0..3 {
+                loads[3 * el[a] + d] += weight_per_mm3 * v * down[d];
+            }
+        }
+    }
+    Ok(loads)
+}
