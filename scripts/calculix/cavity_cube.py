@@ -184,6 +184,12 @@ def deck(angle_deg, axis, pressure_kpa, tight):
     return "\n".join(out)
 
 
+def refuse(message):
+    """Bad input: one line on stderr, exit 2."""
+    print("cavity_cube.py: " + message, file=sys.stderr)
+    sys.exit(2)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("out", help="the deck to write, e.g. model.inp")
@@ -197,13 +203,13 @@ def main():
     except ValueError:
         axis = []
     if len(axis) != 3 or not all(math.isfinite(v) for v in axis) or not any(axis):
-        sys.exit("cavity_cube.py: --axis %r is not three finite numbers, not all zero "
+        refuse("--axis %r is not three finite numbers, not all zero "
                  "(e.g. --axis 1,2,3)" % a.axis)
     if not math.isfinite(a.angle):
-        sys.exit("cavity_cube.py: --angle %r is not a finite number of degrees (e.g. 30)"
+        refuse("--angle %r is not a finite number of degrees (e.g. 30)"
                  % a.angle)
     if not (math.isfinite(a.pressure_kpa) and 0.0 < a.pressure_kpa < 1e4):
-        sys.exit("cavity_cube.py: --pressure-kpa %r is outside (0, 10000) kPa (e.g. 40)"
+        refuse("--pressure-kpa %r is outside (0, 10000) kPa (e.g. 40)"
                  % a.pressure_kpa)
     text = deck(a.angle, axis, a.pressure_kpa, a.tight)
     tmp = a.out + ".tmp"

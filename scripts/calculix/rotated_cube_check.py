@@ -34,7 +34,7 @@ import cavity_cube  # noqa: E402
 
 # The full ramp of the rotated decks, kPa: below the cube's limit point, well past where
 # the load stiffness with the tilted-face fault (doubled there) stops.
-PRESSURE_KPA = 12.0
+PRESSURE_KPA = 18.0
 # The small pressure where stock ccx converges in every orientation, kPa.
 SMALL_KPA = 2.0
 # Largest difference between orientations of the tracked node's displacement (rotated
