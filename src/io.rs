@@ -13,7 +13,7 @@
 //! what file systems accept; [`content_key`] is the stable fingerprint the caches use;
 //! [`is_storage_full`] tells a full disk from other write errors; [`write_advice`] says
 //! what a failed write means and what to do (free space, give another `-o`).
-//! [`non_finite`] writes NaN and infinities to JSON so that they read back.
+//! `non_finite` writes NaN and infinities to JSON so that they read back.
 
 use std::fs;
 use std::io::{Read, Write};

@@ -1,4 +1,4 @@
-//! What kind of session a folder holds ([`Layout`]: step, ramp or RGB-D, refused in
+//! What kind of session a folder holds (`Layout`: step, ramp or RGB-D, refused in
 //! one line when it is none or two of them), and where each session's results go
 //! ([`output_dirs`]).
 
