@@ -4,7 +4,7 @@
 # Prints: reading, bending angle at 15 kPa, radius, seconds.
 # Usage: scripts/bench-strap-readings.sh [READING...]   (no argument: every reading)
 # Environment: BENDSCOPE (default target/release/bendscope), MESH (mm, default 2.5),
-# PRESSURES (default 15: one step), OUT (default /tmp/strap-readings).
+# PRESSURES (default 15: one step; a reading may give its own ramp), OUT (default /tmp/strap-readings).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=${BENDSCOPE:-target/release/bendscope}
@@ -14,7 +14,8 @@ out=${OUT:-/tmp/strap-readings}
 dir=scripts/strap-readings
 mkdir -p "$out"
 
-# name | config | extra arguments (one --sweep NAME=VALUE acts as an override)
+# name | config | extra arguments (one --sweep NAME=VALUE acts as an override) | pressures
+# (the soft silicone needs a ramp to converge; the others go to 15 kPa in one step)
 readings=(
   "table3|table3.toml|"
   "no-gravity|table3.toml|--no-gravity"
@@ -30,21 +31,21 @@ readings=(
   "no-pla|table3.toml|--sweep layer.pla.youngs_modulus_mpa=0.001"
   "top-wall-1mm|table3.toml|--sweep geometry.top_wall=1"
   "side-walls-2mm|table3.toml|--sweep geometry.l=22"
-  "silicone-x0.3|table3.toml|--sweep material.scale=0.3"
-  "silicone-x0.1|table3.toml|--sweep material.scale=0.1"
+  "silicone-x0.3|table3.toml|--sweep material.scale=0.3|5:15:5"
+  "silicone-x0.1|table3.toml|--sweep material.scale=0.1|3:15:3"
 )
 
 want=("$@")
 printf '%-22s %10s %12s %8s\n' reading angle_deg radius_mm seconds
 for row in "${readings[@]}"; do
-  IFS='|' read -r name config extra <<<"$row"
+  IFS='|' read -r name config extra ramp <<<"$row"
   if ((${#want[@]})) && [[ ! " ${want[*]} " == *" $name "* ]]; then continue; fi
   run="$out/$name"
   rm -rf "$run"
   start=$(date +%s.%N)
   # shellcheck disable=SC2086
   if ! "$bin" simulate --config "$dir/$config" -o "$run" --mesh-size "$mesh" \
-      --pressures "$pressures" --no-vtu $extra >"$out/$name.log" 2>&1; then
+      --pressures "${ramp:-$pressures}" --no-vtu $extra >"$out/$name.log" 2>&1; then
     printf '%-22s %10s %12s %8s\n' "$name" failed - - ; continue
   fi
   secs=$(echo "$(date +%s.%N) - $start" | bc)
