@@ -15,7 +15,8 @@ dir=scripts/strap-readings
 mkdir -p "$out"
 
 # name | config | extra arguments (one --sweep NAME=VALUE acts as an override) | pressures
-# (the soft silicone needs a ramp to converge; the others go to 15 kPa in one step)
+# (the soft silicone needs a ramp to converge; the others go to 15 kPa in one step;
+# material.scale = 0.1 gave no answer in 10 minutes, so it is left out)
 readings=(
   "table3|table3.toml|"
   "no-gravity|table3.toml|--no-gravity"
@@ -32,7 +33,6 @@ readings=(
   "top-wall-1mm|table3.toml|--sweep geometry.top_wall=1"
   "side-walls-2mm|table3.toml|--sweep geometry.l=22"
   "silicone-x0.3|table3.toml|--sweep material.scale=0.3|5:15:5"
-  "silicone-x0.1|table3.toml|--sweep material.scale=0.1|3:15:3"
 )
 
 want=("$@")
