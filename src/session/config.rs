@@ -6,6 +6,7 @@ use serde::{Deserialize, Serialize};
 
 use super::{SessionError, CONFIG};
 use crate::detect::DetectSettings;
+use crate::video::FrameSelection;
 
 /// The scale board (a board lying in the actuator plane).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -26,6 +27,21 @@ impl Default for BoardConfig {
             rows: 6,
             square_mm: 25.0,
         }
+    }
+}
+
+/// `[video]`: which frames of each video are measured.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct VideoConfig {
+    /// `"all"` (the default), `"keyframes"` (step sessions only) or `"every:N"`.
+    pub frames: FrameSelection,
+}
+
+impl VideoConfig {
+    /// True for the defaults (left out when the settings are written).
+    pub fn is_default(&self) -> bool {
+        *self == Self::default()
     }
 }
 
@@ -77,6 +93,9 @@ pub struct SessionConfig {
     pub roi: Option<Vec<[f64; 2]>>,
     /// Marker detection.
     pub detect: DetectSettings,
+    /// Which frames of each video are measured.
+    #[serde(skip_serializing_if = "VideoConfig::is_default")]
+    pub video: VideoConfig,
 }
 
 impl Default for SessionConfig {
@@ -99,6 +118,7 @@ impl Default for SessionConfig {
             smooth_s: None,
             roi: None,
             detect: DetectSettings::default(),
+            video: VideoConfig::default(),
         }
     }
 }
@@ -264,6 +284,7 @@ fn key_example(key: &str) -> Option<&'static str> {
         "colour" => "red, green, blue, yellow or dark, e.g. colour = \"green\"",
         "clamp_side" => "left, right, top or bottom, e.g. clamp_side = \"right\"",
         "smooth_s" => "seconds, e.g. smooth_s = 0.2",
+        "frames" => "\"all\", \"keyframes\" or \"every:N\", e.g. frames = \"keyframes\"",
         _ => return None,
     })
 }
@@ -383,6 +404,24 @@ impl SessionConfig {
             .unwrap_or_default()
     }
 
+    /// The frames to measure of each video: `[video] frames`, or `"every:N"` for
+    /// `frame_stride = N`. Key frames only is refused for a ramp (`ramp`), which reads
+    /// the pressure at every frame's time.
+    pub fn frame_selection(&self, ramp: bool) -> Result<FrameSelection, String> {
+        match self.video.frames {
+            FrameSelection::Keyframes if ramp => Err(
+                "[video] frames = \"keyframes\" is for step sessions: a ramp needs every \
+                 frame's time to read its pressure from pressure_log.csv; use \"all\" or \
+                 \"every:N\""
+                    .into(),
+            ),
+            FrameSelection::All if self.frame_stride > 1 => {
+                Ok(FrameSelection::Every(self.frame_stride))
+            }
+            f => Ok(f),
+        }
+    }
+
     /// Reads `SESSION/bendscope.toml` when present, else the defaults.
     pub fn for_session(session: &Path) -> Result<Self, SessionError> {
         let p = session.join(CONFIG);
@@ -435,6 +474,17 @@ impl SessionConfig {
         }
         if self.frame_stride == 0 {
             return top("frame_stride", "0: must be at least 1".into());
+        }
+        if self.video.frames != FrameSelection::All && self.frame_stride != 1 {
+            return Err(BadValue::new(
+                Some("video"),
+                "frames",
+                format!(
+                    "\"{}\" with frame_stride = {}: choose the frames one way (frame_stride = N \
+                     is frames = \"every:N\")",
+                    self.video.frames, self.frame_stride
+                ),
+            ));
         }
         if let Some(roi) = &self.roi {
             if roi.len() < 3 || roi.iter().flatten().any(|v| !v.is_finite()) {
@@ -616,6 +666,65 @@ mod tests {
         let p = d.path().join(CONFIG);
         std::fs::write(&p, "\u{feff}expected_markers = 6\n").unwrap();
         assert_eq!(SessionConfig::read(&p).unwrap().expected_markers, 6);
+    }
+
+    #[test]
+    fn video_frames_are_read_checked_and_refused_for_ramps() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join(CONFIG);
+        for (text, want, ramp) in [
+            ("", FrameSelection::All, Ok(FrameSelection::All)),
+            ("frame_stride = 3\n", FrameSelection::All, Ok(FrameSelection::Every(3))),
+            (
+                "[video]\nframes = \"keyframes\"\n",
+                FrameSelection::Keyframes,
+                Err("[video] frames = \"keyframes\" is for step sessions: a ramp needs every frame's time"),
+            ),
+            (
+                "[video]\nframes = \"every:4\"\n",
+                FrameSelection::Every(4),
+                Ok(FrameSelection::Every(4)),
+            ),
+        ] {
+            std::fs::write(&p, text).unwrap();
+            let c = SessionConfig::read(&p).unwrap();
+            assert_eq!(c.video.frames, want, "{text:?}");
+            assert_eq!(c.frame_selection(false), Ok(ramp.unwrap_or(want)), "{text:?}");
+            match (c.frame_selection(true), ramp) {
+                (Ok(got), Ok(w)) => assert_eq!(got, w, "{text:?}"),
+                (Err(e), Err(needle)) => {
+                    assert!(e.starts_with(needle) && !e.contains('\n'), "{e}")
+                }
+                (got, w) => panic!("{text:?}: {got:?}, wanted {w:?}"),
+            }
+            // Written and read back: the same; the default is left out.
+            let written = toml::to_string(&c).unwrap();
+            assert_eq!(written.contains("[video]"), want != FrameSelection::All, "{written}");
+            assert_eq!(toml::from_str::<SessionConfig>(&written).unwrap().video, c.video);
+        }
+        for (text, want) in [
+            (
+                "[video]\nframes = \"keyframe\"\n",
+                "line 2: `video.frames`: unknown frames `keyframe`: use \"all\", \"keyframes\" or \"every:N\" (N a whole number of frames, e.g. \"every:5\")",
+            ),
+            (
+                "[video]\nframes = \"every:0\"\n",
+                "line 2: `video.frames`: `every:0`: N must be at least 1",
+            ),
+            (
+                "[video]\n\nframes = 4\n",
+                "line 3: `video.frames`: got the whole number 4, expected text in quotes: \"all\", \"keyframes\" or \"every:N\", e.g. frames = \"keyframes\"",
+            ),
+            (
+                "frame_stride = 2\n[video]\nframes = \"every:3\"\n",
+                "line 3: video.frames = \"every:3\" with frame_stride = 2: choose the frames one way",
+            ),
+            ("[video]\nframe = \"all\"\n", "line 2: unknown key `frame` in [video]"),
+        ] {
+            let e = error_of(text);
+            assert!(e.starts_with(want), "{text:?}:\n{e}\n{want}");
+            assert!(!e.contains('\n'), "{e}");
+        }
     }
 
     proptest::proptest! {

@@ -72,6 +72,9 @@ impl Pixels {
 pub struct DecodeStats {
     /// Frames decoded.
     pub frames_decoded: u64,
+    /// Packets of the video stream read and sent to the decoder (one per frame in MP4):
+    /// what the file holds when the decoder skips frames.
+    pub packets_read: u64,
     /// Packets the decoder refused (corrupt data).
     pub packets_failed: u64,
     /// The demuxer stopped with an error before the end of the file (truncated file).
@@ -99,6 +102,10 @@ pub struct VideoReader {
     eof_sent: bool,
     finished: bool,
     decoded: ffmpeg::frame::Video,
+    /// The decoder skips all but key frames ([`Self::skip_non_key_frames`]).
+    key_frames_only: bool,
+    /// Time of the first frame decoded, s: a key frame's index counts from it.
+    first_time_s: Option<f64>,
 }
 
 impl VideoReader {
@@ -201,6 +208,8 @@ impl VideoReader {
             eof_sent: false,
             finished: false,
             decoded: ffmpeg::frame::Video::empty(),
+            key_frames_only: false,
+            first_time_s: None,
         })
     }
 
@@ -219,6 +228,16 @@ impl VideoReader {
         &self.path
     }
 
+    /// From now on the decoder returns key frames only: FFmpeg drops the other frames
+    /// before decoding them (`skip_frame = AVDISCARD_NONKEY`). Each frame keeps its
+    /// index and time in the whole video (the index from its time since the first
+    /// frame's, as the skipped frames are never seen); [`DecodeStats::frames_decoded`]
+    /// counts the key frames.
+    pub fn skip_non_key_frames(&mut self) {
+        self.decoder.skip_frame(ffmpeg::Discard::NonKey);
+        self.key_frames_only = true;
+    }
+
     /// Decodes up to the next frame; returns its index and time, or `None` at the end.
     /// The frame stays available to [`Self::current_rgb`] until the next call.
     pub fn advance(&mut self) -> Option<(u64, f64)> {
@@ -227,11 +246,22 @@ impl VideoReader {
                 return None;
             }
             if self.decoder.receive_frame(&mut self.decoded).is_ok() {
-                let index = self.next_index;
+                let mut index = self.next_index;
                 self.next_index += 1;
                 self.stats.frames_decoded += 1;
-                let time_s = match self.decoded.timestamp() {
-                    Some(ts) if self.time_base > 0.0 => ts as f64 * self.time_base,
+                let stamp = self
+                    .decoded
+                    .timestamp()
+                    .filter(|_| self.time_base > 0.0)
+                    .map(|ts| ts as f64 * self.time_base);
+                if let (true, Some(t)) = (self.key_frames_only, stamp) {
+                    let first = *self.first_time_s.get_or_insert(t);
+                    if self.info.fps > 0.0 {
+                        index = ((t - first) * self.info.fps).round().max(0.0) as u64;
+                    }
+                }
+                let time_s = match stamp {
+                    Some(t) => t,
                     _ if self.info.fps > 0.0 => index as f64 / self.info.fps,
                     _ => 0.0,
                 };
@@ -254,6 +284,7 @@ impl VideoReader {
                     if packet.stream() != self.stream_index {
                         continue;
                     }
+                    self.stats.packets_read += 1;
                     if self.decoder.send_packet(&packet).is_err() {
                         self.stats.packets_failed += 1;
                     }
@@ -503,6 +534,51 @@ mod tests {
         }
         assert_eq!(n, 10);
         assert!(!r.stats().has_errors());
+    }
+
+    #[test]
+    fn key_frames_only_returns_the_key_frames_at_their_index_and_time() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("k.mp4");
+        let settings = EncodeSettings {
+            fps: 25,
+            crf: 10,
+            keyframe_interval: Some(5),
+            ..Default::default()
+        };
+        let mut w = VideoWriter::create(&p, 96, 64, &settings).unwrap();
+        for i in 0..17 {
+            w.write(&moving_square(i, 96, 64)).unwrap();
+        }
+        w.finish().unwrap();
+        let mut r = VideoReader::open(&p).unwrap();
+        r.skip_non_key_frames();
+        let mut got = vec![];
+        while let Some(f) = r.next_frame(1).unwrap() {
+            assert!(
+                (f.time_s - f.index as f64 / 25.0).abs() < 1e-3,
+                "t {}",
+                f.time_s
+            );
+            // The picture is that frame's: its square is where frame `index` drew it.
+            let sq = f.image.get_pixel(10 + 4 * f.index as u32 + 8, 24);
+            assert!(
+                sq[0] > 180 && sq[1] < 80 && sq[2] < 80,
+                "{}: {sq:?}",
+                f.index
+            );
+            got.push(f.index);
+        }
+        assert_eq!(got, vec![0, 5, 10, 15]);
+        assert_eq!(r.stats().frames_decoded, 4);
+        assert_eq!(r.stats().packets_read, 17);
+        // Every frame, for comparison: all 17 decoded, as many packets.
+        let mut all = VideoReader::open(&p).unwrap();
+        while all.next_frame(1).unwrap().is_some() {}
+        assert_eq!(
+            (all.stats().frames_decoded, all.stats().packets_read),
+            (17, 17)
+        );
     }
 
     #[test]

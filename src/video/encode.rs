@@ -24,6 +24,9 @@ pub struct EncodeSettings {
     pub preset: &'static str,
     /// Encoder: `libx264` (H.264) or `libx265` (HEVC, as recent GoPros record).
     pub encoder: &'static str,
+    /// Frames from one key frame to the next (the GOP length), with no extra key frames
+    /// at scene cuts; `None`: the encoder's default (x264: up to 250, and at cuts).
+    pub keyframe_interval: Option<u32>,
 }
 
 impl Default for EncodeSettings {
@@ -34,6 +37,7 @@ impl Default for EncodeSettings {
             bitrate_bps: None,
             preset: "veryfast",
             encoder: "libx264",
+            keyframe_interval: None,
         }
     }
 }
@@ -111,6 +115,12 @@ impl VideoWriter {
         if settings.encoder == "libx265" {
             // Quiet x265's banner on stderr; tag the stream hvc1 as GoPro files are.
             opts.set("x265-params", "log-level=error");
+        }
+        if let Some(g) = settings.keyframe_interval {
+            let g = g.max(1);
+            enc.set_gop(g);
+            opts.set("keyint_min", &g.to_string());
+            opts.set("sc_threshold", "0");
         }
         match settings.bitrate_bps {
             Some(b) => {

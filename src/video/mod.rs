@@ -12,7 +12,8 @@
 //!
 //! One module per part, each re-exported here: `container` (FFmpeg's set-up and why an
 //! MP4 file is cut short), `yuv` (decoded 4:2:0 frames kept in YUV at their native
-//! depth), `decode` ([`VideoReader`]), `encode` ([`VideoWriter`]); `error` holds
+//! depth), `decode` ([`VideoReader`]), `encode` ([`VideoWriter`]), `frames` (which frames
+//! are measured, [`FrameSelection`]); `error` holds
 //! [`VideoError`], which they share. Detection reads a [`YuvFrame`] through
 //! `crate::detect::PixelSource`, implemented in `detect`.
 
@@ -20,10 +21,12 @@ mod container;
 mod decode;
 mod encode;
 mod error;
+mod frames;
 mod yuv;
 
 pub use container::mp4_truncation;
 pub use decode::{sample_evenly, DecodeStats, Frame, Pixels, VideoInfo, VideoReader};
 pub use encode::{EncodeSettings, VideoWriter};
 pub use error::VideoError;
+pub use frames::{FrameSelection, MAX_EVERY};
 pub use yuv::{Sample, YuvFrame};
