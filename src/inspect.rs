@@ -159,7 +159,7 @@ pub fn load_frame(
     } else {
         frame
     };
-    let mut source = open_source(&media, 1, true).map_err(bad)?;
+    let mut source = open_source(&media, crate::video::FrameSelection::All, true).map_err(bad)?;
     loop {
         match source.next() {
             Next::Frame(f) if f.index >= frame => {

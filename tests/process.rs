@@ -104,6 +104,50 @@ fn example_session_matches_the_ground_truth() {
     );
 }
 
+/// `[video] frames = "keyframes"` on the example (each video's first frame is its only
+/// key frame): one frame measured per video, at its index 0, each radius within the
+/// tolerance of the truth; on a ramp it is refused before anything is measured.
+#[test]
+fn keyframes_measure_only_key_frames_and_are_refused_for_ramps() {
+    let t = truth();
+    let dir = tempfile::tempdir().unwrap();
+    let s = dir.path().join("example");
+    copy_dir(&example(), &s);
+    let toml = fs::read_to_string(s.join("bendscope.toml")).unwrap();
+    fs::write(
+        s.join("bendscope.toml"),
+        format!("{toml}\n[video]\nframes = \"keyframes\"\n"),
+    )
+    .unwrap();
+    let run = Run::new(dir.path(), &["process", "example"]);
+    assert_eq!(run.code, 0, "{run}");
+    let out = s.join("bendscope-out");
+    let (fh, frames) = read_csv(&out.join("per_frame.csv"));
+    assert_eq!(frames.len(), t.videos.len(), "one key frame per video");
+    assert!(frames.iter().all(|f| f[col(&fh, "frame")] == "0"));
+    let (h, rows) = read_csv(&out.join("per_video.csv"));
+    for v in &t.videos {
+        let r = rows.iter().find(|r| r[0] == v.file).unwrap();
+        assert_eq!(r[col(&h, "status")], "ok", "{run}");
+        let radius: f64 = r[col(&h, "radius_mm")].parse().unwrap();
+        assert!(
+            (radius / v.radius_mm - 1.0).abs() < RADIUS_TOLERANCE,
+            "{}: {radius} vs {}",
+            v.file,
+            v.radius_mm
+        );
+    }
+    assert!(
+        !run.stderr.contains("truncated"),
+        "skipped frames are not a truncated file: {run}"
+    );
+
+    let ramp = write_ramp_session("[video]\nframes = \"keyframes\"\n");
+    Run::new(ramp.path(), &["process", "ramp"])
+        .assert_bad_input(&["bendscope.toml", "keyframes", "ramp needs every frame"]);
+    assert!(!ramp.path().join("ramp/bendscope-out/per_frame.csv").exists());
+}
+
 #[test]
 fn rerun_skips_current_videos_unless_forced() {
     let dir = tempfile::tempdir().unwrap();

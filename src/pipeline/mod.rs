@@ -140,6 +140,13 @@ fn measure_session_into(
     let mut items: Vec<ItemResult> = Vec::new();
     let (unit, skipped, binned) = match &layout {
         Layout::Rgbd(log, frames) => {
+            // A recording, as a ramp: every frame's time is needed.
+            config
+                .frame_selection(true)
+                .map_err(|why| PipelineError::Layout {
+                    path: session.join(crate::session::CONFIG),
+                    why,
+                })?;
             provenance.rgbd_intrinsics = Some(match frames {
                 RgbdFrames::PngFolders => session.join(crate::rgbd::INTRINSICS),
                 RgbdFrames::Bag(bag) => bag.clone(),

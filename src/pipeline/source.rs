@@ -10,7 +10,7 @@ use std::thread::JoinHandle;
 
 use crate::rgbd::bag::BagRecording;
 use crate::rgbd::RgbdFrame;
-use crate::video::{DecodeStats, Pixels, VideoInfo, VideoReader};
+use crate::video::{DecodeStats, FrameSelection, Pixels, VideoInfo, VideoReader};
 
 use super::frame::DepthImage;
 
@@ -88,19 +88,24 @@ pub struct VideoSource {
     back: SyncSender<Pixels>,
     problems: Vec<String>,
     thread: Option<JoinHandle<(VideoInfo, DecodeStats)>>,
+    /// Key frames only: the truncation check counts packets read, not frames decoded.
+    keyframes: bool,
 }
 
 impl VideoSource {
-    /// Opens `path`; every `stride`-th frame is delivered, as RGB when `want_rgb` (for
-    /// whole-frame undistortion), else as decoded (YUV planes for 8-bit 4:2:0).
-    pub fn open(path: &Path, stride: u64, want_rgb: bool) -> Result<Self, String> {
+    /// Opens `path`; the frames `frames` selects are delivered (every N-th, or the key
+    /// frames only), as RGB when `want_rgb` (for whole-frame undistortion), else as
+    /// decoded (YUV planes for 8-bit 4:2:0).
+    pub fn open(path: &Path, frames: FrameSelection, want_rgb: bool) -> Result<Self, String> {
+        let stride = frames.stride();
+        let keyframes = frames == FrameSelection::Keyframes;
         let name = file_name(path);
         let (info_tx, info_rx) = sync_channel::<Result<(u32, u32, u64), String>>(1);
         let (tx, rx) = sync_channel::<Decoded>(FRAMES_AHEAD);
         let (back, back_rx) = sync_channel::<Pixels>(3);
         let path = path.to_path_buf();
         let thread =
-            std::thread::spawn(move || decode(&path, stride, want_rgb, info_tx, tx, back_rx));
+            std::thread::spawn(move || decode(&path, stride, keyframes, want_rgb, info_tx, tx, back_rx));
         match info_rx.recv() {
             Ok(Ok((w, h, frames))) => Ok(Self {
                 name,
@@ -110,6 +115,7 @@ impl VideoSource {
                 back,
                 problems: vec![],
                 thread: Some(thread),
+                keyframes,
             }),
             Ok(Err(e)) => {
                 let _ = thread.join();
@@ -128,6 +134,7 @@ impl VideoSource {
 fn decode(
     path: &Path,
     stride: u64,
+    keyframes: bool,
     want_rgb: bool,
     info_tx: SyncSender<Result<(u32, u32, u64), String>>,
     tx: SyncSender<Decoded>,
@@ -140,6 +147,9 @@ fn decode(
             return (empty_info(), DecodeStats::default());
         }
     };
+    if keyframes {
+        reader.skip_non_key_frames();
+    }
     let info = reader.info();
     let _ = info_tx.send(Ok((info.width, info.height, info.frame_count_estimate)));
     loop {
@@ -224,7 +234,11 @@ impl FrameSource for VideoSource {
         let name = self.name.clone();
         // Hang up first so a decoder still running stops at its next frame.
         let Self {
-            rx, back, thread, ..
+            rx,
+            back,
+            thread,
+            keyframes: self_keyframes,
+            ..
         } = *self;
         drop(rx);
         drop(back);
@@ -240,11 +254,16 @@ impl FrameSource for VideoSource {
                             .unwrap_or_default()
                     ));
                 }
+                // Key frames only: every packet is still read, the others are skipped.
+                let seen = if self_keyframes {
+                    stats.packets_read
+                } else {
+                    stats.frames_decoded
+                };
                 let stated = info.container_frames;
-                if stated > 0 && (stats.frames_decoded as f64) < TRUNCATION_SHARE * stated as f64 {
+                if stated > 0 && (seen as f64) < TRUNCATION_SHARE * stated as f64 {
                     problems.push(format!(
-                        "{name}: {} of the {stated} frames the container lists decoded: the file is truncated or corrupt (copy it again from the camera)",
-                        stats.frames_decoded
+                        "{name}: {seen} of the {stated} frames the container lists decoded: the file is truncated or corrupt (copy it again from the camera)"
                     ));
                 }
             }
@@ -535,13 +554,13 @@ impl FrameSource for PhotoSource {
 /// Opens a manifest item's file: a video, a photo, or a folder of photos.
 pub fn open_source(
     path: &Path,
-    stride: u64,
+    frames: FrameSelection,
     want_rgb: bool,
 ) -> Result<Box<dyn FrameSource>, String> {
     if path.is_dir() || crate::session::is_photo(path) {
         Ok(Box::new(PhotoSource::open(path)?))
     } else {
-        Ok(Box::new(VideoSource::open(path, stride, want_rgb)?))
+        Ok(Box::new(VideoSource::open(path, frames, want_rgb)?))
     }
 }
 

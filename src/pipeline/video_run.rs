@@ -9,6 +9,7 @@ use crate::calib::{Calibration, UndistortSettings, Undistorter};
 use crate::detect::ChainStart;
 use crate::io::{content_key, hash_parts};
 use crate::session::{ManifestEntry, PressureLog, SessionConfig, PRESSURE_LOG};
+use crate::video::FrameSelection;
 
 use super::cache::{Cache, ItemKey};
 use super::camera::{session_calibration, session_scale, SessionScale};
@@ -35,6 +36,8 @@ pub(super) struct VideoRun<'a> {
     log: Option<&'a PressureLog>,
     /// Hash of everything session-wide a video's result depends on.
     fingerprint: u128,
+    /// Which frames of each video are measured (`[video] frames`, `frame_stride`).
+    frames: FrameSelection,
 }
 
 impl<'a> VideoRun<'a> {
@@ -47,6 +50,13 @@ impl<'a> VideoRun<'a> {
         log: Option<&'a PressureLog>,
         notes: &mut Notes,
     ) -> Result<Self, PipelineError> {
+        // Key frames only are refused for a ramp before anything is read.
+        let frames = config
+            .frame_selection(log.is_some())
+            .map_err(|why| PipelineError::Layout {
+                path: session.join(crate::session::CONFIG),
+                why,
+            })?;
         let (calib, calibration_used) = session_calibration(session, out, config, settings, notes)?;
         let (scale, scale_used) = session_scale(session, config, &calib, notes)?;
         let log_bytes = match log {
@@ -67,6 +77,7 @@ impl<'a> VideoRun<'a> {
             &log_bytes,
         ]);
         Ok(Self {
+            frames,
             session,
             out,
             config,
@@ -192,7 +203,7 @@ impl VideoRun<'_> {
         for file in std::iter::once(&entry.file).chain(&entry.chapters) {
             let mut source = match source::open_source(
                 &session.join(file),
-                config.frame_stride,
+                self.frames,
                 config.full_frame_undistort,
             ) {
                 Ok(s) => s,
