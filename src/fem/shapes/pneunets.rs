@@ -815,7 +815,10 @@ mod tests {
         let mut xs: Vec<f64> = mesh.model.nodes.iter().map(|x| x.x).collect();
         xs.sort_by(f64::total_cmp);
         xs.dedup();
-        let thinnest = xs.windows(2).map(|w| w[1] - w[0]).fold(f64::INFINITY, f64::min);
+        let thinnest = xs
+            .windows(2)
+            .map(|w| w[1] - w[0])
+            .fold(f64::INFINITY, f64::min);
         assert!(
             thinnest >= crate::fem::mesh::FEATURE_MERGE_FRACTION * h,
             "thinnest x interval {thinnest} mm"
