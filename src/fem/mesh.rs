@@ -106,18 +106,38 @@ pub struct Part {
 /// was +2.5..+4.5% on the radius); two through, at the mesh size along, converge.
 pub const MIN_WALL_ELEMENTS: usize = 2;
 
-/// `features` sorted and deduplicated, with the number of equal parts no longer than `h`
+/// Features closer than this fraction of the mesh size are one coordinate line: a
+/// length typed to six digits (27.333333 for a sixth of 164) leaves gaps of a few
+/// micrometres between features that meant to coincide, and an element that thin is
+/// ~1e6 times stiffer than its neighbours.
+pub const FEATURE_MERGE_FRACTION: f64 = 1e-3;
+
+/// The distance below which two features are one line at mesh size `h` (never below
+/// 1e-9 mm).
+fn feature_tolerance(h: f64) -> f64 {
+    (FEATURE_MERGE_FRACTION * h).max(1e-9)
+}
+
+/// `features` sorted and deduplicated (closer than [`FEATURE_MERGE_FRACTION`] of `h` is
+/// one line), with the number of equal parts no longer than `h`
 /// each interval between them is cut into (at least `MIN_WALL_ELEMENTS` for an interval
 /// that is one of `walls` (lo, hi)); the counts are floats, which neither overflow nor
 /// allocate however small `h` is.
 fn interval_parts(features: &[f64], h: f64, walls: &[(f64, f64)]) -> (Vec<f64>, Vec<f64>) {
+    let tol = feature_tolerance(h);
     let mut features = features.to_vec();
     features.sort_by(f64::total_cmp);
-    features.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+    let last = features.last().copied();
+    features.dedup_by(|a, b| (*a - *b).abs() < tol);
+    // The outermost feature (the body's end) stays where it is, not the inner one
+    // merged with it.
+    if let (Some(end), Some(last)) = (features.last_mut(), last) {
+        *end = last;
+    }
     let is_wall = |a: f64, b: f64| {
         walls
             .iter()
-            .any(|(lo, hi)| (a - lo).abs() < 1e-9 && (b - hi).abs() < 1e-9)
+            .any(|(lo, hi)| (a - lo).abs() < tol && (b - hi).abs() < tol)
     };
     let parts = features
         .windows(2)
@@ -189,4 +209,33 @@ pub(crate) fn gravity_loads(
         }
     }
     Ok(loads)
+}
+
+#[cfg(test)]
+mod feature_tests {
+    use super::*;
+
+    /// Features a few micrometres apart (27.333333 typed for a sixth) are one line: no
+    /// interval thinner than `FEATURE_MERGE_FRACTION` of h, and the end stays at b.
+    #[test]
+    fn features_closer_than_the_merge_tolerance_are_one_line() {
+        let cases: [(&[f64], f64, f64); 3] = [
+            (&[0.0, 173.999998, 174.0], 4.0, 174.0),
+            (&[0.0, 1e-7, 10.0], 0.5, 10.0),
+            (&[0.0, 50.0, 49.9999999, 100.0], 1.0, 100.0),
+        ];
+        for (features, h, end) in cases {
+            let lines = coordinate_lines(features.to_vec(), h, &[]);
+            let thinnest = lines
+                .windows(2)
+                .map(|w| w[1] - w[0])
+                .fold(f64::INFINITY, f64::min);
+            assert!(thinnest >= 0.5 * h, "{features:?} at h = {h}: {lines:?}");
+            assert_eq!(lines.last().copied(), Some(end), "{features:?}");
+            assert_eq!(lines.first().copied(), Some(0.0), "{features:?}");
+        }
+        // Features a mesh size apart stay apart.
+        let lines = coordinate_lines(vec![0.0, 3.99, 4.0], 4.0, &[]);
+        assert_eq!(lines, vec![0.0, 3.99, 4.0]);
+    }
 }

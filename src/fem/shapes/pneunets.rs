@@ -780,6 +780,52 @@ mod tests {
         assert!((with_f2.height() - 19.5).abs() < 1e-12);
     }
 
+    /// Chambers and gaps typed to six digits (c = g = 27.333333, 2e-6 mm short of b)
+    /// mesh without a sliver element at the tip: every x line is at least
+    /// `FEATURE_MERGE_FRACTION` of h from the next, and the tip is at b.
+    #[test]
+    fn lengths_a_hair_short_of_b_mesh_without_a_sliver() {
+        let h = 4.0;
+        let cfg = ActuatorConfig {
+            geometry: Geometry {
+                chambers: 6,
+                b: 174.0,
+                i: 26.0,
+                f: 2.0,
+                m: 6.0,
+                p: 6.0,
+                r: 164.0,
+                c: 27.333333,
+                g: 27.333333,
+                d: 2.0,
+                e: 23.0,
+                l: 18.0,
+                n: 15.0,
+                top_wall: 2.0,
+                roof: 2.0,
+                ..Geometry::default()
+            },
+            mesh: MeshConfig {
+                size_mm: h,
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        let mesh = build_mesh(&cfg).unwrap();
+        let mut xs: Vec<f64> = mesh.model.nodes.iter().map(|x| x.x).collect();
+        xs.sort_by(f64::total_cmp);
+        xs.dedup();
+        let thinnest = xs
+            .windows(2)
+            .map(|w| w[1] - w[0])
+            .fold(f64::INFINITY, f64::min);
+        assert!(
+            thinnest >= crate::fem::mesh::FEATURE_MERGE_FRACTION * h,
+            "thinnest x interval {thinnest} mm"
+        );
+        assert_eq!(xs.last().copied(), Some(174.0));
+    }
+
     #[test]
     fn mesh_volume_and_cavity_volume_are_those_of_the_geometry() {
         let cfg = ActuatorConfig {

@@ -447,11 +447,13 @@ struct IterateNorms {
 
 impl IterateNorms {
     /// The residual tolerance: the largest of the relative one (to the external force),
-    /// the absolute one and a multiple of the round-off floor.
+    /// the absolute one and a multiple of the round-off floor, the last never more than
+    /// [`ROUNDOFF_CAP`] of the external force: one degenerate (very thin) element can
+    /// inflate the floor past the whole load, which then passed unbalanced.
     fn tolerance(&self, s: &NewtonSettings) -> f64 {
         (s.tolerance * self.external)
             .max(s.absolute_tolerance)
-            .max(ROUNDOFF_FACTOR * self.roundoff)
+            .max((ROUNDOFF_FACTOR * self.roundoff).min(ROUNDOFF_CAP * self.external))
     }
 
     /// Whether the iterate has converged; `Err` naming what is NaN or infinite. Every
@@ -511,6 +513,11 @@ const MAX_EXTRAPOLATION: f64 = 2.0;
 /// 3.7e-11 N against a floor of 8.7e-11 N: 16 x keeps the test ~40 x above what
 /// Newton reaches there).
 const ROUNDOFF_FACTOR: f64 = 16.0;
+
+/// The round-off part of the tolerance is at most this fraction of |f_ext|: a residual
+/// that large is an unbalanced load, not round-off (a Newton iteration that cannot get
+/// below it is cut, then reported as not converged, never passed).
+const ROUNDOFF_CAP: f64 = 1e-3;
 
 /// Largest |v_e / V_e − θ_e| of a converged state.
 const VOLUME_TOLERANCE: f64 = 1e-10;
@@ -582,6 +589,18 @@ mod tests {
             residual_finite: true,
         };
         assert_eq!(ok.converged(&s), Ok(true));
+        // A round-off floor inflated past the load (one sliver element ~1e6 times
+        // stiffer than the rest) does not pass a residual of a twentieth of the load.
+        assert_eq!(
+            IterateNorms {
+                equilibrium: 1.6,
+                external: 30.0,
+                roundoff: 7.7,
+                ..ok
+            }
+            .converged(&s),
+            Ok(false)
+        );
         assert_eq!(
             IterateNorms {
                 equilibrium: 1e-3,
