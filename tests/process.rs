@@ -143,9 +143,15 @@ fn keyframes_measure_only_key_frames_and_are_refused_for_ramps() {
     );
 
     let ramp = write_ramp_session("[video]\nframes = \"keyframes\"\n");
-    Run::new(ramp.path(), &["process", "ramp"])
-        .assert_bad_input(&["bendscope.toml", "keyframes", "ramp needs every frame"]);
-    assert!(!ramp.path().join("ramp/bendscope-out/per_frame.csv").exists());
+    Run::new(ramp.path(), &["process", "ramp"]).assert_bad_input(&[
+        "bendscope.toml",
+        "keyframes",
+        "ramp needs every frame",
+    ]);
+    assert!(!ramp
+        .path()
+        .join("ramp/bendscope-out/per_frame.csv")
+        .exists());
 }
 
 #[test]

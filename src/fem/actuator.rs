@@ -22,8 +22,8 @@ pub use super::config::{
     ActuatorConfig, Geometry, LoadConfig, MaterialConfig, MeshConfig, SolidElement, SolverConfig,
     DEFAULT_MESH_SIZE_MM, MAX_CHAMBERS, MAX_DENSITY_G_CM3, MAX_ELEMENTS,
 };
-pub use super::params::{config_table_at, parse_range};
 pub use super::mesh::{ActuatorMesh, BottomWall, Part, GRAVITY_M_S2, MIN_WALL_ELEMENTS};
+pub use super::params::{config_table_at, parse_range};
 
 impl<'de> Deserialize<'de> for ActuatorConfig {
     fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
@@ -84,7 +84,6 @@ fn check_plausible_pressures(p: &[f64]) -> Result<(), FemError> {
         None => Ok(()),
     }
 }
-
 
 impl ActuatorConfig {
     /// The config in the TOML file `path` (as `simulate --print-config` prints one), not
@@ -260,8 +259,6 @@ impl ActuatorConfig {
         Ok(super::params::config_with_number(self, name, value)?)
     }
 }
-
-
 
 /// The number of elements (hexahedra, and the tube's thread segments) a mesh of size `h`
 /// mm of `cfg` would have, counted without building it (a float: no overflow).

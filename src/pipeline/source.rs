@@ -104,8 +104,9 @@ impl VideoSource {
         let (tx, rx) = sync_channel::<Decoded>(FRAMES_AHEAD);
         let (back, back_rx) = sync_channel::<Pixels>(3);
         let path = path.to_path_buf();
-        let thread =
-            std::thread::spawn(move || decode(&path, stride, keyframes, want_rgb, info_tx, tx, back_rx));
+        let thread = std::thread::spawn(move || {
+            decode(&path, stride, keyframes, want_rgb, info_tx, tx, back_rx)
+        });
         match info_rx.recv() {
             Ok(Ok((w, h, frames))) => Ok(Self {
                 name,

@@ -51,12 +51,13 @@ impl<'a> VideoRun<'a> {
         notes: &mut Notes,
     ) -> Result<Self, PipelineError> {
         // Key frames only are refused for a ramp before anything is read.
-        let frames = config
-            .frame_selection(log.is_some())
-            .map_err(|why| PipelineError::Layout {
-                path: session.join(crate::session::CONFIG),
-                why,
-            })?;
+        let frames =
+            config
+                .frame_selection(log.is_some())
+                .map_err(|why| PipelineError::Layout {
+                    path: session.join(crate::session::CONFIG),
+                    why,
+                })?;
         let (calib, calibration_used) = session_calibration(session, out, config, settings, notes)?;
         let (scale, scale_used) = session_scale(session, config, &calib, notes)?;
         let log_bytes = match log {
