@@ -289,7 +289,7 @@ pub fn inp_from_mesh(
                 why: "smeared tension-only threads have no CalculiX equivalent: export them as a bar (false) or use fibre_model = \"line\"".into(),
             });
         }
-        let (kind, card) = if part.plate {
+        let (kind, card) = if part.plate.is_some() {
             n_shells += part.membranes.len();
             ("S4", "SHELL SECTION")
         } else {
@@ -302,7 +302,7 @@ pub fn inp_from_mesh(
             next_id += 1;
             ids.insert(i, next_id);
             let nodes = m.membranes[i].nodes;
-            if part.plate {
+            if part.plate.is_some() {
                 shell_nodes.extend(nodes);
             }
             let _ = writeln!(s, "{next_id}, {}", join_ids(nodes.iter().map(|n| n + 1)));

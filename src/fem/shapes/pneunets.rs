@@ -32,8 +32,8 @@ use crate::fem::layer::{LayerConfig, LayerElement};
 use crate::fem::material::MaterialPreset;
 use crate::fem::membrane::MembraneElement;
 use crate::fem::mesh::{
-    coordinate_line_count, coordinate_lines, gravity_loads, ActuatorMesh, BottomWall, Part,
-    MIN_WALL_ELEMENTS,
+    attach_plates, coordinate_line_count, coordinate_lines, gravity_loads, ActuatorMesh,
+    BottomWall, Part, MIN_WALL_ELEMENTS,
 };
 use crate::fem::plate::Mirror;
 use crate::fem::pressure::CLOSED;
@@ -651,7 +651,7 @@ pub fn build_pneunets(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
         tensile_strength_mpa: Some(cfg.material.tensile_strength_mpa),
         solid_material: Some(0),
         membranes: Vec::new(),
-        plate: false,
+        plate: None,
         trusses: Vec::new(),
     }];
     let mut solid_id = 0u8;
@@ -665,7 +665,7 @@ pub fn build_pneunets(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
             tensile_strength_mpa: layer.tensile_strength_mpa,
             solid_material,
             membranes,
-            plate: layer.element == LayerElement::Plate,
+            plate: None,
             trusses: Vec::new(),
         });
     }
@@ -696,12 +696,7 @@ pub fn build_pneunets(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
     }
     // The half model's symmetry plane y = 0 mirrors a sheet.
     let mirror = [Mirror { axis: 1, at: 0.0 }];
-    let plates = cfg
-        .layer
-        .iter()
-        .zip(&parts[1..])
-        .flat_map(|(layer, part)| layer.plate_terms(&nodes, &membranes, &part.membranes, &mirror))
-        .collect();
+    let plates = attach_plates(&cfg.layer, &mut parts[1..], &nodes, &membranes, &mirror);
     Ok(ActuatorMesh {
         model: Model {
             nodes,
