@@ -892,7 +892,7 @@ mod tests {
         assert_eq!(text.matches("*ELEMENT, TYPE=S4, ELSET=PLA").count(), 1);
         assert_eq!(text.matches("*MEMBRANE SECTION").count(), 1);
         assert!(text.contains("*MEMBRANE SECTION, ELSET=FABRIC, MATERIAL=FABRIC\n1.000000000e-1"));
-        assert!(text.contains("*SHELL SECTION, ELSET=PLA, MATERIAL=PLA\n5.000000000e-1"));
+        assert!(text.contains("*SHELL SECTION, ELSET=PLA, MATERIAL=PLA\n1.000000000e0"));
         assert!(text.contains("EALL, GRAV, 9806.650000, 1.000000000, 0.000000000, 0.000000000"));
         assert!(text.contains("*NSET, NSET=SYMMETRY") && summary.springs == 0);
 
