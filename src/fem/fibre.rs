@@ -42,10 +42,10 @@ use nalgebra::{Vector2, Vector3};
 pub use super::config::tube::{FibreModel, TubeConfig, Winding};
 use super::config::ActuatorConfig;
 use super::hex::C3D8_FACES;
-use super::layer::LayerElement;
 use super::membrane::{Fibres, MembraneElement, MembraneSection};
 use super::mesh::{
-    coordinate_line_count, coordinate_lines, gravity_loads, ActuatorMesh, BottomWall, Part,
+    attach_plates, coordinate_line_count, coordinate_lines, gravity_loads, ActuatorMesh,
+    BottomWall, Part,
 };
 use super::plate::Mirror;
 use super::pressure::CLOSED;
@@ -617,7 +617,7 @@ fn mesh_tube(cfg: &ActuatorConfig, half: bool) -> Result<ActuatorMesh, FemError>
             tensile_strength_mpa: Some(cfg.material.tensile_strength_mpa),
             solid_material: Some(0),
             membranes: Vec::new(),
-            plate: false,
+            plate: None,
             trusses: Vec::new(),
         },
         Part {
@@ -625,7 +625,7 @@ fn mesh_tube(cfg: &ActuatorConfig, half: bool) -> Result<ActuatorMesh, FemError>
             tensile_strength_mpa: Some(t.outer_material.tensile_strength_mpa),
             solid_material: Some(1),
             membranes: Vec::new(),
-            plate: false,
+            plate: None,
             trusses: Vec::new(),
         },
         Part {
@@ -633,7 +633,7 @@ fn mesh_tube(cfg: &ActuatorConfig, half: bool) -> Result<ActuatorMesh, FemError>
             tensile_strength_mpa: Some(t.fibre_strength_mpa),
             solid_material: None,
             membranes: fibre_membranes,
-            plate: false,
+            plate: None,
             trusses: (0..trusses.len()).collect(),
         },
     ];
@@ -643,7 +643,7 @@ fn mesh_tube(cfg: &ActuatorConfig, half: bool) -> Result<ActuatorMesh, FemError>
             tensile_strength_mpa: layer.tensile_strength_mpa,
             solid_material: None,
             membranes,
-            plate: layer.element == LayerElement::Plate,
+            plate: None,
             trusses: Vec::new(),
         });
     }
@@ -652,11 +652,13 @@ fn mesh_tube(cfg: &ActuatorConfig, half: bool) -> Result<ActuatorMesh, FemError>
     } else {
         &[]
     };
-    let plates = strips
-        .iter()
-        .zip(&parts[3..])
-        .flat_map(|(layer, part)| layer.plate_terms(&nodes, &membranes, &part.membranes, mirrors))
-        .collect();
+    let plates = attach_plates(
+        strips.iter().copied(),
+        &mut parts[3..],
+        &nodes,
+        &membranes,
+        mirrors,
+    );
     Ok(compact(ActuatorMesh {
         model: Model {
             nodes,

@@ -289,7 +289,7 @@ pub fn inp_from_mesh(
                 why: "smeared tension-only threads have no CalculiX equivalent: export them as a bar (false) or use fibre_model = \"line\"".into(),
             });
         }
-        let (kind, card) = if part.plate {
+        let (kind, card) = if part.plate.is_some() {
             n_shells += part.membranes.len();
             ("S4", "SHELL SECTION")
         } else {
@@ -302,7 +302,7 @@ pub fn inp_from_mesh(
             next_id += 1;
             ids.insert(i, next_id);
             let nodes = m.membranes[i].nodes;
-            if part.plate {
+            if part.plate.is_some() {
                 shell_nodes.extend(nodes);
             }
             let _ = writeln!(s, "{next_id}, {}", join_ids(nodes.iter().map(|n| n + 1)));
@@ -892,7 +892,7 @@ mod tests {
         assert_eq!(text.matches("*ELEMENT, TYPE=S4, ELSET=PLA").count(), 1);
         assert_eq!(text.matches("*MEMBRANE SECTION").count(), 1);
         assert!(text.contains("*MEMBRANE SECTION, ELSET=FABRIC, MATERIAL=FABRIC\n1.000000000e-1"));
-        assert!(text.contains("*SHELL SECTION, ELSET=PLA, MATERIAL=PLA\n5.000000000e-1"));
+        assert!(text.contains("*SHELL SECTION, ELSET=PLA, MATERIAL=PLA\n1.000000000e0"));
         assert!(text.contains("EALL, GRAV, 9806.650000, 1.000000000, 0.000000000, 0.000000000"));
         assert!(text.contains("*NSET, NSET=SYMMETRY") && summary.springs == 0);
 

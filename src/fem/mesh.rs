@@ -7,6 +7,9 @@ use nalgebra::Vector3;
 use super::config::ActuatorConfig;
 use super::contact::ContactPair;
 use super::hex::{nodal_volumes, HexGeometry};
+use super::layer::{LayerConfig, LayerElement};
+use super::membrane::MembraneElement;
+use super::plate::{Mirror, PlateTerm};
 use super::solve::Model;
 use super::FemError;
 
@@ -93,10 +96,47 @@ pub struct Part {
     /// Membrane elements (indices into [`Model::membranes`]).
     pub membranes: Vec<usize>,
     /// The membranes carry the sheet's bending stiffness ([`Model::plates`], a layer
-    /// with `element = "plate"`).
-    pub plate: bool,
+    /// with `element = "plate"`): its section and its terms there.
+    pub plate: Option<PlateSection>,
     /// Fibre segments (indices into [`Model::trusses`]).
     pub trusses: Vec<usize>,
+}
+
+/// A plate part's section and its bending terms in [`Model::plates`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlateSection {
+    /// Thickness, mm.
+    pub thickness_mm: f64,
+    /// Young's modulus, MPa.
+    pub youngs_modulus_mpa: f64,
+    /// Poisson's ratio.
+    pub poisson_ratio: f64,
+    /// Its terms, indices into [`Model::plates`].
+    pub terms: std::ops::Range<usize>,
+}
+
+/// The bending terms of the sheets `layers` (one per part of `parts`, in order) on the
+/// membranes `membranes`, mirrored at `mirrors`: each plate part is told its section and
+/// where its terms are.
+pub fn attach_plates<'a>(
+    layers: impl IntoIterator<Item = &'a LayerConfig>,
+    parts: &mut [Part],
+    nodes: &[Vector3<f64>],
+    membranes: &[MembraneElement],
+    mirrors: &[Mirror],
+) -> Vec<PlateTerm> {
+    let mut plates = Vec::new();
+    for (layer, part) in layers.into_iter().zip(parts) {
+        let start = plates.len();
+        plates.extend(layer.plate_terms(nodes, membranes, &part.membranes, mirrors));
+        part.plate = (layer.element == LayerElement::Plate).then(|| PlateSection {
+            thickness_mm: layer.thickness_mm,
+            youngs_modulus_mpa: layer.youngs_modulus_mpa,
+            poisson_ratio: layer.poisson_ratio,
+            terms: start..plates.len(),
+        });
+    }
+    plates
 }
 
 /// Least number of elements through every wall (side walls beside the chambers and the

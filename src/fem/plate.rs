@@ -33,6 +33,17 @@ use super::membrane::{MembraneElement, MembraneGeometry};
 /// Nodes of one bending term: a node and its neighbours on up to two grid lines.
 pub const PLATE_NODES: usize = 5;
 
+/// What a bending term's second derivative is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum Curvature {
+    /// x,αα along one grid line through a node.
+    Line,
+    /// x,₁₁ + x,₂₂ at a node.
+    Sum,
+    /// x,₁₂ of a quad.
+    Twist,
+}
+
 /// One bending term: energy ½ k |Σ_j w_j ⊙ u_j|² (u the nodal displacements, w_j a
 /// weight per displacement component: a mirrored neighbour's normal component drops).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -43,6 +54,8 @@ pub struct PlateTerm {
     pub weights: [[f64; 3]; PLATE_NODES],
     /// D times the term's area (and its factor ν, 1 − ν or 2 (1 − ν)), N mm³.
     pub stiffness: f64,
+    /// The second derivative it measures.
+    pub curvature: Curvature,
 }
 
 impl PlateTerm {
@@ -83,11 +96,12 @@ impl PlateTerm {
         }
     }
 
-    fn new(stencil: &[(usize, [f64; 3])], stiffness: f64) -> Self {
+    fn new(stencil: &[(usize, [f64; 3])], stiffness: f64, curvature: Curvature) -> Self {
         let mut term = Self {
             nodes: [stencil[0].0; PLATE_NODES],
             weights: [[0.0; 3]; PLATE_NODES],
             stiffness,
+            curvature,
         };
         for (k, (node, w)) in stencil.iter().take(PLATE_NODES).enumerate() {
             term.nodes[k] = *node;
@@ -95,6 +109,28 @@ impl PlateTerm {
         }
         term
     }
+}
+
+/// The largest surface bending stress of a plate's `terms` at displacements `u`, MPa:
+/// E t / (2 (1 − ν²)) times the largest curvature along a grid line plus the largest
+/// twist, an upper estimate of the principal bending stress (exact for a cylindrical
+/// bend along a grid line).
+pub fn surface_bending_stress(
+    terms: &[PlateTerm],
+    u: &[f64],
+    thickness_mm: f64,
+    youngs_modulus_mpa: f64,
+    poisson_ratio: f64,
+) -> f64 {
+    let largest = |kind: Curvature| {
+        terms
+            .iter()
+            .filter(|t| t.curvature == kind)
+            .map(|t| t.value(u).norm())
+            .fold(0.0, f64::max)
+    };
+    let kappa = largest(Curvature::Line) + largest(Curvature::Twist);
+    youngs_modulus_mpa * thickness_mm / (2.0 * (1.0 - poisson_ratio * poisson_ratio)) * kappa
 }
 
 /// Bending stiffness per unit width of a plate, N mm.
@@ -145,7 +181,11 @@ pub fn plate_terms(
             .zip([w, -w, w, -w])
             .map(|(n, s)| (*n, [s; 3]))
             .collect();
-        terms.push(PlateTerm::new(&twist, 2.0 * (1.0 - nu) * d * a));
+        terms.push(PlateTerm::new(
+            &twist,
+            2.0 * (1.0 - nu) * d * a,
+            Curvature::Twist,
+        ));
         for k in 0..4 {
             *area.entry(q[k]).or_default() += 0.25 * a;
             for other in [q[(k + 1) % 4], q[(k + 3) % 4]] {
@@ -193,7 +233,7 @@ pub fn plate_terms(
         let a = area[&n];
         match lines.as_slice() {
             [] => {}
-            [one] => terms.push(PlateTerm::new(one, d * a)),
+            [one] => terms.push(PlateTerm::new(one, d * a, Curvature::Line)),
             [first, second, ..] => {
                 let mut both = first.clone();
                 for (node, w) in second {
@@ -205,9 +245,9 @@ pub fn plate_terms(
                         both.push((*node, *w));
                     }
                 }
-                terms.push(PlateTerm::new(&both, nu * d * a));
-                terms.push(PlateTerm::new(first, (1.0 - nu) * d * a));
-                terms.push(PlateTerm::new(second, (1.0 - nu) * d * a));
+                terms.push(PlateTerm::new(&both, nu * d * a, Curvature::Sum));
+                terms.push(PlateTerm::new(first, (1.0 - nu) * d * a, Curvature::Line));
+                terms.push(PlateTerm::new(second, (1.0 - nu) * d * a, Curvature::Line));
             }
         }
     }
@@ -277,6 +317,15 @@ mod tests {
             "energy {e} against {expect} ({:+.3}%)",
             100.0 * (e / expect - 1.0)
         );
+        // Its surfaces: E t / (2 (1 - nu^2)) / R, the chord's second difference within
+        // (h / R)^2 / 12 of 1 / R; rigid motion none.
+        let sigma = surface_bending_stress(&terms, &u, 0.5, 6500.0, 0.22);
+        let want = 6500.0 * 0.5 / (2.0 * (1.0 - 0.22 * 0.22)) / r;
+        assert!(
+            (sigma / want - 1.0).abs() < 1e-3,
+            "bending stress {sigma} against {want}"
+        );
+        assert!(surface_bending_stress(&terms, &vec![0.0; u.len()], 0.5, 6500.0, 0.22) == 0.0);
     }
 
     /// Force and tangent are the energy's gradient and Hessian (central differences).

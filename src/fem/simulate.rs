@@ -13,6 +13,7 @@ use serde::{Deserialize, Serialize};
 use super::actuator::ActuatorMesh;
 use super::contact::{min_gap_mm, ContactConfig};
 use super::membrane::{membrane_stress, MembraneGeometry};
+use super::plate::surface_bending_stress;
 use super::solve::{LoadState, NewtonSettings, Solver};
 use super::truss::truss_strain_stress;
 use super::FemError;
@@ -70,7 +71,8 @@ pub struct PartStress {
     /// The part ([`super::actuator::Part`]).
     pub name: String,
     /// Largest first principal stress, MPa (Cauchy for solids; the membranes' and
-    /// fibres' second Piola-Kirchhoff stress, equal at their small strains).
+    /// fibres' second Piola-Kirchhoff stress, equal at their small strains; a plate's
+    /// with its surface bending stress added).
     pub max_principal_stress_mpa: f64,
     /// Tensile strength / that stress (NaN without a strength).
     pub safety_factor: f64,
@@ -417,6 +419,20 @@ pub fn part_stresses(
                         (0.25 * (s[0] - s[1]).powi(2) + s[2] * s[2]).sqrt(),
                     );
                     max = max.max(m + r);
+                }
+            }
+            // A plate's surfaces carry its bending stress beside the membrane stress (an
+            // upper estimate: the largest of each, added).
+            if let Some(p) = &part.plate {
+                let bending = surface_bending_stress(
+                    &model.plates[p.terms.clone()],
+                    u,
+                    p.thickness_mm,
+                    p.youngs_modulus_mpa,
+                    p.poisson_ratio,
+                );
+                if max.is_finite() {
+                    max += bending;
                 }
             }
             for &k in &part.trusses {
