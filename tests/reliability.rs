@@ -1125,6 +1125,7 @@ fn wide_session() -> &'static (PathBuf, SessionTruth) {
             calib_views: 3,
             calib_view_reach: 1.0,
             scale_square_mm: 8.0,
+            scale_board_offset_mm: Some(0.0),
             distractor: false,
             supersample: 2,
             look: FrameLook::default(),
