@@ -762,7 +762,15 @@ fn no_scale_photo_is_refused() {
     let c = Case::example();
     c.remove("scale.jpg");
     let run = c.run();
-    c.refused(&run, &["no scale photo", "put scale.jpg", "mm_per_px"]);
+    c.refused(
+        &run,
+        &[
+            "no scale photo",
+            "put scale.jpg",
+            "mm_per_px",
+            "[scale_markers]",
+        ],
+    );
 }
 
 #[test]

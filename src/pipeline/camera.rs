@@ -249,7 +249,7 @@ pub(super) fn session_scale(
     }
     let img = find_scale_image(session, config).ok_or_else(|| PipelineError::Layout {
         path: session.to_path_buf(),
-        why: "no scale photo: put scale.jpg (a board lying in the actuator plane) in the session, or set mm_per_px (or scale, a file saved by `bendscope scale --save`) in bendscope.toml".into(),
+        why: "no scale photo: put scale.jpg (a board lying in the actuator plane) in the session, or set mm_per_px (or scale, a file saved by `bendscope scale --save`, or [scale_markers] spacing_mm, the markers' rest spacing measured in a 0 kPa video) in bendscope.toml".into(),
     })?;
     let b = config.scale_board;
     let board = Board::new(b.cols, b.rows, b.square_mm)?;
