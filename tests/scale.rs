@@ -160,8 +160,8 @@ fn a_board_off_the_marker_plane_is_carried_to_it_by_offset_mm() {
 }
 
 /// No board: `[scale_markers] spacing_mm` with the 0 kPa video gives every radius within
-/// 0.3% of the truth; a scale photo beside it is not used and a warning says so; without
-/// a 0 kPa video the run is refused in one line.
+/// 0.3% of the truth; a scale photo beside it is not used and a warning says so; a ramp,
+/// or a session without a 0 kPa video, is refused in one line.
 #[test]
 fn the_markers_at_rest_give_the_scale_without_a_board() {
     let dir = tempfile::tempdir().unwrap();
@@ -211,6 +211,23 @@ fn the_markers_at_rest_give_the_scale_without_a_board() {
     );
     assert_eq!(scale_json(d, "rest")["kind"], "markers");
     fs::remove_file(s.join("scale.jpg")).unwrap();
+
+    // A ramp (one video, a pressure log) has no 0 kPa item: refused in one line.
+    let ramp = d.join("ramp");
+    fs::create_dir(&ramp).unwrap();
+    fs::copy(s.join("GX010102.MP4"), ramp.join("ramp.mp4")).unwrap();
+    fs::write(
+        ramp.join("pressure_log.csv"),
+        "time_s,pressure_kpa\n0,0\n1,50\n",
+    )
+    .unwrap();
+    fs::copy(d.join("rest.yaml"), d.join("ramp.yaml")).unwrap();
+    fs::write(
+        ramp.join("bendscope.toml"),
+        "[scale_markers]\nspacing_mm = 12.5\n",
+    )
+    .unwrap();
+    process(d, "ramp").assert_bad_input(&["[scale_markers]", "a ramp has none", "scale board"]);
 
     // No 0 kPa video: refused before anything is measured.
     let manifest = fs::read_to_string(s.join("pressures.csv")).unwrap();
