@@ -21,6 +21,11 @@
 //! homography the tilted and the perpendicular plane agree (see the README's robustness
 //! table).
 //!
+//! A board parallel to the actuator plane but a few mm in front of it or behind it
+//! ([`scale_from_offset_board_photo`]): the board's pose from its homography and the
+//! undistorted view's camera matrix gives its plane's distance d, and the scale and
+//! homography are carried to the parallel plane at d + offset ([`parallel_plane`]).
+//!
 //! A scale saved with `bendscope scale --save` ([`read_scale_file`]) can be given to
 //! `process` (`scale = "FILE"` in bendscope.toml): its mm/px and homography are used as
 //! they are, so it must have been measured with the calibration `process` uses.
