@@ -21,6 +21,11 @@
 //! homography the tilted and the perpendicular plane agree (see the README's robustness
 //! table).
 //!
+//! A board parallel to the actuator plane but a few mm in front of it or behind it
+//! ([`scale_from_offset_board_photo`]): the board's pose from its homography and the
+//! undistorted view's camera matrix gives its plane's distance d, and the scale and
+//! homography are carried to the parallel plane at d + offset ([`parallel_plane`]).
+//!
 //! A scale saved with `bendscope scale --save` ([`read_scale_file`]) can be given to
 //! `process` (`scale = "FILE"` in bendscope.toml): its mm/px and homography are used as
 //! they are, so it must have been measured with the calibration `process` uses.
@@ -74,6 +79,16 @@ pub enum ScaleError {
         /// What is wrong.
         why: String,
     },
+    /// A board plane offset that would put the marker plane at or behind the camera.
+    #[error("{path}: offset_mm = {offset_mm} but the board lies {distance_mm:.1} mm from the camera: the offset must be smaller than that distance (it is the few mm between the board's plane and the marker plane; + when the board is in front)")]
+    Offset {
+        /// The photo.
+        path: PathBuf,
+        /// The offset given, mm.
+        offset_mm: f64,
+        /// The board plane's distance from the camera, mm.
+        distance_mm: f64,
+    },
     /// A nonsense number.
     #[error("{what} must be a positive finite number, got {value}")]
     NotPositive {
@@ -119,6 +134,19 @@ pub struct Scale {
     /// files saved before the board was recorded.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub board: Option<ScaleBoard>,
+    /// Distance of the board's plane from the camera along its normal, mm, from the
+    /// board's pose (board method).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub board_distance_mm: Option<f64>,
+    /// How far the board's plane lay in front of the marker plane (negative: behind), mm:
+    /// `mm_per_px` and `plane_from_px` are the marker plane's, carried there from the
+    /// board's plane.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub offset_mm: f64,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 /// The board a scale was measured from. mm/px is proportional to `square_mm`, so whether
@@ -165,6 +193,8 @@ pub fn scale_from_fov(fov_mm: f64, width_px: u32, height_px: u32) -> Result<Scal
         calibration_rescaled_from: None,
         plane_from_px: None,
         board: None,
+        board_distance_mm: None,
+        offset_mm: 0.0,
     })
 }
 
@@ -241,6 +271,26 @@ pub fn scale_from_board_photo(
     board: &Board,
     undistort: UndistortSettings,
 ) -> Result<Scale, ScaleError> {
+    scale_from_offset_board_photo(path, calib, board, undistort, 0.0)
+}
+
+/// [`scale_from_board_photo`] for a board whose plane lies `offset_mm` in front of the
+/// marker plane (negative: behind), parallel to it: the scale and homography are carried
+/// to the marker plane through the board's pose ([`parallel_plane`]). An offset not
+/// smaller than the board's distance from the camera is [`ScaleError::Offset`].
+pub fn scale_from_offset_board_photo(
+    path: &Path,
+    calib: &Calibration,
+    board: &Board,
+    undistort: UndistortSettings,
+    offset_mm: f64,
+) -> Result<Scale, ScaleError> {
+    if !offset_mm.is_finite() {
+        return Err(ScaleError::NotPositive {
+            what: "finite board plane offset (mm)",
+            value: offset_mm,
+        });
+    }
     let gray = read_gray(path)?;
     let (w, h) = (
         opencv::prelude::MatTraitConst::cols(&gray) as u32,
@@ -267,8 +317,29 @@ pub fn scale_from_board_photo(
         });
     }
     let flat = und.undistort_points(&corners)?;
-    let (mm_per_px, spread) = scale_from_corners(&flat, board)?;
-    let plane_from_px = Some(plane_homography(&flat, board)?);
+    let (board_mm_per_px, spread) = scale_from_corners(&flat, board)?;
+    let board_plane = plane_homography(&flat, board)?;
+    let pose = parallel_plane(&board_plane, &und.new_camera_matrix(), offset_mm);
+    let (mm_per_px, plane_from_px, board_distance_mm) = match pose {
+        // In the marker plane: the board's own scale and homography, as measured.
+        _ if offset_mm == 0.0 => (board_mm_per_px, Some(board_plane), pose.map(|p| p.0)),
+        Some((d, h)) if offset_mm.abs() < d => {
+            (board_mm_per_px * (d + offset_mm) / d, Some(h), Some(d))
+        }
+        Some((d, _)) => {
+            return Err(ScaleError::Offset {
+                path: path.to_path_buf(),
+                offset_mm,
+                distance_mm: d,
+            })
+        }
+        None => {
+            return Err(ScaleError::NotPositive {
+                what: "board distance from its pose (mm)",
+                value: f64::NAN,
+            })
+        }
+    };
     Ok(Scale {
         mm_per_px,
         method: ScaleMethod::Board,
@@ -283,7 +354,44 @@ pub fn scale_from_board_photo(
             square_mm: board.square_mm,
             square_mm_given: true,
         }),
+        board_distance_mm,
+        offset_mm,
     })
+}
+
+/// The pose of the plane a board homography `plane_from_px` (undistorted px -> board
+/// mm, row-major) sees through the undistorted view's camera matrix `k`: the plane's
+/// distance from the camera along its normal, and the homography of the parallel plane
+/// `offset_mm` farther from the camera, in the board's axes moved along the normal
+/// (both planes' mm agree up to that move). With G = H^-1 = s K [r1 r2 t], the plane
+/// moved by o along its normal n is s K [r1 r2 t + o n]. `None` when the homography
+/// is degenerate.
+pub fn parallel_plane(
+    plane_from_px: &[f64; 9],
+    k: &nalgebra::Matrix3<f64>,
+    offset_mm: f64,
+) -> Option<(f64, [f64; 9])> {
+    use nalgebra::{Matrix3, Vector3};
+    let h = Matrix3::from_row_slice(plane_from_px);
+    let m = k.try_inverse()? * h.try_inverse()?;
+    let (m1, m2, m3): (Vector3<f64>, Vector3<f64>, Vector3<f64>) =
+        (m.column(0).into(), m.column(1).into(), m.column(2).into());
+    // The scale s, its sign putting the board's origin in front of the camera.
+    let s = 0.5 * (m1.norm() + m2.norm()) * m3.z.signum();
+    let (r1, r2, t) = (m1 / s, m2 / s, m3 / s);
+    let mut n = r1.cross(&r2).try_normalize(1e-12)?;
+    if n.dot(&t) < 0.0 {
+        n = -n;
+    }
+    let d = n.dot(&t);
+    if !(d.is_finite() && d > 0.0) {
+        return None;
+    }
+    let moved = Matrix3::from_columns(&[m1, m2, m3 + n * (s * offset_mm)]);
+    let out = (k * moved).try_inverse()?;
+    let out = out / out[(2, 2)];
+    let flat: [f64; 9] = std::array::from_fn(|i| out[(i / 3, i % 3)]);
+    flat.iter().all(|v| v.is_finite()).then_some((d, flat))
 }
 
 /// Homography from undistorted px to board mm (row-major) from the corners of `board`
@@ -370,6 +478,37 @@ mod tests {
         let (mm, spread) = scale_from_corners(&pts, &b).unwrap();
         assert!((mm - 0.5).abs() < 1e-12);
         assert!(spread < 1e-12);
+    }
+
+    #[test]
+    fn a_parallel_plane_is_found_through_the_board_pose() {
+        use nalgebra::{Matrix3, Rotation3, Vector3};
+        let k = Matrix3::new(800.0, 0.0, 320.5, 0.0, 810.0, 240.2, 0.0, 0.0, 1.0);
+        // A board tilted a few degrees, its origin 150 mm away.
+        let r = Rotation3::from_euler_angles(0.05, -0.08, 0.3);
+        let t = Vector3::new(-30.0, -20.0, 150.0);
+        let n = r * Vector3::z();
+        let d = n.dot(&t);
+        let project = |p: Vector3<f64>| {
+            let q = k * p;
+            Point2::new(q.x / q.z, q.y / q.z)
+        };
+        let g = k * Matrix3::from_columns(&[r * Vector3::x(), r * Vector3::y(), t]);
+        let h = g.try_inverse().unwrap() * 3.7;
+        let h: [f64; 9] = std::array::from_fn(|i| h[(i / 3, i % 3)]);
+        for offset in [0.0, 3.0, -3.0, 40.0] {
+            let (dist, moved) = parallel_plane(&h, &k, offset).unwrap();
+            assert!((dist - d).abs() < 1e-9 * d, "{dist} vs {d}");
+            // Points of the parallel plane come back to their plane mm.
+            for (u, v) in [(0.0, 0.0), (50.0, 10.0), (-20.0, 35.0)] {
+                let x = r * Vector3::new(u, v, 0.0) + t + n * offset;
+                let mm = apply_homography(&moved, project(x));
+                assert!(
+                    (mm.x - u).abs() < 1e-8 && (mm.y - v).abs() < 1e-8,
+                    "{offset}: {mm}"
+                );
+            }
+        }
     }
 
     #[test]

@@ -32,6 +32,7 @@ fn a_session_calibrated_in_the_centre_only_is_measured_inside_its_field() {
         calib_views: 12,
         calib_view_reach: CALIB_REACH,
         scale_square_mm: 10.0,
+        scale_board_offset_mm: Some(0.0),
         distractor: false,
         supersample: 2,
         look: FrameLook::default(),

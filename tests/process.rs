@@ -286,6 +286,7 @@ fn an_extra_red_object_is_ignored_and_counted() {
         calib_views: 3,
         calib_view_reach: 1.0,
         scale_square_mm: 8.0,
+        scale_board_offset_mm: Some(0.0),
         distractor: true,
         supersample: 2,
         look: FrameLook::default(),

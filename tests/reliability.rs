@@ -762,7 +762,15 @@ fn no_scale_photo_is_refused() {
     let c = Case::example();
     c.remove("scale.jpg");
     let run = c.run();
-    c.refused(&run, &["no scale photo", "put scale.jpg", "mm_per_px"]);
+    c.refused(
+        &run,
+        &[
+            "no scale photo",
+            "put scale.jpg",
+            "mm_per_px",
+            "[scale_markers]",
+        ],
+    );
 }
 
 #[test]
@@ -1125,6 +1133,7 @@ fn wide_session() -> &'static (PathBuf, SessionTruth) {
             calib_views: 3,
             calib_view_reach: 1.0,
             scale_square_mm: 8.0,
+            scale_board_offset_mm: Some(0.0),
             distractor: false,
             supersample: 2,
             look: FrameLook::default(),

@@ -1,6 +1,7 @@
 //! The camera of a video session: its calibration (given, or calib/ calibrated and
 //! cached by content) and its scale (mm per undistorted px: from the settings, a scale
-//! file or the scale photo), each with where it came from for session.json.
+//! file, the markers at rest or the scale photo), each with where it came from for
+//! session.json.
 
 use std::path::{Path, PathBuf};
 
@@ -8,11 +9,15 @@ use crate::calib::corners::{detect_views, DetectSettings as CornerSettings, View
 use crate::calib::file::{read_calibration, write_calibration};
 use crate::calib::{calibrate, Board, Calibration, CalibrationSettings, UndistortSettings};
 use crate::io::{content_key, hash_parts, write_atomic};
-use crate::scale::{read_scale_file, scale_from_board_photo, ScaleBoard, ScaleError};
-use crate::session::{find_scale_image, SessionConfig, CONFIG, IMAGE_EXTENSIONS};
+use crate::scale::{read_scale_file, scale_from_offset_board_photo, ScaleBoard, ScaleError};
+use crate::session::{find_scale_image, ManifestEntry, SessionConfig, CONFIG, IMAGE_EXTENSIONS};
+use crate::video::FrameSelection;
 
 use super::error::{write_err, PipelineError};
-use super::provenance::{CalibrationSource, CalibrationUsed, ScaleSource, ScaleUsed};
+use super::provenance::{
+    BoardPlane, CalibrationSource, CalibrationUsed, RestUsed, ScaleSource, ScaleUsed,
+};
+use super::rest_scale::{rest_entry, scale_from_rest};
 use super::run::{Notes, ProcessSettings};
 
 /// Removes `path` when it exists.
@@ -167,13 +172,23 @@ pub(super) struct SessionScale {
     pub(super) plane_from_px: Option<[f64; 9]>,
 }
 
+/// The items of a session the scale may be measured on: a step session's manifest
+/// entries (`None`: a ramp) and the frames measured of each.
+pub(super) struct ScaleItems<'a> {
+    pub(super) entries: Option<&'a [ManifestEntry]>,
+    pub(super) frames: FrameSelection,
+}
+
 /// The session's scale and where it came from: `mm_per_px` in the settings, else a
-/// scale file (`scale`), else the scale photo measured with `[scale_board]`. Warns when
-/// the board's square size was never given (mm/px is proportional to it).
+/// scale file (`scale`), else the markers at rest (`[scale_markers]`, which wins over a
+/// scale photo, with a warning), else the scale photo measured with `[scale_board]`
+/// (carried to the marker plane when `offset_mm` is set). Warns when the board's square
+/// size was never given (mm/px is proportional to it).
 pub(super) fn session_scale(
     session: &Path,
     config: &SessionConfig,
     calib: &Calibration,
+    items: ScaleItems,
     notes: &mut Notes,
 ) -> Result<(SessionScale, ScaleUsed), PipelineError> {
     if let Some(m) = config.mm_per_px {
@@ -184,6 +199,9 @@ pub(super) fn session_scale(
             image_width: calib.image_width,
             board: None,
             plane_from_px: None,
+            kind: ScaleUsed::kind_of(ScaleSource::MmPerPx, 0.0),
+            board_plane: None,
+            rest: None,
         };
         let scale = SessionScale {
             mm_per_px: m,
@@ -220,32 +238,51 @@ pub(super) fn session_scale(
             image_width: s.image_width,
             board: s.board,
             plane_from_px: s.plane_from_px,
+            kind: ScaleUsed::kind_of(ScaleSource::ScaleFile, 0.0),
+            board_plane: None,
+            rest: None,
         };
         return Ok((scale, used));
     }
+    if config.scale_markers.is_some() {
+        return markers_scale(session, config, calib, items, notes);
+    }
     let img = find_scale_image(session, config).ok_or_else(|| PipelineError::Layout {
         path: session.to_path_buf(),
-        why: "no scale photo: put scale.jpg (a board lying in the actuator plane) in the session, or set mm_per_px (or scale, a file saved by `bendscope scale --save`) in bendscope.toml".into(),
+        why: "no scale photo: put scale.jpg (a board lying in the actuator plane) in the session, or set mm_per_px (or scale, a file saved by `bendscope scale --save`, or [scale_markers] spacing_mm, the markers' rest spacing measured in a 0 kPa video) in bendscope.toml".into(),
     })?;
     let b = config.scale_board;
     let board = Board::new(b.cols, b.rows, b.square_mm)?;
-    let s = scale_from_board_photo(&img, calib, &board, UndistortSettings::default()).map_err(
-        |source| match source {
-            // The scale command's advice names its --board flag; process reads the
-            // board from the settings.
-            ScaleError::NoBoard { .. } => PipelineError::Layout {
-                path: img.clone(),
-                why: source
-                    .to_string()
-                    .replace(&format!("{}: ", img.display()), "")
-                    .replace("--board", &format!("[scale_board] in {CONFIG}")),
-            },
-            source => PipelineError::Scale {
-                path: img.clone(),
-                source,
-            },
+    let s = scale_from_offset_board_photo(
+        &img,
+        calib,
+        &board,
+        UndistortSettings::default(),
+        b.offset_mm,
+    )
+    .map_err(|source| match source {
+        // The scale command's advice names its --board flag; process reads the
+        // board from the settings.
+        ScaleError::NoBoard { .. } => PipelineError::Layout {
+            path: img.clone(),
+            why: source
+                .to_string()
+                .replace(&format!("{}: ", img.display()), "")
+                .replace("--board", &format!("[scale_board] in {CONFIG}")),
         },
-    )?;
+        // An offset beyond the board's distance: the key to fix, in one line.
+        ScaleError::Offset { .. } => PipelineError::Layout {
+            path: img.clone(),
+            why: source
+                .to_string()
+                .replace(&format!("{}: ", img.display()), "")
+                .replace("offset_mm", &format!("[scale_board] offset_mm in {CONFIG}")),
+        },
+        source => PipelineError::Scale {
+            path: img.clone(),
+            source,
+        },
+    })?;
     if !config.scale_square_mm_given {
         notes.push(format!(
             "warning: {}: the scale board's square size is given nowhere: {} mm assumed, and every radius scales with it: set [scale_board] square_mm in {CONFIG}",
@@ -277,6 +314,72 @@ pub(super) fn session_scale(
             square_mm_given: config.scale_square_mm_given,
         }),
         plane_from_px: s.plane_from_px,
+        kind: ScaleUsed::kind_of(ScaleSource::ScalePhoto, b.offset_mm),
+        board_plane: s.board_distance_mm.map(|d| BoardPlane {
+            distance_mm: d,
+            offset_mm: b.offset_mm,
+        }),
+        rest: None,
+    };
+    Ok((scale, used))
+}
+
+/// The scale from the markers at rest (`[scale_markers]`): the session's first 0 kPa
+/// item; a scale photo also present is not used, and a warning says so.
+fn markers_scale(
+    session: &Path,
+    config: &SessionConfig,
+    calib: &Calibration,
+    items: ScaleItems,
+    notes: &mut Notes,
+) -> Result<(SessionScale, ScaleUsed), PipelineError> {
+    let Some(entries) = items.entries else {
+        return Err(PipelineError::Layout {
+            path: session.join(CONFIG),
+            why: "[scale_markers] measures the scale on a step session's 0 kPa item, and a ramp has none: use a scale board (scale.jpg) instead".into(),
+        });
+    };
+    let entry = rest_entry(session, entries)?;
+    let r = scale_from_rest(session, entry, config, calib, items.frames)?;
+    if let Some(img) = find_scale_image(session, config) {
+        notes.push(format!(
+            "warning: {}: not used: [scale_markers] in {CONFIG} gives the scale (from the markers at rest in {}); remove one of them",
+            img.display(),
+            entry.file
+        ));
+    }
+    if r.spread > crate::scale::TILT_WARNING_SPREAD {
+        notes.push(format!(
+            "warning: {}: the markers' spacing at rest differs from [scale_markers] spacing_mm by {:.1}% between pairs: is the actuator straight, and the spacing right?",
+            r.file.display(),
+            100.0 * r.spread
+        ));
+    }
+    let spacing = config
+        .scale_markers
+        .as_ref()
+        .map(|m| m.spacing_mm.distances(config.expected_markers))
+        .unwrap_or_default();
+    let scale = SessionScale {
+        mm_per_px: r.mm_per_px,
+        width: r.width,
+        plane_from_px: None,
+    };
+    let used = ScaleUsed {
+        source: ScaleSource::Markers,
+        file: Some(r.file),
+        mm_per_px: r.mm_per_px,
+        image_width: r.width,
+        board: None,
+        plane_from_px: None,
+        kind: ScaleUsed::kind_of(ScaleSource::Markers, 0.0),
+        board_plane: None,
+        rest: Some(RestUsed {
+            frames_used: r.frames_used,
+            spacing_mm: spacing,
+            spacing_px: r.spacing_px,
+            spread: r.spread,
+        }),
     };
     Ok((scale, used))
 }

@@ -6,7 +6,8 @@
 //!   layout     what kind of session (step: pressures.csv; ramp: pressure_log.csv and
 //!              one video; RGB-D: color/ + depth/ + intrinsics.json)   [`layout`]
 //!   camera     calibration (given, or calib/ calibrated and cached by content) and
-//!              mm per px from the scale photo [`camera`]; RGB-D: intrinsics and depth
+//!              mm per px from the scale photo [`camera`] or the markers at rest
+//!              [`rest_scale`]; RGB-D: intrinsics and depth
 //!   per item   cache hit (same content key, outputs present) or
 //!              source (video chapters / RGB-D frames) -> frame::measure_frame ->
 //!              FrameRecord; stats::summarize -> VideoRecord; the overlay
@@ -43,6 +44,7 @@ pub mod profile;
 pub mod provenance;
 /// What a measurement produces ([`crate::measure::records`]), by its old path.
 pub use crate::measure::records;
+pub mod rest_scale;
 pub mod rgbd_run;
 pub mod run;
 pub mod smooth;
@@ -155,7 +157,15 @@ fn measure_session_into(
             (log.unit, vec![], Some(config.ramp_bin_kpa))
         }
         Layout::Step(m) => {
-            let run = VideoRun::prepare(session, out, &config, settings, None, &mut notes)?;
+            let run = VideoRun::prepare(
+                session,
+                out,
+                &config,
+                settings,
+                None,
+                Some(&m.entries),
+                &mut notes,
+            )?;
             for w in implausible_pressures(m) {
                 notes.push(issue_line(&w));
             }
@@ -165,7 +175,8 @@ fn measure_session_into(
             (m.unit, m.issues.clone(), None)
         }
         Layout::Ramp(log, video) => {
-            let run = VideoRun::prepare(session, out, &config, settings, Some(log), &mut notes)?;
+            let run =
+                VideoRun::prepare(session, out, &config, settings, Some(log), None, &mut notes)?;
             provenance.calibration = Some(run.calibration_used.clone());
             provenance.scale = Some(run.scale_used.clone());
             let entry = ManifestEntry {

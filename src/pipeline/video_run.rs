@@ -12,7 +12,7 @@ use crate::session::{ManifestEntry, PressureLog, SessionConfig, PRESSURE_LOG};
 use crate::video::FrameSelection;
 
 use super::cache::{Cache, ItemKey};
-use super::camera::{session_calibration, session_scale, SessionScale};
+use super::camera::{session_calibration, session_scale, ScaleItems, SessionScale};
 use super::error::{write_err, PipelineError};
 use super::frame::{self, measure_frame, Geometry, Tracker};
 use super::item::{frame_record, ItemResult};
@@ -41,13 +41,15 @@ pub(super) struct VideoRun<'a> {
 }
 
 impl<'a> VideoRun<'a> {
-    /// Calibration, scale and the session's fingerprint.
+    /// Calibration, scale and the session's fingerprint. `entries`: a step session's
+    /// items (the scale may be measured on its 0 kPa one); `None` for a ramp.
     pub(super) fn prepare(
         session: &'a Path,
         out: &'a Path,
         config: &'a SessionConfig,
         settings: &ProcessSettings,
         log: Option<&'a PressureLog>,
+        entries: Option<&[ManifestEntry]>,
         notes: &mut Notes,
     ) -> Result<Self, PipelineError> {
         // Key frames only are refused for a ramp before anything is read.
@@ -59,7 +61,13 @@ impl<'a> VideoRun<'a> {
                     why,
                 })?;
         let (calib, calibration_used) = session_calibration(session, out, config, settings, notes)?;
-        let (scale, scale_used) = session_scale(session, config, &calib, notes)?;
+        let (scale, scale_used) = session_scale(
+            session,
+            config,
+            &calib,
+            ScaleItems { entries, frames },
+            notes,
+        )?;
         let log_bytes = match log {
             Some(_) => std::fs::read(session.join(PRESSURE_LOG)).unwrap_or_default(),
             None => vec![],

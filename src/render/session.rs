@@ -34,8 +34,14 @@ pub struct SessionSpec {
     /// The calibration boards stay inside the disc of this share of the frame's
     /// half-diagonal around the frame centre (1: anywhere in the frame).
     pub calib_view_reach: f64,
-    /// Square size of the scale board (9x6 inner corners) lying in the actuator plane, mm.
+    /// Square size of the scale board (9x6 inner corners), mm.
     pub scale_square_mm: f64,
+    /// Where the scale board lies: `Some(o)`, parallel to the actuator plane and `o` mm in
+    /// front of it (nearer the camera; negative: behind), written to bendscope.toml as
+    /// `[scale_board] offset_mm` (0: in the plane, the usual board); `None`, no scale
+    /// photo, and bendscope.toml gets `[scale_markers]` with the rest spacing of the
+    /// first 0 kPa video's markers.
+    pub scale_board_offset_mm: Option<f64>,
     /// A red object that is not a marker, in every frame.
     pub distractor: bool,
     /// Samples per pixel side.
@@ -156,23 +162,26 @@ pub fn render_session<S: Shade + Sync>(
         },
     )?;
     let _ = std::fs::remove_file(dir.join("truth.json"));
-    // Scale photo: a small board lying in the actuator plane.
-    let sb = Board::new(9, 6, spec.scale_square_mm).map_err(RenderError::Camera)?;
-    let centre = Vector3::new(sb.square_mm * 4.0, sb.square_mm * 2.5, 0.0);
-    let pose = BoardPose {
-        rotation: Rotation3::identity(),
-        translation_mm: Vector3::new(0.0, 0.0, spec.distance_mm) - centre,
-    };
-    let photo = PhotoSettings {
-        supersample: spec.supersample,
-        blur_sigma_px: 0.7,
-        noise_sigma: 2.0,
-        seed: spec.seed ^ 77,
-    };
-    write_jpeg(
-        &dir.join("scale.jpg"),
-        &render_board_photo(&spec.camera, &sb, &pose, &photo)?,
-    )?;
+    // Scale photo: a small board in the actuator plane, or parallel to it.
+    let _ = std::fs::remove_file(dir.join("scale.jpg"));
+    if let Some(offset) = spec.scale_board_offset_mm {
+        let sb = Board::new(9, 6, spec.scale_square_mm).map_err(RenderError::Camera)?;
+        let centre = Vector3::new(sb.square_mm * 4.0, sb.square_mm * 2.5, 0.0);
+        let pose = BoardPose {
+            rotation: Rotation3::identity(),
+            translation_mm: Vector3::new(0.0, 0.0, spec.distance_mm - offset) - centre,
+        };
+        let photo = PhotoSettings {
+            supersample: spec.supersample,
+            blur_sigma_px: 0.7,
+            noise_sigma: 2.0,
+            seed: spec.seed ^ 77,
+        };
+        write_jpeg(
+            &dir.join("scale.jpg"),
+            &render_board_photo(&spec.camera, &sb, &pose, &photo)?,
+        )?;
+    }
     let und = Undistorter::new(&spec.camera, UndistortSettings::default())?;
     let mm_per_px = spec.distance_mm / und.new_camera_matrix()[(0, 0)];
     // Videos.
@@ -222,10 +231,29 @@ pub fn render_session<S: Shade + Sync>(
         &dir.join("pressures.csv"),
         [("file", manifest.0), ("pressure_kpa", manifest.1)],
     )?;
-    let config = format!(
-        "# Settings of this session (see `bendscope process --help`).\n[scale_board]\ncols = 9\nrows = 6\nsquare_mm = {}\n",
-        spec.scale_square_mm
-    );
+    let head = "# Settings of this session (see `bendscope process --help`).\n";
+    let config = match spec.scale_board_offset_mm {
+        Some(o) => format!(
+            "{head}[scale_board]\ncols = 9\nrows = 6\nsquare_mm = {}\n{}",
+            spec.scale_square_mm,
+            if o == 0.0 {
+                String::new()
+            } else {
+                format!("offset_mm = {o}\n")
+            }
+        ),
+        None => match truths.iter().find(|t| t.pressure_kpa == 0.0) {
+            Some(rest) => format!(
+                "{head}[scale_markers]\nspacing_mm = [{}]\n",
+                rest.markers_mm
+                    .windows(2)
+                    .map(|w| format!("{:.6}", (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1])))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+            None => head.to_string(),
+        },
+    };
     write_atomic(&dir.join("bendscope.toml"), config.as_bytes()).map_err(err)?;
     let truth = SessionTruth {
         camera: CameraTruth::from_calibration(&spec.camera),
@@ -704,6 +732,7 @@ pub fn render_fem_session(
         calib_views: s.calib_views,
         calib_view_reach: 1.0,
         scale_square_mm: 10.0,
+        scale_board_offset_mm: Some(0.0),
         distractor: s.distractor,
         supersample: s.supersample,
         look,

@@ -4,11 +4,12 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use super::scale_config::{ScaleBoardConfig, ScaleMarkersConfig};
 use super::{SessionError, CONFIG};
 use crate::detect::DetectSettings;
 use crate::video::FrameSelection;
 
-/// The scale board (a board lying in the actuator plane).
+/// A checkerboard: inner corners and square size.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct BoardConfig {
@@ -55,8 +56,11 @@ pub struct SessionConfig {
     pub model: crate::calib::CameraModel,
     /// Board of the `calib/` photos.
     pub calib_board: BoardConfig,
-    /// Board of the scale photo.
-    pub scale_board: BoardConfig,
+    /// Board of the scale photo, and where its plane lies from the marker plane.
+    pub scale_board: ScaleBoardConfig,
+    /// The scale from the markers' rest spacing (the 0 kPa item) instead of a board.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub scale_markers: Option<ScaleMarkersConfig>,
     /// Scale photo (relative to the session); default: the first `scale.*` image.
     pub scale_image: Option<PathBuf>,
     /// Known mm per undistorted px (skips the scale photo).
@@ -104,7 +108,8 @@ impl Default for SessionConfig {
             calibration: None,
             model: crate::calib::CameraModel::Fisheye,
             calib_board: BoardConfig::default(),
-            scale_board: BoardConfig::default(),
+            scale_board: ScaleBoardConfig::default(),
+            scale_markers: None,
             scale_image: None,
             mm_per_px: None,
             scale: None,
@@ -285,6 +290,8 @@ fn key_example(key: &str) -> Option<&'static str> {
         "clamp_side" => "left, right, top or bottom, e.g. clamp_side = \"right\"",
         "smooth_s" => "seconds, e.g. smooth_s = 0.2",
         "frames" => "\"all\", \"keyframes\" or \"every:N\", e.g. frames = \"keyframes\"",
+        "spacing_mm" => "mm, one pitch or one per pair of markers, e.g. spacing_mm = 12.5",
+        "offset_mm" => "mm, + in front of the marker plane, e.g. offset_mm = 3",
         _ => return None,
     })
 }
@@ -432,6 +439,20 @@ impl SessionConfig {
         }
     }
 
+    /// The scale tables' checks ([`super::scale_config::check_scale`]).
+    fn check_scale(&self) -> Result<(), BadValue> {
+        super::scale_config::check_scale(
+            &self.scale_board,
+            self.scale_markers.as_ref(),
+            self.expected_markers,
+            super::scale_config::OtherScale {
+                mm_per_px: self.mm_per_px.is_some(),
+                file: self.scale.is_some(),
+            },
+        )
+        .map_err(|(table, key, why)| BadValue::new(Some(table), key, why))
+    }
+
     /// Checks the values' ranges; the error names the first key out of range.
     fn check(&self) -> Result<(), BadValue> {
         let top = |key, why| Err(BadValue::new(None, key, why));
@@ -508,9 +529,10 @@ impl SessionConfig {
                 );
             }
         }
+        self.check_scale()?;
         for (name, b) in [
             ("calib_board", &self.calib_board),
-            ("scale_board", &self.scale_board),
+            ("scale_board", &self.scale_board.board()),
         ] {
             let bad = |key, why| Err(BadValue::new(Some(name), key, why));
             if b.cols < 2 {

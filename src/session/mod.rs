@@ -5,7 +5,7 @@
 //! SESSION/
 //!   pressures.csv   header `file,pressure_bar` (or pressure_kpa / pressure_psi)
 //!   *.MP4 ...       one video per pressure (GoPro chapters GX02xxxx continue GX01xxxx)
-//!   scale.jpg       a board lying in the actuator plane (any image format)
+//!   scale.jpg       a board in (or parallel to) the actuator plane (any image format)
 //!   calib/          checkerboard photos, used when no calibration is given
 //!   bendscope.toml  optional settings ([`SessionConfig`])
 //! ```
@@ -20,6 +20,7 @@
 mod config;
 mod manifest;
 mod pressure_log;
+mod scale_config;
 
 pub use config::{BoardConfig, SessionConfig};
 pub use manifest::{
@@ -27,6 +28,7 @@ pub use manifest::{
     MAX_PLAUSIBLE_PRESSURE_KPA,
 };
 pub use pressure_log::{read_pressure_log, PressureLog};
+pub use scale_config::{MarkerSpacing, ScaleBoardConfig, ScaleMarkersConfig};
 
 use std::path::{Path, PathBuf};
 
