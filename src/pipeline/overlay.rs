@@ -7,7 +7,7 @@ use opencv::core::Mat;
 use opencv::prelude::*;
 
 use crate::calib::{CalibError, Calibration, UndistortSettings, Undistorter};
-use crate::detect::{exposure_adjusted, mask_from_rgb};
+use crate::detect::{body_mask, exposure_adjusted, mask_from_rgb, DetectMode};
 use crate::io::bounded_file_name;
 use crate::report::{write_overlay, ReportError};
 use crate::session::SessionConfig;
@@ -101,12 +101,17 @@ pub fn write_video_overlay(
         .and_then(|c| Undistorter::new(&c, UndistortSettings::default()))?;
     let maps = und.maps()?;
     let img = undistort_rgb(&und, &maps, frame)?;
-    let hsv = if config.detect.auto_exposure {
-        exposure_adjusted(&img, &config.detect.hsv)
-    } else {
-        config.detect.hsv
+    let mask = match config.detect.mode {
+        DetectMode::Dots => {
+            let hsv = if config.detect.auto_exposure {
+                exposure_adjusted(&img, &config.detect.hsv)
+            } else {
+                config.detect.hsv
+            };
+            mask_from_rgb(&img, &hsv)
+        }
+        DetectMode::Outline => body_mask(&img, &config.detect.outline.band),
     };
-    let mask = mask_from_rgb(&img, &hsv);
     let markers: Vec<nalgebra::Point2<f64>> = m
         .markers_px
         .iter()
