@@ -348,6 +348,51 @@ mod tests {
     }
 
     #[test]
+    fn refined_edge_points_lie_on_an_antialiased_disc() {
+        // A pale body disc on a white sheet (the render's colours), 8x8 supersampled
+        // and blurred over a pixel (box of the supersamples): the edge is where half of
+        // a pixel is covered.
+        let (cx, cy, r) = (60.3, 55.7, 37.4);
+        let img = image::RgbImage::from_fn(120, 110, |x, y| {
+            let mut cov = 0.0;
+            for sy in 0..8 {
+                for sx in 0..8 {
+                    let (px, py) = (
+                        x as f64 - 0.5 + (sx as f64 + 0.5) / 8.0,
+                        y as f64 - 0.5 + (sy as f64 + 0.5) / 8.0,
+                    );
+                    if (px - cx).hypot(py - cy) <= r {
+                        cov += 1.0 / 64.0;
+                    }
+                }
+            }
+            let mix = |a: f64, b: f64| (a * cov + b * (1.0 - cov)).round() as u8;
+            image::Rgb([mix(214.0, 236.0), mix(206.0, 236.0), mix(188.0, 230.0)])
+        });
+        let mask = body_mask(&img, &DEFAULT_OUTLINE_BAND);
+        let o = body_outline(&mask).unwrap();
+        let mut refined = o.boundary.clone();
+        refine_edge(&img, &mask, &mut refined);
+        let err = |pts: &[Point2<f64>]| {
+            let e: Vec<f64> = pts
+                .iter()
+                .map(|p| (p - Point2::new(cx, cy)).norm() - r)
+                .collect();
+            let mean = e.iter().sum::<f64>() / e.len() as f64;
+            let worst = e.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+            (mean, worst)
+        };
+        let (mean, worst) = err(&refined);
+        assert!(
+            mean.abs() < 0.02 && worst < 0.25,
+            "refined: mean {mean}, worst {worst}"
+        );
+        // The cracks of the colour mask alone are off by up to a pixel.
+        let (_, crack_worst) = err(&o.boundary);
+        assert!(crack_worst > 0.4, "cracks: worst {crack_worst}");
+    }
+
+    #[test]
     fn the_background_two_alike_blobs_and_specks_are_refused() {
         let everything = mask_of(60, 40, |_, _| true);
         assert!(matches!(
