@@ -233,6 +233,12 @@ mod tests {
             SHEET_RGB,
             "above the body (z > 10)"
         );
+        // Without dots (`render --no-dots`) the marker is body.
+        let bare = FemScene {
+            marker_rgb: BODY_RGB,
+            ..s.clone()
+        };
+        assert_eq!(bare.shade(Point2::new(115.0, 45.0)), BODY_RGB);
         let (lo, hi) = scene_bounds(&f, origin);
         assert!(
             lo.x <= 94.0 && hi.x >= 120.0 && lo.y <= 36.0 && hi.y >= 54.0,
