@@ -117,6 +117,9 @@ pub struct FrameMeasurement {
     /// Segmented actuators: one circle per segment (empty without segments or when
     /// rejected).
     pub segments: Vec<SegmentFit>,
+    /// Outline mode: the circle fitted to the body's edge (centre, radius; undistorted
+    /// px) before `outline_offset_mm` moved it; `None` otherwise.
+    pub edge_circle_px: Option<(Point2<f64>, f64)>,
 }
 
 impl FrameMeasurement {
@@ -136,6 +139,7 @@ impl FrameMeasurement {
             status,
             markers: vec![],
             segments: vec![],
+            edge_circle_px: None,
         }
     }
 }
@@ -421,6 +425,7 @@ fn measure_plane(
             status: FrameStatus::Ok,
             markers: vec![],
             segments,
+            edge_circle_px: None,
         },
         in_mm,
     )
@@ -478,6 +483,7 @@ fn measure_depth(
             status: FrameStatus::Ok,
             markers: vec![],
             segments,
+            edge_circle_px: None,
         },
         pts,
     )

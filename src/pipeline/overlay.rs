@@ -21,6 +21,9 @@ pub const OVERLAY_MAX_WIDTH: u32 = 1920;
 
 /// Colour of the one fitted circle (magenta).
 pub const CIRCLE_RGB: [u8; 3] = [230, 0, 230];
+/// Colour of outline mode's circle fitted to the body's edge (orange), beside the
+/// reported circle.
+pub const EDGE_CIRCLE_RGB: [u8; 3] = [255, 140, 0];
 /// Colours of the segments' circles of a segmented actuator, from the clamp.
 pub const SEGMENT_CIRCLE_RGB: [[u8; 3]; 4] =
     [[230, 0, 230], [255, 140, 0], [0, 150, 255], [120, 60, 0]];
@@ -141,6 +144,10 @@ pub fn write_video_overlay(
             })
             .collect()
     };
+    let mut circles = circles;
+    if let Some((c, r)) = m.edge_circle_px {
+        circles.push(scaled(c, r, EDGE_CIRCLE_RGB));
+    }
     let rel = overlay_rel_path(file);
     write_overlay(&out.join(&rel), &img, &mask, &markers, &ignored, &circles)?;
     Ok(rel)

@@ -368,6 +368,7 @@ pub(super) fn measure_outline<S: PixelSource>(
             })
             .collect(),
         segments: vec![],
+        edge_circle_px: Some((circle_px.center, circle_px.radius)),
     }
 }
 
