@@ -146,4 +146,15 @@ fn outline_radii_match_the_dots_of_the_same_actuator() {
         );
         run.assert_bad_input(&[needle]);
     }
+    // Segments need dots.
+    fs::write(
+        bare.join("bendscope.toml"),
+        "segments = [[1, 2, 3, 4], [4, 5, 6, 7, 8]]\n[scale_board]\nsquare_mm = 8\n[detect]\nmode = \"outline\"\n",
+    )
+    .unwrap();
+    let run = Run::new(
+        dir.path(),
+        &["process", "bare", "--calibration", cal.to_str().unwrap()],
+    );
+    run.assert_bad_input(&["segments need dots"]);
 }
