@@ -72,6 +72,10 @@ pub struct RenderArgs {
     /// No blur, noise, vignetting or light gradient.
     #[arg(long)]
     pub clean: bool,
+    /// Leave the marker dots unpainted (the bare body, for `[detect] mode = "outline"`);
+    /// truth.json still lists where they would be.
+    #[arg(long)]
+    pub no_dots: bool,
     /// Also write an RGB-D recording of the same actuator into SESSION/rgbd/ (640x480
     /// pinhole colour + aligned 16-bit depth, plane tilted 15 degrees, 3 frames per step,
     /// pressure_log.csv, intrinsics.json): bendscope process SESSION/rgbd.
@@ -98,6 +102,7 @@ impl RenderArgs {
             distractor: self.distractor,
             clean: self.clean,
             rgbd: self.rgbd,
+            dots: !self.no_dots,
             seed: self.seed,
         }
     }

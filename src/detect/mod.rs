@@ -31,13 +31,15 @@
 //! pixel source of decoded YUV video frames), `mask` (the exposure-adjusted band and the
 //! marker mask), `labelling` (connected components, hole fill), `centroids` (blobs and
 //! their coverage-weighted centroids) and `ordering` (the markers from the clamped end to
-//! the tip); [`detect_markers`] runs the chain on a frame.
+//! the tip); [`detect_markers`] runs the chain on a frame. `outline` is the markerless
+//! mode (`[detect] mode = "outline"`): the body's mask and its boundary.
 
 mod centroids;
 mod colour;
 mod labelling;
 mod mask;
 mod ordering;
+mod outline;
 mod pixels;
 mod settings;
 #[cfg(test)]
@@ -58,6 +60,11 @@ pub use mask::{
     COARSE_MARGIN, EXPOSURE_GRID, MIN_ADJUSTED_V, NOMINAL_WHITE,
 };
 pub use ordering::{order_marker_indices, order_markers, ChainStart};
+pub use outline::{
+    body_mask, body_outline, refine_edge, BodyOutline, DetectMode, OutlineError, OutlineSettings,
+    DEFAULT_OUTLINE_BAND, DEFAULT_OUTLINE_CLAMP_MM, MAX_BODY_SHARE, MIN_BODY_AREA_PX,
+    SECOND_BLOB_SHARE,
+};
 pub use pixels::{
     coarse_row_hits_exact, MarkerTest, PixelSource, Pretest, COARSE_STEP, PRETEST_DIRECTION,
     PRETEST_SHARE,

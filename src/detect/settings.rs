@@ -5,6 +5,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::colour::{any_case, HsvThresholds, MarkerColour, HUE_MAX};
+use super::outline::{DetectMode, OutlineSettings};
 
 /// Default smallest blob kept, px (smaller are specks: noise, reflections).
 pub const DEFAULT_MIN_AREA_PX: u32 = 6;
@@ -71,6 +72,30 @@ pub struct DetectConfig {
     /// Lower `v_min` (and `v_max`) in proportion when the frame is dim.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub auto_exposure: Option<bool>,
+    /// What is detected: "dots" (default) or "outline" (the body's edge, no dots).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mode: Option<DetectMode>,
+    /// Outline mode: signed distance from the fitted edge to the reported line, mm.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub outline_offset_mm: Option<f64>,
+    /// Outline mode: body length next to the clamp left out, mm.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub outline_clamp_mm: Option<f64>,
+    /// Outline mode: lowest hue of the body's band, 0..180.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub outline_hue_min: Option<i64>,
+    /// Outline mode: highest hue of the body's band, 0..180.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub outline_hue_max: Option<i64>,
+    /// Outline mode: minimum saturation of the body, 0..255.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub outline_s_min: Option<i64>,
+    /// Outline mode: minimum value of the body, 0..255.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub outline_v_min: Option<i64>,
+    /// Outline mode: maximum value of the body, 0..255.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub outline_v_max: Option<i64>,
 }
 
 impl TryFrom<DetectConfig> for DetectSettings {
@@ -130,7 +155,10 @@ impl TryFrom<DetectConfig> for DetectSettings {
             ));
         }
         let d = DetectSettings::default();
+        let outline = resolve_outline(&c, &level)?;
         Ok(DetectSettings {
+            mode: c.mode.unwrap_or_default(),
+            outline,
             hsv: t,
             min_area_px: c.min_area_px.unwrap_or(d.min_area_px),
             max_area_px: c.max_area_px.unwrap_or(d.max_area_px),
@@ -158,7 +186,77 @@ impl From<DetectSettings> for DetectConfig {
             fill_holes: Some(s.fill_holes),
             clamp_side: Some(s.clamp_side),
             auto_exposure: Some(s.auto_exposure),
+            ..outline_written(s.mode, &s.outline)
         }
+    }
+}
+
+/// The outline settings of a `[detect]` table (defaults for the keys left out); `level`
+/// checks a colour level against its largest value. A NaN, infinite or (for the clamp
+/// length) negative length is refused.
+fn resolve_outline(
+    c: &DetectConfig,
+    level: &impl Fn(Option<i64>, i64) -> Result<Option<u8>, String>,
+) -> Result<OutlineSettings, String> {
+    let d = OutlineSettings::default();
+    let mut band = d.band;
+    let hue = HUE_MAX as i64;
+    if let Some(v) = level(c.outline_hue_min, hue)? {
+        band.hue_min = v;
+    }
+    if let Some(v) = level(c.outline_hue_max, hue)? {
+        band.hue_max = v;
+    }
+    if let Some(v) = level(c.outline_s_min, 255)? {
+        band.s_min = v;
+    }
+    if let Some(v) = level(c.outline_v_min, 255)? {
+        band.v_min = v;
+    }
+    if let Some(v) = level(c.outline_v_max, 255)? {
+        band.v_max = v;
+    }
+    if band.v_min > band.v_max {
+        return Err(format!(
+            "`outline_v_min` = {} is above `outline_v_max` = {}: no pixel can pass",
+            band.v_min, band.v_max
+        ));
+    }
+    let offset_mm = c.outline_offset_mm.unwrap_or(d.offset_mm);
+    if !offset_mm.is_finite() {
+        return Err(format!(
+            "`outline_offset_mm` = {offset_mm}: must be a finite number of mm (0: the edge itself)"
+        ));
+    }
+    let clamp_mm = c.outline_clamp_mm.unwrap_or(d.clamp_mm);
+    if !(clamp_mm.is_finite() && clamp_mm >= 0.0) {
+        return Err(format!(
+            "`outline_clamp_mm` = {clamp_mm}: must be a length of 0 mm or more"
+        ));
+    }
+    Ok(OutlineSettings {
+        band,
+        offset_mm,
+        clamp_mm,
+    })
+}
+
+/// The `[detect]` keys of the outline mode as written back: none in dots mode (a dots
+/// session's config reads as before), all of them in outline mode.
+fn outline_written(mode: DetectMode, o: &OutlineSettings) -> DetectConfig {
+    if mode == DetectMode::Dots {
+        return Default::default();
+    }
+    DetectConfig {
+        mode: Some(mode),
+        outline_offset_mm: Some(o.offset_mm),
+        outline_clamp_mm: Some(o.clamp_mm),
+        outline_hue_min: Some(o.band.hue_min as i64),
+        outline_hue_max: Some(o.band.hue_max as i64),
+        outline_s_min: Some(o.band.s_min as i64),
+        outline_v_min: Some(o.band.v_min as i64),
+        outline_v_max: Some(o.band.v_max as i64),
+        ..Default::default()
     }
 }
 
@@ -195,6 +293,10 @@ pub struct DetectSettings {
     /// Lower `v_min` in proportion when the frame is darker than a normally exposed
     /// white sheet (see [`exposure_adjusted`](super::exposure_adjusted)).
     pub auto_exposure: bool,
+    /// Dots or the body's outline.
+    pub mode: DetectMode,
+    /// The outline mode's band, offset and clamp length.
+    pub outline: OutlineSettings,
 }
 
 impl Default for DetectSettings {
@@ -206,6 +308,8 @@ impl Default for DetectSettings {
             fill_holes: true,
             clamp_side: ClampSide::Left,
             auto_exposure: true,
+            mode: DetectMode::Dots,
+            outline: OutlineSettings::default(),
         }
     }
 }
@@ -264,5 +368,19 @@ mod tests {
         // Written back and read again: the same settings.
         let text = toml::to_string(&green).unwrap();
         assert_eq!(read(&text).unwrap(), green);
+        // Dots mode writes no outline key; outline mode writes them all back.
+        assert!(
+            !text.contains("outline") && !text.contains("mode"),
+            "{text}"
+        );
+        let outline =
+            read("mode = \"Outline\"\noutline_offset_mm = -3.5\noutline_s_min = 30\n").unwrap();
+        assert_eq!(outline.mode, DetectMode::Outline);
+        assert_eq!(
+            (outline.outline.offset_mm, outline.outline.band.s_min),
+            (-3.5, 30)
+        );
+        let text = toml::to_string(&outline).unwrap();
+        assert_eq!(read(&text).unwrap(), outline);
     }
 }

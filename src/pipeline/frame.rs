@@ -1,13 +1,20 @@
 //! One frame: detect -> check the markers -> undistort (or lift to 3D with depth) ->
 //! order from the clamped end -> fit the circle. The same function serves videos, photos
-//! and RGB-D frames; [`Geometry`] says how image points become millimetres.
+//! and RGB-D frames; [`Geometry`] says how image points become millimetres. Outline mode
+//! (`[detect] mode = "outline"`, no dots: the body's strain-limited edge) is the child
+//! module `outline`, reached from [`measure_frame`]'s match on the mode.
+
+mod outline;
+
+pub use outline::strain_limited_edge;
 
 use image::GrayImage;
 use nalgebra::{Point2, Point3};
 
 use crate::calib::Undistorter;
 use crate::detect::{
-    detect_markers_with, order_marker_indices, ChainStart, DetectSettings, MaskBuffer, PixelSource,
+    detect_markers_with, order_marker_indices, ChainStart, DetectMode, DetectSettings, MaskBuffer,
+    PixelSource,
 };
 use crate::fit::{bending_angle_along_markers_deg, fit_circle_3d, fit_circle_pratt};
 use crate::rgbd::{markers_on_depth_plane, RgbdIntrinsics};
@@ -110,6 +117,9 @@ pub struct FrameMeasurement {
     /// Segmented actuators: one circle per segment (empty without segments or when
     /// rejected).
     pub segments: Vec<SegmentFit>,
+    /// Outline mode: the circle fitted to the body's edge (centre, radius; undistorted
+    /// px) before `outline_offset_mm` moved it; `None` otherwise.
+    pub edge_circle_px: Option<(Point2<f64>, f64)>,
 }
 
 impl FrameMeasurement {
@@ -129,6 +139,7 @@ impl FrameMeasurement {
             status,
             markers: vec![],
             segments: vec![],
+            edge_circle_px: None,
         }
     }
 }
@@ -157,6 +168,11 @@ pub fn measure_frame<S: PixelSource>(
     layout: &MarkerLayout,
     tracker: &mut Tracker,
 ) -> FrameMeasurement {
+    // The detection modes: each turns a frame into a measurement its own way.
+    match detect.mode {
+        DetectMode::Dots => {}
+        DetectMode::Outline => return outline::measure_outline(pixels, geometry, detect, tracker),
+    }
     let (expected_markers, roi, segments) = (layout.expected, layout.roi, layout.segments);
     let d = detect_markers_with(pixels, detect, &mut tracker.mask);
     let found = d.blobs.len();
@@ -409,6 +425,7 @@ fn measure_plane(
             status: FrameStatus::Ok,
             markers: vec![],
             segments,
+            edge_circle_px: None,
         },
         in_mm,
     )
@@ -466,6 +483,7 @@ fn measure_depth(
             status: FrameStatus::Ok,
             markers: vec![],
             segments,
+            edge_circle_px: None,
         },
         pts,
     )

@@ -7,7 +7,7 @@ use opencv::core::Mat;
 use opencv::prelude::*;
 
 use crate::calib::{CalibError, Calibration, UndistortSettings, Undistorter};
-use crate::detect::{exposure_adjusted, mask_from_rgb};
+use crate::detect::{body_mask, exposure_adjusted, mask_from_rgb, DetectMode};
 use crate::io::bounded_file_name;
 use crate::report::{write_overlay, ReportError};
 use crate::session::SessionConfig;
@@ -21,6 +21,9 @@ pub const OVERLAY_MAX_WIDTH: u32 = 1920;
 
 /// Colour of the one fitted circle (magenta).
 pub const CIRCLE_RGB: [u8; 3] = [230, 0, 230];
+/// Colour of outline mode's circle fitted to the body's edge (orange), beside the
+/// reported circle.
+pub const EDGE_CIRCLE_RGB: [u8; 3] = [255, 140, 0];
 /// Colours of the segments' circles of a segmented actuator, from the clamp.
 pub const SEGMENT_CIRCLE_RGB: [[u8; 3]; 4] =
     [[230, 0, 230], [255, 140, 0], [0, 150, 255], [120, 60, 0]];
@@ -101,12 +104,17 @@ pub fn write_video_overlay(
         .and_then(|c| Undistorter::new(&c, UndistortSettings::default()))?;
     let maps = und.maps()?;
     let img = undistort_rgb(&und, &maps, frame)?;
-    let hsv = if config.detect.auto_exposure {
-        exposure_adjusted(&img, &config.detect.hsv)
-    } else {
-        config.detect.hsv
+    let mask = match config.detect.mode {
+        DetectMode::Dots => {
+            let hsv = if config.detect.auto_exposure {
+                exposure_adjusted(&img, &config.detect.hsv)
+            } else {
+                config.detect.hsv
+            };
+            mask_from_rgb(&img, &hsv)
+        }
+        DetectMode::Outline => body_mask(&img, &config.detect.outline.band),
     };
-    let mask = mask_from_rgb(&img, &hsv);
     let markers: Vec<nalgebra::Point2<f64>> = m
         .markers_px
         .iter()
@@ -136,6 +144,10 @@ pub fn write_video_overlay(
             })
             .collect()
     };
+    let mut circles = circles;
+    if let Some((c, r)) = m.edge_circle_px {
+        circles.push(scaled(c, r, EDGE_CIRCLE_RGB));
+    }
     let rel = overlay_rel_path(file);
     write_overlay(&out.join(&rel), &img, &mask, &markers, &ignored, &circles)?;
     Ok(rel)

@@ -27,6 +27,9 @@ pub struct FemScene {
     clamp: (Point2<f64>, Point2<f64>),
     /// A red disc that is not a marker: centre and diameter, plane mm.
     pub distractor: Option<(Point2<f64>, f64)>,
+    /// Marker paint (RGB before lighting; [`MARKER_RGB`] unless set: [`BODY_RGB`] hides
+    /// the dots).
+    pub marker_rgb: [f64; 3],
 }
 
 /// Maps FEM (x, z) to plane coordinates.
@@ -139,6 +142,7 @@ impl FemScene {
             marker_radius_mm: 0.5 * marker_diameter_mm,
             clamp: clamp_rect(face, origin),
             distractor: None,
+            marker_rgb: MARKER_RGB,
         }
     }
 
@@ -180,7 +184,7 @@ impl Shade for FemScene {
                 .iter()
                 .any(|m| (p - m).norm() <= self.marker_radius_mm)
             {
-                return MARKER_RGB;
+                return self.marker_rgb;
             }
             return BODY_RGB;
         }
@@ -229,6 +233,12 @@ mod tests {
             SHEET_RGB,
             "above the body (z > 10)"
         );
+        // Without dots (`render --no-dots`) the marker is body.
+        let bare = FemScene {
+            marker_rgb: BODY_RGB,
+            ..s.clone()
+        };
+        assert_eq!(bare.shade(Point2::new(115.0, 45.0)), BODY_RGB);
         let (lo, hi) = scene_bounds(&f, origin);
         assert!(
             lo.x <= 94.0 && hi.x >= 120.0 && lo.y <= 36.0 && hi.y >= 54.0,

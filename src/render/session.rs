@@ -7,7 +7,7 @@ use std::path::Path;
 use nalgebra::{Point2, Rotation3, Vector3};
 use serde::{Deserialize, Serialize};
 
-use super::actuator::{ArcScene, FrameLook, PlaneSampler, Shade};
+use super::actuator::{ArcScene, FrameLook, PlaneSampler, Shade, BODY_RGB, MARKER_RGB};
 use super::board::{render_board_photo, BoardPose, PhotoSettings};
 use super::fixtures::{write_calibration_set, write_jpeg, CalibrationSetSpec, CameraTruth};
 use super::rng::SplitMix64;
@@ -89,6 +89,24 @@ pub fn reference_marker_positions_mm() -> Vec<f64> {
 /// Renders a whole session into `dir`: a circular-arc actuator whose radius follows
 /// `spec.radius_law`.
 pub fn write_session(dir: &Path, spec: &SessionSpec) -> Result<SessionTruth, RenderError> {
+    write_arc_session(dir, spec, MARKER_RGB)
+}
+
+/// [`write_session`] without dots: the same actuator, its dots painted in the body's
+/// colour ([`BODY_RGB`]), for outline mode. truth.json still lists where the dots would
+/// be (their line's radius and bending angle).
+pub fn write_session_without_dots(
+    dir: &Path,
+    spec: &SessionSpec,
+) -> Result<SessionTruth, RenderError> {
+    write_arc_session(dir, spec, BODY_RGB)
+}
+
+fn write_arc_session(
+    dir: &Path,
+    spec: &SessionSpec,
+    marker_rgb: [f64; 3],
+) -> Result<SessionTruth, RenderError> {
     let videos = spec
         .pressures_kpa
         .iter()
@@ -98,6 +116,7 @@ pub fn write_session(dir: &Path, spec: &SessionSpec) -> Result<SessionTruth, Ren
             let radius = a * p.powf(b) + c;
             let scene = ArcScene {
                 distractor: spec.distractor.then(|| (Point2::new(75.0, 55.0), 8.0)),
+                marker_rgb,
                 ..ArcScene::reference_actuator(1.0 / radius, Point2::new(-50.0, 22.0))
             };
             let truth = VideoTruth {
@@ -643,6 +662,9 @@ pub struct FemRenderSettings {
     pub clean: bool,
     /// Also an RGB-D recording in `out/rgbd/`.
     pub rgbd: bool,
+    /// Paint the marker dots (false: the bare body, for outline mode; truth.json still
+    /// lists where the dots would be).
+    pub dots: bool,
     /// Random seed.
     pub seed: u64,
 }
@@ -658,6 +680,7 @@ impl Default for FemRenderSettings {
             distractor: false,
             clean: false,
             rgbd: false,
+            dots: true,
             seed: 7,
         }
     }
@@ -712,7 +735,12 @@ pub fn render_fem_session(
         ));
     }
     let origin = place_fem_actuator(face, camera, s.distance_mm)?;
-    let videos = fem_videos(face, origin, s.marker_diameter_mm, s.distractor)?;
+    let mut videos = fem_videos(face, origin, s.marker_diameter_mm, s.distractor)?;
+    if !s.dots {
+        for (scene, _) in &mut videos {
+            scene.marker_rgb = BODY_RGB;
+        }
+    }
     let look = if s.clean {
         FrameLook {
             blur_sigma_px: 0.0,

@@ -488,6 +488,12 @@ impl SessionConfig {
                 );
             }
         }
+        if self.segments.is_some() && self.detect.mode == crate::detect::DetectMode::Outline {
+            return top(
+                "segments",
+                "segments need dots: outline mode ([detect] mode = \"outline\") fits one circle to the body's edge; remove segments or use mode = \"dots\"".into(),
+            );
+        }
         if let Some(spec) = &self.segments {
             if let Err(why) = crate::segments::segments_from_spec(spec, self.expected_markers) {
                 return top("segments", format!("{spec:?}: {why}"));
