@@ -39,6 +39,7 @@ fn spec() -> SessionSpec {
         supersample: 2,
         look: FrameLook::default(),
         seed: 11,
+        scale_board_offset_mm: Some(0.0),
     }
 }
 
