@@ -16,7 +16,9 @@
 //! read over its family's defaults and meshed by its shape; [`tube`]: the fibre-wound
 //! circular tube) -> [`simulate`] (the pressure ramp and the quantities read off each step),
 //! [`vtu`] (ParaView files), [`output`] (every result file of a run or a sweep) and
-//! [`inp`] (the model as an Abaqus/CalculiX deck).
+//! [`inp`] (the model as an Abaqus/CalculiX deck). Not yet used by the solver: [`tet10`]
+//! (10-node tetrahedra, mixed u-P with one pressure per element) and [`pressure_tri6`]
+//! (follower pressure on their 6-node faces), verified on their own.
 //!
 //! Verified (tests): Yeoh uniaxial and equibiaxial stress against method.md §5; stress,
 //! tangent, pressure force and load stiffness against finite differences; the uniaxial
@@ -49,10 +51,12 @@ pub mod output;
 pub mod params;
 pub mod plate;
 pub mod pressure;
+pub mod pressure_tri6;
 pub mod shapes;
 pub mod simulate;
 pub mod solve;
 pub mod stepper;
+pub mod tet10;
 pub mod truss;
 pub mod tube;
 pub mod vtu;

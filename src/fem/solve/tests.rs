@@ -301,7 +301,7 @@ fn uniaxial_block_matches_the_exact_homogeneous_solution() {
 /// Incompressible plane-strain thick cylinder (inner radius A, outer B) inflated to
 /// inner stretch λ_a: p = ∫_{λ_b}^{λ_a} 2 W1(I1) (λ² + 1) / λ³ dλ,
 /// I1 = λ² + λ⁻² + 1, λ_b² = 1 + (A/B)² (λ_a² − 1) (Simpson, 2000 intervals).
-fn cylinder_pressure(m: &Yeoh, a: f64, b: f64, lambda_a: f64) -> f64 {
+pub(crate) fn cylinder_pressure(m: &Yeoh, a: f64, b: f64, lambda_a: f64) -> f64 {
     let lambda_b = (1.0 + (a / b).powi(2) * (lambda_a * lambda_a - 1.0)).sqrt();
     let f = |l: f64| 2.0 * m.w1(l * l + 1.0 / (l * l) + 1.0) * (l * l + 1.0) / l.powi(3);
     let n = 2000;
