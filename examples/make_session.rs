@@ -31,6 +31,7 @@ fn main() -> anyhow::Result<()> {
         supersample: 3,
         look: FrameLook::default(),
         seed: 7,
+        scale_board_offset_mm: Some(0.0),
     };
     let truth = write_session(&out, &spec)?;
     for v in &truth.videos {
