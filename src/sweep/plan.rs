@@ -446,7 +446,7 @@ levels = [8, 9]
         .unwrap();
         assert_eq!(
             (t.layer[0].thickness_mm, t.layer[1].thickness_mm),
-            (0.5, 0.2)
+            (1.0, 0.2)
         );
         let e = config_with(
             &strap,
