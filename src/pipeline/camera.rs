@@ -260,28 +260,28 @@ pub(super) fn session_scale(
         UndistortSettings::default(),
         b.offset_mm,
     )
-    .map_err(|source| match source {
-        // The scale command's advice names its --board flag; process reads the
-        // board from the settings.
-        ScaleError::NoBoard { .. } => PipelineError::Layout {
+    .map_err(|source| {
+        // Refusals fixed in the settings: the scale command's advice names its flags,
+        // process the keys in bendscope.toml.
+        let (flag, key) = match source {
+            ScaleError::NoBoard { .. } => ("--board", format!("[scale_board] in {CONFIG}")),
+            ScaleError::Offset { .. } => {
+                ("offset_mm", format!("[scale_board] offset_mm in {CONFIG}"))
+            }
+            source => {
+                return PipelineError::Scale {
+                    path: img.clone(),
+                    source,
+                }
+            }
+        };
+        PipelineError::Layout {
             path: img.clone(),
             why: source
                 .to_string()
                 .replace(&format!("{}: ", img.display()), "")
-                .replace("--board", &format!("[scale_board] in {CONFIG}")),
-        },
-        // An offset beyond the board's distance: the key to fix, in one line.
-        ScaleError::Offset { .. } => PipelineError::Layout {
-            path: img.clone(),
-            why: source
-                .to_string()
-                .replace(&format!("{}: ", img.display()), "")
-                .replace("offset_mm", &format!("[scale_board] offset_mm in {CONFIG}")),
-        },
-        source => PipelineError::Scale {
-            path: img.clone(),
-            source,
-        },
+                .replace(flag, &key),
+        }
     })?;
     if !config.scale_square_mm_given {
         notes.push(format!(
