@@ -14,6 +14,7 @@ PKGS=(
   chromium
   python3-venv python3-pip
   calculix-ccx
+  gmsh
 )
 
 scripts/apt-need.sh setup "${PKGS[@]}"
