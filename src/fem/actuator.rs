@@ -263,7 +263,13 @@ impl ActuatorConfig {
 /// The number of elements (hexahedra, and the tube's thread segments) a mesh of size `h`
 /// mm of `cfg` would have, counted without building it (a float: no overflow).
 pub fn element_estimate(cfg: &ActuatorConfig, h: f64) -> f64 {
-    cfg.shape().element_estimate(cfg, h)
+    let hexes = cfg.shape().element_estimate(cfg, h);
+    if cfg.mesh.element == super::config::SolidElement::Tet10 {
+        // Six tetrahedra per hexahedron.
+        6.0 * hexes
+    } else {
+        hexes
+    }
 }
 
 /// The smallest mesh size, mm, rounded up to two significant digits, whose mesh of `cfg`
@@ -303,7 +309,11 @@ pub fn smallest_mesh_size(cfg: &ActuatorConfig) -> Option<f64> {
 /// first.
 pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
     cfg.validate()?;
-    cfg.shape().build(cfg)
+    let mesh = cfg.shape().build(cfg)?;
+    if cfg.mesh.element == super::config::SolidElement::Tet10 {
+        return super::split::into_tetrahedra(cfg, mesh);
+    }
+    Ok(mesh)
 }
 
 #[cfg(test)]

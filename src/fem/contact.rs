@@ -649,6 +649,7 @@ mod tests {
             trusses: Vec::new(),
             plates: Vec::new(),
             incompatible_modes: false,
+            tets: Default::default(),
             contact: Some(Contact {
                 pairs: pairs.clone(),
                 penalty_mpa_per_mm: penalty,

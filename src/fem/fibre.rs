@@ -675,6 +675,7 @@ fn mesh_tube(cfg: &ActuatorConfig, half: bool) -> Result<ActuatorMesh, FemError>
             plates,
             contact: None,
             incompatible_modes: cfg.mesh.element.incompatible_modes(),
+            tets: Default::default(),
         },
         markers,
         tip,

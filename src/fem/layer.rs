@@ -465,6 +465,7 @@ mod tests {
             plates,
             contact: None,
             incompatible_modes: false,
+            tets: Default::default(),
         };
         let r = solve_static(&model, &NewtonSettings::default()).unwrap();
         let (top, bottom) = (id(nx, 0, nz), id(nx, 0, 0));

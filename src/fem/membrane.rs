@@ -597,6 +597,7 @@ mod tests {
             trusses: Vec::new(),
             plates: Vec::new(),
             incompatible_modes: false,
+            tets: Default::default(),
             contact: None,
         };
         let r = solve_static(&model, &NewtonSettings::default()).unwrap();

@@ -10,7 +10,8 @@ use super::hex::{nodal_volumes, HexGeometry};
 use super::layer::{LayerConfig, LayerElement};
 use super::membrane::MembraneElement;
 use super::plate::{Mirror, PlateTerm};
-use super::solve::Model;
+use super::solve::{Model, Tetrahedra};
+use super::tet10::{self, Tet10Geometry};
 use super::FemError;
 
 /// Standard gravity, m/s².
@@ -245,6 +246,36 @@ pub(crate) fn gravity_loads(
         for (a, v) in nodal_volumes(&geom).iter().enumerate() {
             for d in 0..3 {
                 loads[3 * el[a] + d] += weight_per_mm3 * v * down[d];
+            }
+        }
+    }
+    Ok(loads)
+}
+
+/// [`gravity_loads`] of the tetrahedra `tets`.
+pub(crate) fn gravity_loads_tets(
+    cfg: &ActuatorConfig,
+    nodes: &[Vector3<f64>],
+    tets: &Tetrahedra,
+    densities_g_cm3: &[f64],
+) -> Result<Vec<f64>, FemError> {
+    let mut loads = vec![0.0; 3 * nodes.len()];
+    if !cfg.load.gravity {
+        return Ok(loads);
+    }
+    let down = Vector3::from(cfg.load.gravity_direction).normalize();
+    for (t, el) in tets.elements.iter().enumerate() {
+        let k = tets.material.get(t).map_or(0, |&k| usize::from(k));
+        let density = densities_g_cm3.get(k).copied().ok_or(FemError::Model {
+            why: format!("material {k} has no density (mesh bug)"),
+        })?;
+        let x: [Vector3<f64>; 10] = std::array::from_fn(|a| nodes[el[a]]);
+        let geom = Tet10Geometry::new(&x).ok_or(FemError::Model {
+            why: format!("tetrahedron {t} is inverted or degenerate"),
+        })?;
+        for (a, v) in tet10::nodal_volumes(&geom).iter().enumerate() {
+            for d in 0..3 {
+                loads[3 * el[a] + d] += density * 1e-6 * GRAVITY_M_S2 * v * down[d];
             }
         }
     }

@@ -55,6 +55,7 @@ pub mod pressure_tri6;
 pub mod shapes;
 pub mod simulate;
 pub mod solve;
+pub mod split;
 pub mod stepper;
 pub mod tet10;
 pub mod truss;

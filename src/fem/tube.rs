@@ -143,6 +143,7 @@ pub fn tube_mesh(spec: TubeSpec, material: Yeoh) -> Result<TubeMesh, FemError> {
             plates: Vec::new(),
             incompatible_modes: false,
             contact: None,
+            tets: Default::default(),
         },
         spec,
         stride,

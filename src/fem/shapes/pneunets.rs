@@ -722,6 +722,7 @@ pub fn build_pneunets(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
                 penalty_mpa_per_mm: c.penalty_for(&material, h),
             }),
             incompatible_modes: cfg.mesh.element.incompatible_modes(),
+            tets: Default::default(),
         },
         markers,
         tip,

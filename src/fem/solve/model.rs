@@ -46,6 +46,24 @@ pub struct Model {
     /// The hexahedra with incompatible modes ([`crate::fem::hex`]'s enhanced element, the
     /// modes condensed per element) instead of the plain Q1/P0 element.
     pub incompatible_modes: bool,
+    /// Quadratic tetrahedra beside (or instead of) the hexahedra, and their pressurized
+    /// faces.
+    pub tets: Tetrahedra,
+}
+
+/// The 10-node tetrahedra of a model ([`crate::fem::tet10`], mixed u-P with one pressure
+/// per element, condensed exactly: they need no state of their own in the Newton
+/// iteration) and their 6-node cavity faces ([`crate::fem::pressure_tri6`]).
+#[derive(Debug, Clone, Default)]
+pub struct Tetrahedra {
+    /// Elements: 10 node indices each (C3D10 order, [`crate::fem::tet10::EDGES`]).
+    pub elements: Vec<[usize; 10]>,
+    /// Material of each tetrahedron as [`Model::element_material`] (0 the main material,
+    /// k `extra_materials[k - 1]`); empty: every one is 0.
+    pub material: Vec<u8>,
+    /// Cavity faces carrying the follower pressure: 6 node indices, the normal out of the
+    /// cavity ([`crate::fem::pressure_tri6`]'s order).
+    pub pressure_faces: Vec<[usize; 6]>,
 }
 
 impl Model {
@@ -73,13 +91,23 @@ impl Model {
             plates: Vec::new(),
             contact: None,
             incompatible_modes: false,
+            tets: Tetrahedra::default(),
         }
     }
 
     /// The material of element `e`.
     pub fn material_of(&self, e: usize) -> &Yeoh {
-        match self.element_material.get(e) {
-            Some(&k) if k > 0 => self
+        self.material_by_id(self.element_material.get(e).copied())
+    }
+
+    /// The material of tetrahedron `t`.
+    pub fn material_of_tet(&self, t: usize) -> &Yeoh {
+        self.material_by_id(self.tets.material.get(t).copied())
+    }
+
+    fn material_by_id(&self, id: Option<u8>) -> &Yeoh {
+        match id {
+            Some(k) if k > 0 => self
                 .extra_materials
                 .get(usize::from(k) - 1)
                 .unwrap_or(&self.material),

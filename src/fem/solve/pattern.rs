@@ -35,6 +35,13 @@ pub(super) struct Pattern {
     pub(super) truss_slots: Vec<Box<[u32; TRUSS_DOFS * TRUSS_DOFS]>>,
     /// `plate_slots[t][a + 15 b]`: value index of entry (a, b) of bending term t, or SKIP.
     pub(super) plate_slots: Vec<[u32; 9 * PLATE_NODES * PLATE_NODES]>,
+    /// `tet_slots[t][a + 30 b]`: value index of entry (a, b) of tetrahedron t, or SKIP.
+    pub(super) tet_slots: Vec<Box<[u32; 900]>>,
+    /// Tetrahedra with a free dof.
+    pub(super) tet_active: Vec<bool>,
+    /// `tri6_slots[f][a + 18 b]`: value index of entry (a, b) of 6-node pressure face f,
+    /// or SKIP.
+    pub(super) tri6_slots: Vec<Box<[u32; 324]>>,
 }
 
 impl Pattern {
@@ -73,6 +80,12 @@ impl Pattern {
         }
         for t in &model.plates {
             add(&dofs(&t.nodes));
+        }
+        for t in &model.tets.elements {
+            add(&dofs(t));
+        }
+        for f in &model.tets.pressure_faces {
+            add(&dofs(f));
         }
         // Contact: the node pairs contact has coupled so far (`extra`, found during the
         // solve); the master faces' own couplings are those of their elements.
@@ -166,6 +179,32 @@ impl Pattern {
                 s
             })
             .collect();
+        let tet_slots = model
+            .tets
+            .elements
+            .iter()
+            .map(|t| {
+                let mut s = Box::new([SKIP; 900]);
+                slots(&dofs(t), &mut s[..]);
+                s
+            })
+            .collect();
+        let tet_active = model
+            .tets
+            .elements
+            .iter()
+            .map(|t| dofs(t).iter().any(Option::is_some))
+            .collect();
+        let tri6_slots = model
+            .tets
+            .pressure_faces
+            .iter()
+            .map(|f| {
+                let mut s = Box::new([SKIP; 324]);
+                slots(&dofs(f), &mut s[..]);
+                s
+            })
+            .collect();
         let symbolic = SymbolicSparseColMat::new_checked(n_eq, n_eq, col_ptr, None, row_idx);
         Ok(Self {
             symbolic,
@@ -175,6 +214,9 @@ impl Pattern {
             membrane_slots,
             truss_slots,
             plate_slots,
+            tet_slots,
+            tet_active,
+            tri6_slots,
         })
     }
 

@@ -9,13 +9,15 @@ use faer::sparse::linalg::cholesky::SymbolicCholesky;
 use nalgebra::{Matrix3, Vector3};
 use rayon::prelude::*;
 
-use super::assembly::{gather, ElementPart, MODE_DOFS};
+use super::assembly::{gather, ElementPart, TetPart, MODE_DOFS};
 use super::model::{volume_points, LoadState, Model};
 use super::pattern::Pattern;
 use crate::fem::contact::contact_terms;
 use crate::fem::hex::{element_cauchy_stress, element_response, HexGeometry, Modes};
 use crate::fem::membrane::{membrane_response, MembraneGeometry};
 use crate::fem::pressure::face_volume;
+use crate::fem::pressure_tri6;
+use crate::fem::tet10::{self, Tet10Geometry};
 use crate::fem::truss::{truss_response, TRUSS_DOFS};
 use crate::fem::FemError;
 
@@ -33,6 +35,7 @@ pub struct SolverState {
 pub struct Solver<'m> {
     pub(super) model: &'m Model,
     pub(super) geom: Vec<HexGeometry>,
+    pub(super) tet_geom: Vec<Tet10Geometry>,
     pub(super) membrane_geom: Vec<MembraneGeometry>,
     pub(super) eq: Vec<Option<usize>>,
     pub(super) n_eq: usize,
@@ -52,6 +55,8 @@ pub struct Solver<'m> {
     /// that an assembly allocates nothing (a fresh ~55 MB vector per Newton iteration at
     /// the default mesh cost page faults and moves).
     pub(super) parts: Mutex<Vec<Option<ElementPart>>>,
+    /// The same for a chunk of tetrahedra ([`super::assembly::TET_CHUNK`]).
+    pub(super) tet_parts: Mutex<Vec<Option<TetPart>>>,
     pub(super) u: Vec<f64>,
     /// Element dilatations θ_e.
     pub(super) theta: Vec<f64>,
@@ -87,6 +92,18 @@ impl<'m> Solver<'m> {
                 why: "element_material needs one valid material index per element".into(),
             });
         }
+        if !model.tets.material.is_empty()
+            && (model.tets.material.len() != model.tets.elements.len()
+                || model
+                    .tets
+                    .material
+                    .iter()
+                    .any(|k| usize::from(*k) > model.extra_materials.len()))
+        {
+            return Err(FemError::Model {
+                why: "the tetrahedra's materials need one valid index per tetrahedron".into(),
+            });
+        }
         if model
             .contact
             .iter()
@@ -102,6 +119,8 @@ impl<'m> Solver<'m> {
             .iter()
             .flatten()
             .chain(model.pressure_faces.iter().flatten())
+            .chain(model.tets.elements.iter().flatten())
+            .chain(model.tets.pressure_faces.iter().flatten())
             .chain(model.membranes.iter().flat_map(|m| &m.nodes))
             .chain(model.plates.iter().flat_map(|t| &t.nodes))
             .chain(
@@ -128,6 +147,13 @@ impl<'m> Solver<'m> {
                 why: format!("element {i} is inverted or degenerate"),
             })?);
         }
+        let mut tet_geom = Vec::with_capacity(model.tets.elements.len());
+        for (i, t) in model.tets.elements.iter().enumerate() {
+            let x: [Vector3<f64>; 10] = std::array::from_fn(|a| model.nodes[t[a]]);
+            tet_geom.push(Tet10Geometry::new(&x).ok_or(FemError::Model {
+                why: format!("tetrahedron {i} is inverted or degenerate"),
+            })?);
+        }
         let mut membrane_geom = Vec::with_capacity(model.membranes.len());
         for (i, m) in model.membranes.iter().enumerate() {
             let x: [Vector3<f64>; 4] = std::array::from_fn(|a| model.nodes[m.nodes[a]]);
@@ -148,6 +174,7 @@ impl<'m> Solver<'m> {
         Ok(Self {
             model,
             geom,
+            tet_geom,
             membrane_geom,
             eq,
             n_eq,
@@ -157,6 +184,7 @@ impl<'m> Solver<'m> {
             factor: Vec::new(),
             scratch: None,
             parts: Mutex::new(Vec::new()),
+            tet_parts: Mutex::new(Vec::new()),
             u: vec![0.0; 3 * n],
             theta: vec![1.0; points * model.elements.len()],
             pressure: vec![0.0; points * model.elements.len()],
@@ -193,14 +221,47 @@ impl<'m> Solver<'m> {
     /// Current volume enclosed by the pressure faces (and the symmetry planes through the
     /// origin), mm³.
     pub fn cavity_volume(&self) -> f64 {
-        self.model
+        let w = &self.model.volume_weights;
+        let quads: f64 = self
+            .model
             .pressure_faces
             .iter()
             .map(|f| {
                 let x: [Vector3<f64>; 4] = std::array::from_fn(|k| self.position(f[k]));
-                face_volume(&x, &self.model.volume_weights).0
+                face_volume(&x, w).0
             })
-            .sum()
+            .sum();
+        let triangles: f64 = self
+            .model
+            .tets
+            .pressure_faces
+            .iter()
+            .map(|f| {
+                let x: [Vector3<f64>; 6] = std::array::from_fn(|k| self.position(f[k]));
+                pressure_tri6::face_volume(&x, w).0
+            })
+            .sum();
+        quads + triangles
+    }
+
+    /// Cauchy stress of every tetrahedron, MPa: the mean over its Gauss points of the
+    /// isochoric part plus its condensed pressure (NaN entries for an inverted one, which
+    /// a converged state does not have).
+    pub fn tet_stresses(&self) -> Vec<Matrix3<f64>> {
+        let model = self.model;
+        model
+            .tets
+            .elements
+            .par_iter()
+            .zip(&self.tet_geom)
+            .enumerate()
+            .map(|(t, (el, g))| {
+                let material = model.material_of_tet(t);
+                let u = gather(&self.u, el);
+                tet10::element_cauchy_stress(g, material, &u)
+                    .unwrap_or_else(|| Matrix3::from_element(f64::NAN))
+            })
+            .collect()
     }
 
     /// Cauchy stress of every element, MPa (`None` never happens on a converged state).
@@ -238,6 +299,25 @@ impl<'m> Solver<'m> {
                 }
             }
         }
+        for (t, (el, g)) in self
+            .model
+            .tets
+            .elements
+            .iter()
+            .zip(&self.tet_geom)
+            .enumerate()
+        {
+            if let Some((_, ft, _)) = tet10::element_response(
+                g,
+                self.model.material_of_tet(t),
+                &gather(&self.u, el),
+                tet10::Formulation::MixedP0,
+            ) {
+                for a in 0..30 {
+                    f[3 * el[a / 3] + a % 3] += ft[a];
+                }
+            }
+        }
         for (m, g) in self.model.membranes.iter().zip(&self.membrane_geom) {
             let (_, fm, _) = membrane_response(g, &m.section, &gather(&self.u, &m.nodes));
             for a in 0..12 {
@@ -261,6 +341,13 @@ impl<'m> Solver<'m> {
             let x: [Vector3<f64>; 4] = std::array::from_fn(|k| self.position(face[k]));
             let (_, g, _) = face_volume(&x, &self.model.volume_weights);
             for a in 0..12 {
+                f[3 * face[a / 3] + a % 3] -= p * g[a];
+            }
+        }
+        for face in &self.model.tets.pressure_faces {
+            let x: [Vector3<f64>; 6] = std::array::from_fn(|k| self.position(face[k]));
+            let (_, g, _) = pressure_tri6::face_volume(&x, &self.model.volume_weights);
+            for a in 0..18 {
                 f[3 * face[a / 3] + a % 3] -= p * g[a];
             }
         }

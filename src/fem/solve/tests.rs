@@ -365,6 +365,7 @@ fn cylinder_inner_stretch(material: Yeoh, p_mpa: f64) -> f64 {
         plates: Vec::new(),
         incompatible_modes: false,
         contact: None,
+        tets: Default::default(),
     };
     let mut solver = Solver::new(&model).unwrap();
     let settings = NewtonSettings {

@@ -167,6 +167,42 @@ pub fn element_pressure(
     Some(material.du(v / geom.volume))
 }
 
+/// ∫ N_a dV of each node over the reference element (a consistent body load's weights:
+/// negative at the corners, as for every quadratic tetrahedron).
+pub fn nodal_volumes(geom: &Tet10Geometry) -> [f64; 10] {
+    let mut v = [0.0; 10];
+    for (l, w) in GAUSS.iter().zip(geom.weights) {
+        let (n, _) = shape(l);
+        for a in 0..10 {
+            v[a] += w * n[a];
+        }
+    }
+    v
+}
+
+/// The element's Cauchy stress, MPa: the isochoric part averaged over the current
+/// volume plus the condensed pressure (as the hexahedron's). `None` when inverted.
+pub fn element_cauchy_stress(
+    geom: &Tet10Geometry,
+    material: &Yeoh,
+    u: &[Vector3<f64>; 10],
+) -> Option<Matrix3<f64>> {
+    let iso = material.isochoric();
+    let mut sum = Matrix3::zeros();
+    let mut v = 0.0;
+    for g in 0..4 {
+        let f = geom.deformation_gradient(g, u);
+        let j = f.determinant();
+        if !(j > 0.0) {
+            return None;
+        }
+        // σ_iso J w = P_iso Fᵀ w: volume-weighted average over the current element.
+        sum += iso.first_piola(&f) * f.transpose() * geom.weights[g];
+        v += j * geom.weights[g];
+    }
+    Some(sum / v + Matrix3::identity() * material.du(v / geom.volume))
+}
+
 /// Energy, internal force and consistent tangent of one element at nodal displacements
 /// `u`. `None` when a Gauss point is inverted (J <= 0).
 pub fn element_response(
