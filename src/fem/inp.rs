@@ -67,6 +67,8 @@ pub struct InpSummary {
     pub nodes: usize,
     /// C3D8I elements.
     pub elements: usize,
+    /// C3D10 elements.
+    pub tets: usize,
     /// M3D4 membranes (thin layers).
     pub membranes: usize,
     /// S4 shells (thin layers with their bending stiffness: plate layers).
@@ -85,11 +87,13 @@ pub struct InpSummary {
 
 impl std::fmt::Display for InpSummary {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "CalculiX deck: {} nodes, {} C3D8I",
-            self.nodes, self.elements
-        )?;
+        write!(f, "CalculiX deck: {} nodes", self.nodes)?;
+        if self.elements > 0 {
+            write!(f, ", {} C3D8I", self.elements)?;
+        }
+        if self.tets > 0 {
+            write!(f, ", {} C3D10", self.tets)?;
+        }
         if self.membranes > 0 {
             write!(f, ", {} M3D4", self.membranes)?;
         }
@@ -149,10 +153,44 @@ fn element_faces(
         .collect()
 }
 
-/// The element and CalculiX face number (1..6) of every cavity face: the solid element
-/// the face belongs to.
+/// Corners of the faces of a C3D10 (0-based local corners), CalculiX's and Abaqus's
+/// face numbers 1..4.
+pub const C3D10_FACES: [[usize; 3]; 4] = [[0, 1, 2], [0, 3, 1], [1, 3, 2], [2, 3, 0]];
+
+/// The element (numbered after the hexahedra) and C3D10 face number (1..4) of every
+/// 6-node cavity face.
+fn tet_face_loads(mesh: &ActuatorMesh) -> Result<Vec<(usize, usize)>, FemError> {
+    let m = &mesh.model;
+    let key = |mut t: [usize; 3]| {
+        t.sort_unstable();
+        t
+    };
+    let mut faces = HashMap::new();
+    for (t, el) in m.tets.elements.iter().enumerate() {
+        for (f, local) in C3D10_FACES.iter().enumerate() {
+            faces.insert(key(local.map(|a| el[a])), (m.elements.len() + t, f + 1));
+        }
+    }
+    m.tets
+        .pressure_faces
+        .iter()
+        .map(|f| {
+            faces
+                .get(&key([f[0], f[1], f[2]]))
+                .copied()
+                .ok_or_else(|| FemError::Model {
+                    why: "a cavity face belongs to no tetrahedron (mesh bug)".into(),
+                })
+        })
+        .collect()
+}
+
+/// The element and CalculiX face number of every cavity face: the solid element the face
+/// belongs to (hexahedra 1..6, then tetrahedra 1..4).
 pub fn pressure_face_loads(mesh: &ActuatorMesh) -> Result<Vec<(usize, usize)>, FemError> {
-    element_faces(&solid_faces(mesh), &mesh.model.pressure_faces, "cavity")
+    let mut loads = element_faces(&solid_faces(mesh), &mesh.model.pressure_faces, "cavity")?;
+    loads.extend(tet_face_loads(mesh)?);
+    Ok(loads)
 }
 
 /// The deck of `mesh`, the model `cfg` describes as built (see the module doc; its
@@ -163,7 +201,7 @@ pub fn inp_from_mesh(
 ) -> Result<(String, InpSummary), FemError> {
     let pressures_kpa = cfg.pressures_kpa()?;
     let faces = solid_faces(mesh);
-    let loads = element_faces(&faces, &mesh.model.pressure_faces, "cavity")?;
+    let loads = pressure_face_loads(mesh)?;
     let m = &mesh.model;
     let names = part_names(mesh);
     let in_parts = |of: fn(&Part) -> usize| mesh.parts.iter().map(of).sum::<usize>();
@@ -191,9 +229,10 @@ pub fn inp_from_mesh(
     }
     let _ = writeln!(
         s,
-        "*HEADING\nbendscope {what}, {} nodes, {} C3D8I, mesh {} mm",
+        "*HEADING\nbendscope {what}, {} nodes, {} C3D8I, {} C3D10, mesh {} mm",
         m.nodes.len(),
         m.elements.len(),
+        m.tets.elements.len(),
         cfg.mesh.size_mm
     );
     s.push_str("*NODE, NSET=NALL\n");
@@ -219,15 +258,26 @@ pub fn inp_from_mesh(
         spring_ends.push(ends);
     }
 
-    // Solids: one card (ids 1..E as bendscope numbers them), a set per material.
-    s.push_str("*ELEMENT, TYPE=C3D8I, ELSET=EALL\n");
-    for (e, el) in m.elements.iter().enumerate() {
-        let _ = writeln!(s, "{}, {}", e + 1, join_ids(el.iter().map(|n| n + 1)));
+    // Solids: a card per kind (ids 1..E as bendscope numbers them: the hexahedra, then
+    // the tetrahedra as C3D10, CalculiX having no hybrid element), a set per material.
+    if !m.elements.is_empty() {
+        s.push_str("*ELEMENT, TYPE=C3D8I, ELSET=EALL\n");
+        for (e, el) in m.elements.iter().enumerate() {
+            let _ = writeln!(s, "{}, {}", e + 1, join_ids(el.iter().map(|n| n + 1)));
+        }
+    }
+    let solids = m.elements.len() + m.tets.elements.len();
+    if !m.tets.elements.is_empty() {
+        s.push_str("*ELEMENT, TYPE=C3D10, ELSET=EALL\n");
+        for (t, el) in m.tets.elements.iter().enumerate() {
+            let id = m.elements.len() + t + 1;
+            let _ = writeln!(s, "{id}, {}", join_ids(el.iter().map(|n| n + 1)));
+        }
     }
     let n_materials = 1 + m.extra_materials.len();
     for k in 0..n_materials {
-        let ids: Vec<usize> = (0..m.elements.len())
-            .filter(|e| m.element_material.get(*e).map_or(0, |&id| usize::from(id)) == k)
+        let ids: Vec<usize> = (0..solids)
+            .filter(|e| usize::from(m.solid_material_id(*e)) == k)
             .map(|e| e + 1)
             .collect();
         let mat = if k == 0 {
@@ -257,7 +307,7 @@ pub fn inp_from_mesh(
     // Sheets on the layer's mid-plane nodes, a set and section per layer: M3D4 membranes,
     // or S4 shells for a plate layer (its bending stiffness; CalculiX expands them to
     // C3D8I through the thickness, tied to the silicone's nodes at their mid-plane).
-    let mut next_id = m.elements.len();
+    let mut next_id = solids;
     let (mut n_membranes, mut n_shells) = (0, 0);
     let mut shell_nodes = std::collections::BTreeSet::new();
     for (part, name) in mesh.parts.iter().zip(&names.parts) {
@@ -468,6 +518,7 @@ pub fn inp_from_mesh(
     let summary = InpSummary {
         nodes: m.nodes.len() + points.len(),
         elements: m.elements.len(),
+        tets: m.tets.elements.len(),
         membranes: n_membranes,
         shells: n_shells,
         springs: m.trusses.len(),

@@ -403,7 +403,7 @@ pub fn part_stresses(
             if let Some(id) = part.solid_material {
                 for (e, s) in stresses.iter().enumerate() {
                     let v = max_principal(s);
-                    if model.element_material.get(e).copied().unwrap_or(0) == id && v.is_finite() {
+                    if model.solid_material_id(e) == id && v.is_finite() {
                         max = max.max(v);
                     }
                 }

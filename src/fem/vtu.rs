@@ -16,6 +16,8 @@ use crate::io::write_atomic;
 
 /// VTK cell type of an 8-node hexahedron.
 const VTK_HEXAHEDRON: u8 = 12;
+/// VTK cell type of a 10-node tetrahedron (its node order is C3D10's).
+const VTK_QUADRATIC_TETRA: u8 = 24;
 
 /// von Mises equivalent stress.
 pub fn von_mises(s: &Matrix3<f64>) -> f64 {
@@ -23,14 +25,21 @@ pub fn von_mises(s: &Matrix3<f64>) -> f64 {
     (1.5 * dev.component_mul(&dev).sum()).sqrt()
 }
 
-/// Writes the deformed mesh with its fields to `path` (atomically).
+/// Writes the deformed mesh with its fields to `path` (atomically): the cells are the
+/// hexahedra then the tetrahedra, as `stresses` is ordered.
 pub fn write_vtu(
     path: &Path,
     nodes: &[Vector3<f64>],
-    elements: &[[usize; 8]],
+    hexes: &[[usize; 8]],
+    tets: &[[usize; 10]],
     displacement: &[f64],
     stresses: &[Matrix3<f64>],
 ) -> std::io::Result<()> {
+    let elements: Vec<&[usize]> = hexes
+        .iter()
+        .map(|h| &h[..])
+        .chain(tets.iter().map(|t| &t[..]))
+        .collect();
     let mut s = String::with_capacity(nodes.len() * 80 + elements.len() * 200);
     let _ = writeln!(s, "<?xml version=\"1.0\"?>");
     let _ = writeln!(
@@ -53,17 +62,24 @@ pub fn write_vtu(
     }
     s.push_str("</DataArray>\n</Points>\n<Cells>\n");
     s.push_str("<DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">\n");
-    for el in elements {
+    for el in &elements {
         let line: Vec<String> = el.iter().map(|n| n.to_string()).collect();
         let _ = writeln!(s, "{}", line.join(" "));
     }
     s.push_str("</DataArray>\n<DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">\n");
-    for k in 1..=elements.len() {
-        let _ = writeln!(s, "{}", 8 * k);
+    let mut offset = 0;
+    for el in &elements {
+        offset += el.len();
+        let _ = writeln!(s, "{offset}");
     }
     s.push_str("</DataArray>\n<DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">\n");
-    for _ in elements {
-        let _ = writeln!(s, "{VTK_HEXAHEDRON}");
+    for el in &elements {
+        let kind = if el.len() == 8 {
+            VTK_HEXAHEDRON
+        } else {
+            VTK_QUADRATIC_TETRA
+        };
+        let _ = writeln!(s, "{kind}");
     }
     s.push_str("</DataArray>\n</Cells>\n<PointData Vectors=\"displacement_mm\">\n");
     s.push_str("<DataArray type=\"Float64\" Name=\"displacement_mm\" NumberOfComponents=\"3\" format=\"ascii\">\n");
@@ -117,6 +133,7 @@ mod tests {
         assert!((max_principal(&shear) - 1.0).abs() < 1e-12);
     }
 
+    /// A hexahedron and a tetrahedron: their cells, offsets and types in that order.
     #[test]
     fn one_hexahedron_file_lists_its_points_cells_and_fields() {
         let dir = tempfile::tempdir().unwrap();
@@ -128,12 +145,16 @@ mod tests {
             &path,
             &nodes,
             &[[0, 1, 3, 2, 4, 5, 7, 6]],
+            &[[0, 1, 2, 4, 5, 6, 7, 3, 0, 1]],
             &[0.5; 24],
-            &[Matrix3::identity()],
+            &[Matrix3::identity(); 2],
         )
         .unwrap();
         let text = std::fs::read_to_string(&path).unwrap();
-        assert!(text.contains("NumberOfPoints=\"8\" NumberOfCells=\"1\""));
+        assert!(text.contains("NumberOfPoints=\"8\" NumberOfCells=\"2\""));
+        assert!(text.contains("0 1 2 4 5 6 7 3 0 1"));
+        assert!(text.contains("format=\"ascii\">\n8\n18\n</DataArray>"));
+        assert!(text.contains("format=\"ascii\">\n12\n24\n</DataArray>"));
         assert!(text.contains("0 1 3 2 4 5 7 6"));
         assert!(text.contains("1.5 1.5 1.5"));
         assert!(text.contains("Name=\"von_mises_stress_mpa\""));

@@ -80,7 +80,10 @@ impl Evaluator {
     fn run(&mut self, cfg: &ActuatorConfig) -> Result<ModelCurve, FitModelError> {
         let mesh = build_mesh(cfg)?;
         let model = &mesh.model;
-        let shape = (model.nodes.len(), model.elements.len());
+        let shape = (
+            model.nodes.len(),
+            model.elements.len() + model.tets.elements.len(),
+        );
         let warm = match self.warm.take() {
             Some((n, e, states)) if (n, e) == shape => Some(states),
             Some(_) => {

@@ -100,6 +100,17 @@ impl Model {
         self.material_by_id(self.element_material.get(e).copied())
     }
 
+    /// The material id of solid element `e`, counting the hexahedra first and the
+    /// tetrahedra after them (the order of [`super::Solver::element_stresses`]).
+    pub fn solid_material_id(&self, e: usize) -> u8 {
+        let hexes = self.elements.len();
+        if e < hexes {
+            self.element_material.get(e).copied().unwrap_or(0)
+        } else {
+            self.tets.material.get(e - hexes).copied().unwrap_or(0)
+        }
+    }
+
     /// The material of tetrahedron `t`.
     pub fn material_of_tet(&self, t: usize) -> &Yeoh {
         self.material_by_id(self.tets.material.get(t).copied())

@@ -8,6 +8,7 @@ use super::model::{volume_points, LoadState, Model};
 use super::pattern::Pattern;
 use super::solver::{Solver, State};
 use crate::fem::hex::{ElementVector, Modes, ENHANCED_DOFS};
+use crate::fem::tet10::Tet10Vector;
 use crate::fem::FemError;
 
 /// Newton settings.
@@ -333,7 +334,7 @@ impl<'m> Solver<'m> {
             // Δa = −K_aa⁻¹ (r_a + K_au Δu), then Δθ = (Gᵀ Δu + R_p) / V (G over the nodes
             // and the modes, per Gauss point with the modes), Δp = U'' Δθ + R_θ / V.
             let points = volume_points(self.model);
-            let updates: Vec<ElementUpdate> = self
+            let mut updates: Vec<ElementUpdate> = self
                 .model
                 .elements
                 .iter()
@@ -371,6 +372,21 @@ impl<'m> Solver<'m> {
                     }
                 })
                 .collect();
+            // The tetrahedra's: Δθ = (Gᵀ Δu + R_θ) / V, Δp = U'' Δθ + R_p / V (a model
+            // with tetrahedra has one dilatation per hexahedron: no modes).
+            updates.extend(
+                self.model
+                    .tets
+                    .elements
+                    .iter()
+                    .zip(&cur.tet_condensed)
+                    .zip(&self.tet_geom)
+                    .map(|((el, c), g)| {
+                        let due = Tet10Vector::from_fn(|a, _| du_full[3 * el[a / 3] + a % 3]);
+                        let dth = (c.g.dot(&due) + c.r_volume) / g.volume;
+                        (vec![(dth, c.ddu * dth + c.r_pressure / g.volume)], None)
+                    }),
+            );
             // Full step unless it inverts an element; then halve.
             let mut alpha = 1.0;
             let mut accepted = None;

@@ -92,6 +92,11 @@ impl<'m> Solver<'m> {
                 why: "element_material needs one valid material index per element".into(),
             });
         }
+        if model.incompatible_modes && !model.tets.elements.is_empty() {
+            return Err(FemError::Model {
+                why: "tetrahedra beside hexahedra with incompatible modes".into(),
+            });
+        }
         if !model.tets.material.is_empty()
             && (model.tets.material.len() != model.tets.elements.len()
                 || model
@@ -186,8 +191,8 @@ impl<'m> Solver<'m> {
             parts: Mutex::new(Vec::new()),
             tet_parts: Mutex::new(Vec::new()),
             u: vec![0.0; 3 * n],
-            theta: vec![1.0; points * model.elements.len()],
-            pressure: vec![0.0; points * model.elements.len()],
+            theta: vec![1.0; points * model.elements.len() + model.tets.elements.len()],
+            pressure: vec![0.0; points * model.elements.len() + model.tets.elements.len()],
             modes: if model.incompatible_modes {
                 vec![[0.0; MODE_DOFS]; model.elements.len()]
             } else {
@@ -244,10 +249,9 @@ impl<'m> Solver<'m> {
         quads + triangles
     }
 
-    /// Cauchy stress of every tetrahedron, MPa: the mean over its Gauss points of the
-    /// isochoric part plus its condensed pressure (NaN entries for an inverted one, which
-    /// a converged state does not have).
-    pub fn tet_stresses(&self) -> Vec<Matrix3<f64>> {
+    /// Cauchy stress of every tetrahedron, MPa: the isochoric part averaged over the
+    /// element plus its condensed pressure.
+    fn tet_stresses(&self) -> Vec<Matrix3<f64>> {
         let model = self.model;
         model
             .tets
@@ -264,8 +268,15 @@ impl<'m> Solver<'m> {
             .collect()
     }
 
-    /// Cauchy stress of every element, MPa (`None` never happens on a converged state).
+    /// Cauchy stress of every solid element, MPa: the hexahedra, then the tetrahedra
+    /// (NaN entries for an inverted one, which a converged state does not have).
     pub fn element_stresses(&self) -> Vec<Matrix3<f64>> {
+        let mut s = self.hex_stresses();
+        s.extend(self.tet_stresses());
+        s
+    }
+
+    fn hex_stresses(&self) -> Vec<Matrix3<f64>> {
         self.model
             .elements
             .par_iter()

@@ -203,46 +203,68 @@ pub fn element_cauchy_stress(
     Some(sum / v + Matrix3::identity() * material.du(v / geom.volume))
 }
 
-/// Energy, internal force and consistent tangent of one element at nodal displacements
-/// `u`. `None` when a Gauss point is inverted (J <= 0).
-pub fn element_response(
+/// The displacement-dependent parts of an element at nodal displacements `u`: isochoric
+/// energy, force and tangent, the current volume v = ∫ J dV, its gradient G = ∂v/∂u and
+/// Hessian H = ∂²v/∂u² (what the solver's three-field iteration combines with the
+/// element's dilatation and pressure, as for the hexahedron). `None` when a Gauss point
+/// is inverted (J <= 0).
+pub struct Kinematics {
+    /// Isochoric energy.
+    pub energy_iso: f64,
+    /// Isochoric internal force.
+    pub force_iso: Tet10Vector,
+    /// Isochoric tangent.
+    pub k_iso: Tet10Matrix,
+    /// Current volume.
+    pub v: f64,
+    /// ∂v/∂u.
+    pub g: Tet10Vector,
+    /// ∂²v/∂u².
+    pub h: Tet10Matrix,
+    /// J at each Gauss point.
+    pub js: [f64; 4],
+}
+
+/// [`Kinematics`] of one element; with `point_volumes` the volume's gradient and Hessian
+/// of each Gauss point are also handed to it (`g`, `h` of that point, J).
+pub fn kinematics(
     geom: &Tet10Geometry,
     material: &Yeoh,
     u: &[Vector3<f64>; 10],
-    formulation: Formulation,
-) -> Option<(f64, Tet10Vector, Tet10Matrix)> {
+    mut point_volumes: Option<&mut dyn FnMut(&Tet10Vector, &Tet10Matrix, f64)>,
+) -> Option<Kinematics> {
     let fs: [Matrix3<f64>; 4] = std::array::from_fn(|g| geom.deformation_gradient(g, u));
     let js = fs.map(|f| f.determinant());
     if js.iter().any(|j| !(*j > 0.0)) {
         return None;
     }
-    let v: f64 = (0..4).map(|g| geom.weights[g] * js[g]).sum();
-    let jbar = v / geom.volume;
-    // The weight of each point's volume Hessian: the pressure acting on it.
-    let c: [f64; 4] = match formulation {
-        Formulation::MixedP0 => [material.du(jbar); 4],
-        Formulation::Displacement => js.map(|j| material.du(j)),
-    };
     let iso = material.isochoric();
-    let mut energy = 0.0;
-    let mut force = Tet10Vector::zeros();
-    let mut k = Tet10Matrix::zeros();
-    let mut g_all = Tet10Vector::zeros();
+    let mut k = Kinematics {
+        energy_iso: 0.0,
+        force_iso: Tet10Vector::zeros(),
+        k_iso: Tet10Matrix::zeros(),
+        v: 0.0,
+        g: Tet10Vector::zeros(),
+        h: Tet10Matrix::zeros(),
+        js,
+    };
     for g in 0..4 {
         let (f, j, w) = (fs[g], js[g], geom.weights[g]);
         let grads = &geom.grads[g];
         let fit = f.try_inverse()?.transpose();
         let p = iso.first_piola(&f);
         let a = iso.tangent(&f);
-        energy += w * iso.energy(&f);
+        k.energy_iso += w * iso.energy(&f);
+        k.v += w * j;
         // q_a = F⁻ᵀ ∇N_a: ∂J/∂u_a = J q_a, and
         // ∂²J/∂u_a,i∂u_b,k = J (q_a,i q_b,k − q_b,i q_a,k).
         let q: [Vector3<f64>; 10] = std::array::from_fn(|an| fit * grads[an]);
         let mut gp = Tet10Vector::zeros();
+        let mut hp = Tet10Matrix::zeros();
         for an in 0..10 {
             let pa = p * grads[an];
             for i in 0..3 {
-                force[3 * an + i] += w * pa[i];
+                k.force_iso[3 * an + i] += w * pa[i];
                 gp[3 * an + i] = w * j * q[an][i];
             }
         }
@@ -258,27 +280,64 @@ pub fn element_response(
                                 s += ga[jj] * a[(3 * i + jj, 3 * kk + l)] * gb[l];
                             }
                         }
-                        let h = j * (q[an][i] * q[bn][kk] - q[bn][i] * q[an][kk]);
-                        k[(3 * an + i, 3 * bn + kk)] += w * (s + c[g] * h);
+                        k.k_iso[(3 * an + i, 3 * bn + kk)] += w * s;
+                        hp[(3 * an + i, 3 * bn + kk)] =
+                            w * j * (q[an][i] * q[bn][kk] - q[bn][i] * q[an][kk]);
                     }
                 }
             }
         }
-        match formulation {
-            Formulation::MixedP0 => g_all += gp,
-            Formulation::Displacement => {
-                energy += w * material.u(j);
-                force += gp * material.du(j);
-                k += gp * gp.transpose() * (material.ddu(j) / w);
-            }
+        k.g += gp;
+        k.h += hp;
+        if let Some(each) = point_volumes.as_mut() {
+            each(&gp, &hp, j);
         }
     }
-    if formulation == Formulation::MixedP0 {
-        energy += geom.volume * material.u(jbar);
-        force += g_all * material.du(jbar);
-        k += g_all * g_all.transpose() * (material.ddu(jbar) / geom.volume);
+    Some(k)
+}
+
+/// Energy, internal force and consistent tangent of one element at nodal displacements
+/// `u`, its pressure condensed exactly (`MixedP0`: p = U'(v / V)) or the plain
+/// displacement element. `None` when a Gauss point is inverted (J <= 0).
+pub fn element_response(
+    geom: &Tet10Geometry,
+    material: &Yeoh,
+    u: &[Vector3<f64>; 10],
+    formulation: Formulation,
+) -> Option<(f64, Tet10Vector, Tet10Matrix)> {
+    match formulation {
+        Formulation::MixedP0 => {
+            let k = kinematics(geom, material, u, None)?;
+            let jbar = k.v / geom.volume;
+            let (du, ddu) = (material.du(jbar), material.ddu(jbar));
+            Some((
+                k.energy_iso + geom.volume * material.u(jbar),
+                k.force_iso + k.g * du,
+                k.k_iso + k.h * du + k.g * k.g.transpose() * (ddu / geom.volume),
+            ))
+        }
+        Formulation::Displacement => {
+            // U(J) at every Gauss point: Σ w U(J_g), its gradient U'(J_g) G_g and Hessian
+            // U'(J_g) H_g + U''(J_g) G_g G_gᵀ / w_g.
+            let mut energy = 0.0;
+            let mut force = Tet10Vector::zeros();
+            let mut tangent = Tet10Matrix::zeros();
+            let mut point = 0;
+            let mut each = |gp: &Tet10Vector, hp: &Tet10Matrix, j: f64| {
+                let w = geom.weights[point];
+                point += 1;
+                energy += w * material.u(j);
+                force += gp * material.du(j);
+                tangent += hp * material.du(j) + gp * gp.transpose() * (material.ddu(j) / w);
+            };
+            let k = kinematics(geom, material, u, Some(&mut each))?;
+            Some((
+                k.energy_iso + energy,
+                k.force_iso + force,
+                k.k_iso + tangent,
+            ))
+        }
     }
-    Some((energy, force, k))
 }
 
 #[cfg(test)]
