@@ -108,10 +108,12 @@ pub(crate) fn assemble(file: &str, raw: &RawMesh) -> Result<ImportedMesh, FemErr
         };
         for e in &g.elements {
             match material_of_tag.insert(e.tag, m) {
-                Some(other) if other != m => return Err(err(format!(
+                Some(other) if other != m => {
+                    return Err(err(format!(
                     "element {} is in two physical volumes, `{}` and `{}`: put each volume in one",
                     e.tag, materials[other], materials[m]
-                ))),
+                )))
+                }
                 Some(_) => continue,
                 None => raw_tets.push((e.tag, &e.nodes, m)),
             }
@@ -196,7 +198,8 @@ pub(crate) fn assemble(file: &str, raw: &RawMesh) -> Result<ImportedMesh, FemErr
                 "element {tag} is inverted (volume {v:.3e} mm³): its corners must turn counter-clockwise seen from the 4th; remesh it"
             )));
         }
-        if !(v > FLAT_FRACTION * mean) {
+        // Also catches NaN coordinates.
+        if v.partial_cmp(&(FLAT_FRACTION * mean)) != Some(std::cmp::Ordering::Greater) {
             return Err(err(format!(
                 "element {tag} is flat (volume {v:.3e} mm³, mean {mean:.3e} mm³): remesh with better quality (gmsh: -optimize_netgen)"
             )));
@@ -318,15 +321,15 @@ pub(crate) fn assemble(file: &str, raw: &RawMesh) -> Result<ImportedMesh, FemErr
                     set.extend(tri6(name, e)?);
                 }
             }
-            Part::Layer(_) => {
-                let k = entry(&mut layers, name);
+            Part::Layer(sheet) => {
+                let k = entry(&mut layers, sheet);
                 for e in &g.elements {
                     let f = tri6(name, e)?;
                     layers[k].1.push(f);
                 }
             }
-            Part::Thread(_) => {
-                let k = entry(&mut threads, name);
+            Part::Thread(fibre) => {
+                let k = entry(&mut threads, fibre);
                 for e in &g.elements {
                     if !matches!(e.nodes.len(), 2 | 3) {
                         return Err(err(format!(

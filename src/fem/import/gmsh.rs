@@ -114,15 +114,11 @@ pub(crate) fn mesh_with(
     // gmsh reports an error on stderr and may still write a mesh.
     let log =
         String::from_utf8_lossy(&run.stderr).into_owned() + &String::from_utf8_lossy(&run.stdout);
-    let error = log
-        .lines()
-        .filter(|l| l.starts_with("Error"))
-        .last()
-        .map(|l| {
-            l.trim_start_matches("Error")
-                .trim_start_matches([' ', ':'])
-                .trim()
-        });
+    let error = log.lines().rev().find(|l| l.starts_with("Error")).map(|l| {
+        l.trim_start_matches("Error")
+            .trim_start_matches([' ', ':'])
+            .trim()
+    });
     let empty = std::fs::metadata(tmp.path()).map_or(true, |m| m.len() == 0);
     if let Some(line) = error {
         return Err(input(format!("gmsh failed: {line}")));

@@ -52,10 +52,10 @@ pub struct ImportedMesh {
     /// Each symmetry plane (axis 0, 1, 2 for `symmetry.x`, `.y`, `.z`) with its nodes,
     /// whose displacement along the axis is fixed, ascending.
     pub symmetry: Vec<(usize, Vec<usize>)>,
-    /// Each `layer.NAME` surface as 6-node triangles (corners as in the file, then the
-    /// mid-nodes of edges 01, 12, 20).
+    /// Each `layer.NAME` surface (named NAME) as 6-node triangles: corners as in the
+    /// file, then the mid-nodes of edges 01, 12, 20.
     pub layers: Vec<(String, Vec<[usize; 6]>)>,
-    /// Each `thread.NAME` curve as 3-node lines (ends, then the mid-node).
+    /// Each `thread.NAME` curve (named NAME) as 3-node lines: ends, then the mid-node.
     pub threads: Vec<(String, Vec<[usize; 3]>)>,
     /// The `markers` nodes, ordered by their distance from the clamp's centroid (from
     /// the clamp outward).

@@ -140,12 +140,15 @@ fn gmsh_mid_node_order_is_checked_by_geometry() {
 
 // ---- Small meshes written here -----------------------------------------------------
 
+/// An element block: (dim, entity tag, physical tags, gmsh element type, elements as
+/// node indices).
+type Block = (i32, i32, Vec<i32>, u8, Vec<Vec<usize>>);
+
 /// A MSH 4.1 ASCII file made of element blocks, one entity each.
 #[derive(Clone, Default)]
 struct Msh {
     nodes: Vec<Vector3<f64>>,
-    /// (dim, entity tag, physical tags, gmsh element type, elements as node tags).
-    blocks: Vec<(i32, i32, Vec<i32>, u8, Vec<Vec<usize>>)>,
+    blocks: Vec<Block>,
     names: Vec<(i32, i32, String)>,
 }
 
@@ -573,7 +576,8 @@ fn gmsh_failures_are_one_line_and_write_nothing() {
     let block = fixture("block.geo");
     let stl = dir.path().join("part.stl");
     std::fs::write(&stl, "solid\n").unwrap();
-    let cases: Vec<(&str, &str, &Path, f64, Vec<(String, f64)>, String)> = vec![
+    type Case<'a> = (&'a str, &'a str, &'a Path, f64, Vec<(String, f64)>, String);
+    let cases: Vec<Case> = vec![
         ("syntax error", "gmsh", &bad, 1.0, vec![], format!("{0}: gmsh failed: '{0}', line 3: syntax error ({{)", bad.display())),
         ("no gmsh", "gmsh-is-not-here", &block, 1.0, vec![], format!("{}: cannot mesh it: gmsh is not installed (or not on PATH): run scripts/setup.sh", block.display())),
         ("stl", "gmsh", &stl, 1.0, vec![], format!("{}: gmsh meshes .geo, .step, .stp, .iges, .igs and .brep files, not `.stl`: export the CAD as STEP", stl.display())),
@@ -636,4 +640,75 @@ fn the_reference_actuator_geo_meshes_to_its_geometry() {
             "{p:?} vs {q:?}"
         );
     }
+}
+
+/// The linear cube with a sheet `layer.sheet` on the plane z = 1 (inside the solid, the
+/// hole's floor left out) and a fibre `thread.fibre` along x on y = z = 0.
+fn with_sheet_and_fibre(mut m: Msh) -> Msh {
+    let id = |i: usize, j: usize, k: usize| (k * 4 + j) * 4 + i;
+    let mut count: HashMap<Vec<usize>, (usize, Vec<usize>)> = HashMap::new();
+    for t in &m.blocks[0].4 {
+        for f in [[0, 2, 1], [0, 1, 3], [1, 2, 3], [2, 0, 3]] {
+            let tri: Vec<usize> = f.iter().map(|&a| t[a]).collect();
+            let mut key = tri.clone();
+            key.sort_unstable();
+            count.entry(key).or_insert((0, tri)).0 += 1;
+        }
+    }
+    let mut sheet: Vec<Vec<usize>> = count
+        .into_values()
+        .filter(|(n, f)| *n == 2 && f.iter().all(|&a| m.nodes[a].z == 1.0))
+        .map(|(_, f)| f)
+        .collect();
+    sheet.sort_unstable();
+    let fibre = (0..3).map(|i| vec![id(i, 0, 0), id(i + 1, 0, 0)]).collect();
+    m.blocks.push((2, 7, vec![7], 2, sheet));
+    m.blocks.push((1, 8, vec![8], 1, fibre));
+    m.names.push((2, 7, "layer.sheet".into()));
+    m.names.push((1, 8, "thread.fibre".into()));
+    m
+}
+
+#[test]
+fn layers_and_threads_get_the_tetrahedra_mid_nodes() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = with_sheet_and_fibre(cube(CENTRE, false)).text();
+    let m = read_text(dir.path(), "sheet.msh", &text).unwrap();
+    assert_eq!(m.layers.len(), 1);
+    let (name, sheet) = &m.layers[0];
+    assert_eq!(name, "sheet");
+    // 9 squares of 2 triangles, less the hole's floor.
+    assert_eq!(sheet.len(), 16);
+    let area: f64 = sheet
+        .iter()
+        .map(|f| {
+            let x = f.map(|i| m.nodes[i]);
+            for (k, (a, b)) in [(0, 1), (1, 2), (2, 0)].into_iter().enumerate() {
+                assert!((x[3 + k] - 0.5 * (x[a] + x[b])).norm() < 1e-15);
+            }
+            assert!(x.iter().all(|p| p.z == 1.0));
+            0.5 * (x[1] - x[0]).cross(&(x[2] - x[0])).norm()
+        })
+        .sum();
+    assert!(rel(area, 8.0) < 1e-15);
+    assert_eq!(m.threads.len(), 1);
+    let (name, lines) = &m.threads[0];
+    assert_eq!(name, "fibre");
+    let ends: Vec<[f64; 3]> = lines
+        .iter()
+        .map(|l| [m.nodes[l[0]].x, m.nodes[l[1]].x, m.nodes[l[2]].x])
+        .collect();
+    assert_eq!(ends, [[0.0, 1.0, 0.5], [1.0, 2.0, 1.5], [2.0, 3.0, 2.5]]);
+
+    // A fibre across a cell's face, off the tetrahedra's edges.
+    let mut off = with_sheet_and_fibre(cube(CENTRE, false));
+    off.blocks.last_mut().unwrap().4.push(vec![16, 4]);
+    let err = read_text(dir.path(), "off.msh", &off.text()).map(|_| "read");
+    assert_eq!(
+        err.unwrap_err().to_string(),
+        format!(
+            "{}: `thread.fibre`: element 209 runs along (0.000, 0.000, 1.000) - (0.000, 1.000, 0.000), which is no edge of the tetrahedra: mesh it with the volume, in one run",
+            dir.path().join("off.msh").display()
+        )
+    );
 }
