@@ -712,3 +712,70 @@ fn layers_and_threads_get_the_tetrahedra_mid_nodes() {
         )
     );
 }
+
+/// gmsh's first-order mesh of the block, upgraded here, is its second-order mesh: the
+/// same tetrahedra with the same mid-edge nodes.
+#[test]
+fn four_node_gmsh_mesh_upgrades_to_gmsh_s_ten_node_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let mesh = |order: &str| {
+        let out = dir.path().join(format!("order{order}.msh"));
+        let ok = std::process::Command::new("gmsh")
+            .arg(fixture("block.geo"))
+            .args(["-3", "-order", order, "-format", "msh41", "-o"])
+            .arg(&out)
+            .stdout(std::process::Stdio::null())
+            .status()
+            .map(|s| s.success())
+            .unwrap_or(false);
+        assert!(ok, "gmsh meshes block.geo (scripts/setup.sh installs it)");
+        msh::read(&out).unwrap()
+    };
+    let (linear, quadratic) = (mesh("1"), mesh("2"));
+    check_block(&linear);
+    // Sorted by their corners (the same vertices); mid-nodes to gmsh's rounding.
+    let sorted = |m: &ImportedMesh| {
+        let mut tets: Vec<(Vec<[u64; 3]>, [Vector3<f64>; 10])> = m
+            .tets
+            .iter()
+            .map(|t| {
+                let corners = t[..4].iter().map(|&n| m.nodes[n].map(f64::to_bits).into());
+                (corners.collect(), t.map(|n| m.nodes[n]))
+            })
+            .collect();
+        tets.sort_unstable_by(|a, b| a.0.cmp(&b.0));
+        tets
+    };
+    assert_eq!(linear.nodes.len(), quadratic.nodes.len());
+    let (a, b) = (sorted(&linear), sorted(&quadratic));
+    assert_eq!(a.len(), b.len());
+    let mut worst: f64 = 0.0;
+    for (p, q) in a.iter().zip(&b) {
+        assert_eq!(p.0, q.0);
+        for k in 0..10 {
+            worst = worst.max((p.1[k] - q.1[k]).norm());
+        }
+    }
+    assert!(worst < 1e-12, "mid-nodes differ by {worst} mm");
+}
+
+/// A binary file's declared node count is read in its own byte order before parsing.
+#[test]
+fn binary_declared_counts_are_bounded() {
+    let mut bytes = std::fs::read(fixture("block-binary.msh")).unwrap();
+    let at = bytes.windows(7).position(|w| w == b"\n$Nodes").unwrap() + 8;
+    // numEntityBlocks, then numNodes (size_t, little-endian as gmsh wrote it).
+    let declared = u64::from_le_bytes(bytes[at + 8..at + 16].try_into().unwrap());
+    assert_eq!(declared, 1722);
+    bytes[at + 8..at + 16].copy_from_slice(&(1u64 << 40).to_le_bytes());
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("big.msh");
+    std::fs::write(&path, &bytes).unwrap();
+    assert_eq!(
+        msh::read(&path).unwrap_err().to_string(),
+        format!(
+            "{}: declares 1099511627776 nodes, more than the 2000000 read: mesh coarser",
+            path.display()
+        )
+    );
+}
