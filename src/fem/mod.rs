@@ -42,6 +42,7 @@ pub mod contact;
 pub mod family;
 pub mod fibre;
 pub mod hex;
+pub mod import;
 pub mod inp;
 pub mod layer;
 pub mod material;
