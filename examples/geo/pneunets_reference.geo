@@ -1,12 +1,13 @@
 // The reference PneuNets actuator (bendscope simulate --print-config; the letters of
 // src/fem/shapes/pneunets.rs) as CAD for gmsh: the half y >= 0 of the actuator, with
 // the parts bendscope reads named as physical groups:
-//   silicone     the volume
+//   silicone     the volume beyond the clamp
+//   clamp        the first chamber block (x <= c), held whole as the built-in mesh
+//                holds it
 //   symmetry.y   the plane y = 0
-//   clamp        every surface of the first chamber block (x <= c), as the built-in
-//                mesh clamps that block
 //   cavity       the inner surfaces of the chambers and the channel
 //   markers      side face y = i/2, centres of blocks 2..N, mid cavity height
+//   tip          the free end's bottom edge on the symmetry plane (b, 0, 0)
 // Mesh: gmsh pneunets_reference.geo -3 -order 2 -format msh41 -clmax 1.5 -o pneunets.msh
 // Any parameter: -setnumber chambers 7 (and so on).
 SetFactory("OpenCASCADE");
@@ -90,8 +91,9 @@ For k In {0 : chambers - 1}
   x += len + d;
 EndFor
 
-Physical Volume("silicone") = Volume{:};
+Physical Volume("clamp") = Volume In BoundingBox{-eps, -eps, -eps, c + eps, i / 2 + eps, a + eps};
+Physical Volume("silicone") = Volume In BoundingBox{c - eps, -eps, -eps, b + eps, i / 2 + eps, a + eps};
 Physical Surface("symmetry.y") = Surface In BoundingBox{-eps, -eps, -eps, b + eps, eps, a + eps};
-Physical Surface("clamp") = Surface In BoundingBox{-eps, -eps, -eps, c + eps, i / 2 + eps, a + eps};
 Physical Surface("cavity") = cavity();
 Physical Point("markers") = markers();
+Physical Point("tip") = Point In BoundingBox{b - eps, -eps, -eps, b + eps, eps, eps};

@@ -92,7 +92,7 @@ impl ActuatorConfig {
         let text = std::fs::read_to_string(path).map_err(|e| FemError::Input {
             why: format!("cannot read actuator config {}: {e}", path.display()),
         })?;
-        toml::from_str(&text).map_err(|e| {
+        let mut cfg: Self = toml::from_str(&text).map_err(|e| {
             // A message that names its own --print-config needs no second one.
             let see = if e.message().contains("--print-config") {
                 ""
@@ -106,7 +106,17 @@ impl ActuatorConfig {
                     e.message()
                 ),
             }
-        })
+        })?;
+        // A geometry file is relative to the config that names it.
+        if let Some(file) = cfg.geometry.file.as_mut() {
+            if file.is_relative() {
+                *file = path
+                    .parent()
+                    .unwrap_or(std::path::Path::new(""))
+                    .join(&*file);
+            }
+        }
+        Ok(cfg)
     }
 
     /// The config as TOML, as `simulate --print-config` prints it and config.toml holds
@@ -310,7 +320,7 @@ pub fn smallest_mesh_size(cfg: &ActuatorConfig) -> Option<f64> {
 pub fn build_mesh(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
     cfg.validate()?;
     let mesh = cfg.shape().build(cfg)?;
-    if cfg.mesh.element == super::config::SolidElement::Tet10 {
+    if cfg.mesh.element == super::config::SolidElement::Tet10 && !mesh.model.elements.is_empty() {
         return super::split::into_tetrahedra(cfg, mesh);
     }
     Ok(mesh)

@@ -91,6 +91,11 @@ pub struct Geometry {
     pub top_wall: f64,
     /// Material between the channel top and the bottom of a gap.
     pub roof: f64,
+    /// The mesh or CAD file of an imported actuator (`family = "mesh"`): a gmsh mesh
+    /// (.msh) or a file gmsh meshes (.geo, .step, .stp, .iges, .igs, .brep); a relative
+    /// path is relative to the config file.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub file: Option<std::path::PathBuf>,
 }
 
 impl Default for Geometry {
@@ -112,6 +117,7 @@ impl Default for Geometry {
             n: 12.0,
             top_wall: 3.5,
             roof: 1.0,
+            file: None,
         }
     }
 }

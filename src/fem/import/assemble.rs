@@ -129,8 +129,9 @@ pub(crate) fn assemble(file: &str, raw: &RawMesh) -> Result<ImportedMesh, FemErr
     if !parts.iter().any(|(p, _)| matches!(p, Part::Cavity(_))) {
         return Err(err("no physical surface named `cavity`: name the cavity's inner surfaces `cavity` (gmsh: Physical Surface(\"cavity\") = {...})".into()));
     }
-    if !parts.iter().any(|(p, _)| *p == Part::Clamp) {
-        return Err(err("no physical surface named `clamp`: name the clamped surfaces `clamp` (gmsh: Physical Surface(\"clamp\") = {...})".into()));
+    let clamp_volume = materials.iter().position(|m| m == "clamp");
+    if clamp_volume.is_none() && !parts.iter().any(|(p, _)| *p == Part::Clamp) {
+        return Err(err("no physical surface or volume named `clamp`: name the clamped surfaces `clamp` (gmsh: Physical Surface(\"clamp\") = {...})".into()));
     }
 
     // Nodes of the tetrahedra, in file order; then mid-edge nodes for 4-node ones.
@@ -183,7 +184,7 @@ pub(crate) fn assemble(file: &str, raw: &RawMesh) -> Result<ImportedMesh, FemErr
         }
         tets.push(t);
     }
-    let tet_material = raw_tets.iter().map(|(_, _, m)| *m).collect();
+    let tet_material: Vec<usize> = raw_tets.iter().map(|(_, _, m)| *m).collect();
 
     // Orientation, flatness and the Jacobian of curved elements.
     let corner_volume = |t: &[usize; 10]| {
@@ -281,6 +282,14 @@ pub(crate) fn assemble(file: &str, raw: &RawMesh) -> Result<ImportedMesh, FemErr
     let mut layers: Vec<(String, Vec<[usize; 6]>)> = Vec::new();
     let mut threads: Vec<(String, Vec<[usize; 3]>)> = Vec::new();
     let mut markers = BTreeSet::new();
+    let mut tip = None;
+    if let Some(k) = clamp_volume {
+        for (t, m) in tets.iter().zip(&tet_material) {
+            if *m == k {
+                clamp.extend(t.iter().copied());
+            }
+        }
+    }
     for (part, g) in &parts {
         let name = g.name.as_str();
         match part {
@@ -340,6 +349,24 @@ pub(crate) fn assemble(file: &str, raw: &RawMesh) -> Result<ImportedMesh, FemErr
                     let (a, b) = (node_of(name, e, e.nodes[0])?, node_of(name, e, e.nodes[1])?);
                     let given = e.nodes.get(2).copied();
                     threads[k].1.push([a, b, mid_of(name, e, a, b, given)?]);
+                }
+            }
+            Part::Tip => {
+                let mut nodes = Vec::new();
+                for e in &g.elements {
+                    for &a in &e.nodes {
+                        nodes.push(node_of(name, e, a)?);
+                    }
+                }
+                nodes.dedup();
+                match nodes[..] {
+                    [one] => tip = Some(one),
+                    _ => {
+                        return Err(err(format!(
+                            "`tip` has {} points: name one point `tip`",
+                            nodes.len()
+                        )))
+                    }
                 }
             }
             Part::Markers => {
@@ -419,5 +446,6 @@ pub(crate) fn assemble(file: &str, raw: &RawMesh) -> Result<ImportedMesh, FemErr
         layers,
         threads,
         markers,
+        tip,
     })
 }

@@ -47,7 +47,8 @@ pub struct ImportedMesh {
     /// Each cavity (`cavity` or `cavity.NAME`) with its faces: 6-node triangles in the
     /// order of [`crate::fem::pressure_tri6`], normal out of the cavity into the wall.
     pub cavities: Vec<(String, Vec<[usize; 6]>)>,
-    /// The nodes of the `clamp` surfaces (all three displacements fixed), ascending.
+    /// The nodes of the `clamp` surfaces and of the `clamp` volume (a clamped block, its
+    /// material that of the silicone; all three displacements fixed), ascending.
     pub clamp: Vec<usize>,
     /// Each symmetry plane (axis 0, 1, 2 for `symmetry.x`, `.y`, `.z`) with its nodes,
     /// whose displacement along the axis is fixed, ascending.
@@ -60,6 +61,8 @@ pub struct ImportedMesh {
     /// The `markers` nodes, ordered by their distance from the clamp's centroid (from
     /// the clamp outward).
     pub markers: Vec<usize>,
+    /// The `tip` point, where the tip's position is read (None: not given).
+    pub tip: Option<usize>,
 }
 
 /// Most nodes a mesh file may declare (the files are read whole: this bounds memory).
@@ -77,15 +80,16 @@ pub(crate) enum Part {
     Layer(String),
     Thread(String),
     Markers,
+    Tip,
 }
 
 /// The names known for groups of each dimension (0 points .. 3 volumes), for messages.
 pub(crate) fn known_names(dim: usize) -> &'static str {
     match dim {
-        0 => "`markers`",
+        0 => "`markers`, `tip`",
         1 => "`thread.NAME`, `markers`",
         2 => "`cavity`, `cavity.NAME`, `clamp`, `symmetry.x`, `symmetry.y`, `symmetry.z`, `layer.NAME`",
-        _ => "any name (a material)",
+        _ => "any name (a material; `clamp`: a clamped block)",
     }
 }
 
@@ -111,6 +115,7 @@ pub(crate) fn part_of(dim: usize, name: &str) -> Option<Part> {
         1 if name == "markers" => Some(Part::Markers),
         1 => suffix("thread.").map(Part::Thread),
         0 if name == "markers" => Some(Part::Markers),
+        0 if name == "tip" => Some(Part::Tip),
         _ => None,
     }
 }

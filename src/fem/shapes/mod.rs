@@ -12,6 +12,7 @@
 //! [`REGISTRY`] (docs: "Developer notes: adding an actuator shape").
 
 mod fibre_tube;
+mod imported;
 mod pneunets;
 
 use std::sync::OnceLock;
@@ -26,11 +27,12 @@ use super::mesh::ActuatorMesh;
 use super::FemError;
 
 pub use fibre_tube::{bottom_strip_layer, validate_strips, FibreTube, FIBRE_PRESSURES};
+pub use imported::{from_imported, Imported};
 pub use pneunets::{build_pneunets, thinnest_wall_mm, PneuNets};
 
 /// Every shape the model builds, in the order of the docs (its families in that order
 /// make `Family::all()` and the list an unknown family's message gives).
-pub static REGISTRY: &[&dyn Shape] = &[&PneuNets, &FibreTube];
+pub static REGISTRY: &[&dyn Shape] = &[&PneuNets, &FibreTube, &Imported];
 
 /// One kind of actuator: its presets, its checks, its mesh.
 pub trait Shape: Sync {

@@ -1,0 +1,218 @@
+//! An actuator of the user's own geometry (`[geometry] family = "mesh"`, `file = ...`):
+//! a gmsh mesh read by [`crate::fem::import`], or a CAD or .geo file gmsh meshes first at
+//! `[mesh] size_mm` (second order). Its physical groups name the parts: volumes the
+//! silicone (every volume takes `[material]`; a volume named `clamp` is a clamped
+//! block), `cavity` surfaces (one pressure on all of them), `clamp` surfaces,
+//! `symmetry.x|y|z` planes, `markers` points (read from the clamp outward), and
+//! optionally a `tip` point (else the last marker). As the built-in families, the
+//! actuator lies along +x from its clamp and bends in the x-z plane: the radius is fitted
+//! to the markers' x and z.
+//!
+//! Not yet taken: `layer.NAME` surfaces and `thread.NAME` curves (refused), several
+//! materials, cavities pressurised separately.
+
+use std::path::{Path, PathBuf};
+
+use super::Shape;
+use crate::fem::config::{ActuatorConfig, Family, Geometry};
+use crate::fem::import::{gmsh, msh, ImportedMesh};
+use crate::fem::mesh::{gravity_loads_tets, ActuatorMesh, Part};
+use crate::fem::pressure::CLOSED;
+use crate::fem::solve::{Model, Tetrahedra};
+use crate::fem::FemError;
+
+#[allow(non_upper_case_globals)]
+impl Family {
+    /// An imported mesh or CAD file ([`Imported`]).
+    pub const Mesh: Family = Family::named("mesh");
+}
+
+/// The user's own geometry, from a file.
+pub struct Imported;
+
+/// Extensions gmsh meshes (CAD and its own .geo).
+const CAD: [&str; 6] = ["geo", "step", "stp", "iges", "igs", "brep"];
+
+fn bad(why: String) -> FemError {
+    crate::fem::config::bad("geometry.file", why)
+}
+
+/// The configured file, checked to be there and of a kind this reads.
+fn source(cfg: &ActuatorConfig) -> Result<&Path, FemError> {
+    let Some(file) = cfg.geometry.file.as_deref() else {
+        return Err(bad(
+            "the mesh family needs a file: set [geometry] file = \"actuator.msh\" (a gmsh mesh, or .geo/.step/.stp/.iges/.igs/.brep for gmsh to mesh)".into(),
+        ));
+    };
+    let ext = file
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .unwrap_or_default();
+    if ext != "msh" && !CAD.contains(&ext.as_str()) {
+        return Err(bad(format!(
+            "{}: not a gmsh mesh (.msh) or a file gmsh meshes (.geo, .step, .stp, .iges, .igs, .brep)",
+            file.display()
+        )));
+    }
+    if !file.is_file() {
+        return Err(bad(format!(
+            "{} does not exist (a relative path is relative to the config file)",
+            file.display()
+        )));
+    }
+    Ok(file)
+}
+
+/// The mesh of the configured file: read, or made by gmsh into a temporary folder.
+fn read(cfg: &ActuatorConfig) -> Result<ImportedMesh, FemError> {
+    let file = source(cfg)?;
+    let is_msh = file
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("msh"));
+    if is_msh {
+        return msh::read(file);
+    }
+    let dir = tempfile::tempdir().map_err(|e| FemError::Output {
+        why: format!("cannot make a temporary folder for gmsh's mesh: {e}"),
+    })?;
+    let out: PathBuf = dir.path().join("mesh.msh");
+    gmsh::mesh(file, cfg.mesh.size_mm, &[], &out)?;
+    msh::read(&out)
+}
+
+impl Shape for Imported {
+    fn families(&self) -> &'static [Family] {
+        &[Family::Mesh]
+    }
+
+    fn defaults(&self, family: Family) -> ActuatorConfig {
+        ActuatorConfig {
+            geometry: Geometry {
+                family,
+                ..Geometry::default()
+            },
+            ..ActuatorConfig::default()
+        }
+    }
+
+    fn validate_layers(&self, cfg: &ActuatorConfig) -> Result<(), FemError> {
+        if cfg.layer.is_empty() {
+            Ok(())
+        } else {
+            Err(crate::fem::config::bad(
+                "layer",
+                "an imported mesh takes no [[layer]] tables yet: remove them (its layers would be `layer.NAME` surfaces of the mesh, not yet read either)".into(),
+            ))
+        }
+    }
+
+    fn validate(&self, cfg: &ActuatorConfig) -> Result<(), FemError> {
+        source(cfg).map(|_| ())
+    }
+
+    /// The file decides: the reader bounds what it allocates itself.
+    fn element_estimate(&self, _cfg: &ActuatorConfig, _h: f64) -> f64 {
+        0.0
+    }
+
+    fn build(&self, cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
+        from_imported(cfg, read(cfg)?)
+    }
+
+    fn height_mm(&self, cfg: &ActuatorConfig) -> f64 {
+        read(cfg).map_or(f64::NAN, |m| {
+            let z = m.nodes.iter().map(|x| x.z);
+            z.clone().fold(f64::NEG_INFINITY, f64::max) - z.fold(f64::INFINITY, f64::min)
+        })
+    }
+
+    fn analytic_refusal(&self) -> Option<&'static str> {
+        Some("an imported mesh has no chamber model: use --model fem")
+    }
+}
+
+/// The solver's model of an imported mesh: its tetrahedra, cavities, clamp, symmetry
+/// planes, markers and tip.
+pub fn from_imported(cfg: &ActuatorConfig, m: ImportedMesh) -> Result<ActuatorMesh, FemError> {
+    let name = cfg
+        .geometry
+        .file
+        .as_deref()
+        .map_or_else(String::new, |f| format!("{}: ", f.display()));
+    let refuse = |why: String| FemError::Input {
+        why: format!("{name}{why}"),
+    };
+    if let Some((layer, _)) = m.layers.first() {
+        return Err(refuse(format!(
+            "layer `{layer}`: layers of an imported mesh are not simulated yet: remove the group"
+        )));
+    }
+    if let Some((thread, _)) = m.threads.first() {
+        return Err(refuse(format!(
+            "thread `{thread}`: threads of an imported mesh are not simulated yet: remove the group"
+        )));
+    }
+    if m.markers.len() < 3 {
+        return Err(refuse(format!(
+            "{} `markers` point(s): the radius is fitted to at least 3 (Physical Point(\"markers\") = {{...}})",
+            m.markers.len()
+        )));
+    }
+    let n = m.nodes.len();
+    let mut fixed = vec![false; 3 * n];
+    for &a in &m.clamp {
+        fixed[3 * a..3 * a + 3].fill(true);
+    }
+    for (axis, nodes) in &m.symmetry {
+        for &a in nodes {
+            fixed[3 * a + axis] = true;
+        }
+    }
+    let tets = Tetrahedra {
+        elements: m.tets,
+        material: Vec::new(),
+        pressure_faces: m.cavities.into_iter().flat_map(|(_, f)| f).collect(),
+    };
+    let densities_g_cm3 = vec![cfg.material.density_g_cm3];
+    let loads = gravity_loads_tets(cfg, &m.nodes, &tets, &densities_g_cm3)?;
+    // The cavity volume's field W x with no component across a symmetry plane: a cavity
+    // the plane closes, wherever the plane lies.
+    let mut weights = CLOSED;
+    for (axis, _) in &m.symmetry {
+        weights[*axis] = 0.0;
+    }
+    let sum = weights.sum();
+    if sum <= 0.0 {
+        return Err(refuse(
+            "symmetry planes across all three axes: a model needs one axis without".into(),
+        ));
+    }
+    weights /= sum;
+    let tip = m.tip.unwrap_or(m.markers[m.markers.len() - 1]);
+    let mut model = Model::solid(m.nodes, Vec::new(), cfg.material.yeoh()?, fixed, loads);
+    model.volume_weights = weights;
+    model.tets = tets;
+    Ok(ActuatorMesh {
+        model,
+        markers: m.markers,
+        tip,
+        tip_support: vec![tip],
+        bottom_line: Vec::new(),
+        side_face: Vec::new(),
+        clamp_mm: 0.0,
+        wall_pairs: Vec::new(),
+        parts: vec![Part {
+            name: "silicone".into(),
+            tensile_strength_mpa: Some(cfg.material.tensile_strength_mpa),
+            solid_material: Some(0),
+            membranes: Vec::new(),
+            plate: None,
+            trusses: Vec::new(),
+        }],
+        twist_pair: (tip, tip),
+        half_model: !m.symmetry.is_empty(),
+        densities_g_cm3,
+        bottom_wall: None,
+    })
+}
