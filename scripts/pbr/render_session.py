@@ -91,6 +91,9 @@ SCALE_BOARD = {"cols": 9, "rows": 6, "square": 10.0}
 N_CALIB = 14
 
 
+SEED = 0  # Mitsuba's sampler seed (--seed)
+
+
 def log(*a):
     print("[pbr]", *a, file=sys.stderr, flush=True)
 
@@ -252,9 +255,9 @@ DOT = np.array([0.55, 0.035, 0.035])
 PX_PER_MM = 40
 
 
-def side_texture(path, flat_dots=False):
+def side_texture(path, mottle=0.03):
     """Dots on pale silicone, UV (x / length, z / height), with a faint mottling of the
-    cast silicone; dot edges antialiased."""
+    cast silicone (relative amplitude `mottle`); dot edges antialiased."""
     a = ACTUATOR
     W, H = int(a["length"] * PX_PER_MM), int(a["height"] * PX_PER_MM)
     u = (np.arange(W) + 0.5) / PX_PER_MM
@@ -262,7 +265,7 @@ def side_texture(path, flat_dots=False):
     X, Z = np.meshgrid(u, v)
     rng = np.random.default_rng(7)
     mott = cv2.GaussianBlur(rng.normal(0, 1, (H, W)).astype(np.float32), (0, 0), 12)
-    mott = 1 + 0.03 * mott / (mott.std() + 1e-9)
+    mott = 1 + mottle * mott / (mott.std() + 1e-9)
     img = SILICONE[None, None, :] * mott[..., None]
     r = a["dot_diameter"] / 2
     for (x, _, z) in dot_centres_straight():
@@ -420,7 +423,7 @@ def sensor_dict(spp, crop=None):
         "far_clip": 5000.0,
         "to_world": T().look_at(origin=c.tolist(), target=(c + fw).tolist(), up=(-d).tolist()),
         "film": film,
-        "sampler": {"type": "independent", "sample_count": spp},
+        "sampler": {"type": "independent", "sample_count": spp, "seed": SEED},
     }
 
 
@@ -485,14 +488,14 @@ def base_scene(work, spp, crop=None, background_gap=None, with_clamp=True):
     return sc
 
 
-def actuator_shapes(work, radius, flat=False):
+def actuator_shapes(work, radius, flat=False, mottle=0.03):
     a = ACTUATOR
     key = "straight" if radius is None else f"r{radius:g}"
     body_ply = os.path.join(work, f"body-{key}.ply")
     side_ply = os.path.join(work, f"side-{key}.ply")
-    tex = os.path.join(work, "side.png")
+    tex = os.path.join(work, f"side-{mottle:g}.png")
     if not os.path.exists(tex):
-        side_texture(tex)
+        side_texture(tex, mottle)
     (Vb, Fb), (Vs, Fs) = actuator_meshes()
     x_clamp = chambers()[0][1] + 0.5
     UV = np.c_[Vs[:, 0] / a["length"], Vs[:, 2] / a["height"]]
@@ -728,8 +731,12 @@ def main():
     ap.add_argument("--seconds", type=float, default=SCENE["seconds"])
     ap.add_argument("--flat", action="store_true", help="diffuse dots and silicone, no highlights")
     ap.add_argument("--only", default=None, help="comma list of pressures (kPa) to render")
-    ap.add_argument("--no-calib", action="store_true")
+    ap.add_argument("--no-calib", action="store_true", help="videos only (calib/ and scale.jpg not written)")
+    ap.add_argument("--mottle", type=float, default=0.03, help="relative mottling of the silicone's colour")
+    ap.add_argument("--seed", type=int, default=0, help="Mitsuba's sampler seed")
     args = ap.parse_args()
+    global SEED
+    SEED = args.seed
     import mitsuba as mi
     mi.set_variant("scalar_rgb")
     out = os.path.abspath(args.out)
@@ -741,6 +748,10 @@ def main():
     base_key = {"camera": CAMERA, "actuator": ACTUATOR, "scene": {k: v for k, v in SCENE.items()
                 if k not in ("noise_read", "noise_shot", "seconds", "fps", "blur_sigma", "exposure")},
                 "flat": args.flat, "spp": args.spp, "v": 1}
+    if args.mottle != 0.03:
+        base_key["mottle"] = args.mottle
+    if args.seed:
+        base_key["seed"] = args.seed
     rng = np.random.default_rng(2024)
     plate_spp = 8
 
@@ -767,7 +778,10 @@ def main():
                         [cv2.IMWRITE_JPEG_QUALITY, 92])
         log(f"{len(poses)} calibration photos")
 
-    key = digest({"plate": base_key, "spp": plate_spp})
+    # The plate has no actuator: the same for every variant of it.
+    plate_key = {k: v for k, v in base_key.items() if k not in ("mottle", "seed")}
+    plate_key.update({"flat": False, "spp": SCENE["spp"]})
+    key = digest({"plate": plate_key, "spp": plate_spp})
     plate = render_pinhole(base_scene(work, plate_spp), os.path.join(cache, f"plate-video-{key}.npy"))
     if not args.no_calib:
         # Scale board: its printed face in the marker plane, beside the clamp.
@@ -806,7 +820,7 @@ def main():
         if only is not None and kpa not in only:
             continue
         key = digest({"video": base_key, "radius": radius})
-        shapes = actuator_shapes(work, radius, flat=args.flat)
+        shapes = actuator_shapes(work, radius, flat=args.flat, mottle=args.mottle)
         (Vb, _), _ = actuator_meshes(step=2.0)
         crop = crop_of(np.vstack([bend(Vb, radius, x_clamp), [[-40, 0, 35], [-40, 0, -12]]]), 180)
         sc = base_scene(work, args.spp, crop=crop)
