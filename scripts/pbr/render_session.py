@@ -92,6 +92,7 @@ N_CALIB = 14
 
 
 SEED = 0  # Mitsuba's sampler seed (--seed)
+UNLIT = False  # --unlit: surfaces' albedo, no lighting at all (an experiment)
 
 
 def log(*a):
@@ -460,7 +461,7 @@ def base_scene(work, spp, crop=None, background_gap=None, with_clamp=True):
         background_texture(bg)
     sc = {
         "type": "scene",
-        "integrator": {"type": "path", "max_depth": 5},
+        "integrator": {"type": "aov", "aovs": "alb:albedo"} if UNLIT else {"type": "path", "max_depth": 5},
         "sensor": sensor_dict(spp, crop),
         "background": {"type": "rectangle",
                        "to_world": T().translate([50, y_face - gap, -20]).rotate([1, 0, 0], -90).scale([1000, 750, 1]),
@@ -560,7 +561,8 @@ def render_pinhole(scene_dict, cache_path):
     import mitsuba as mi
     t = time.time()
     scene = mi.load_dict(scene_dict)
-    img = np.ascontiguousarray(np.array(mi.render(scene), dtype=np.float32)[:, ::-1])
+    img = np.array(mi.render(scene), dtype=np.float32)[..., -3:]
+    img = np.ascontiguousarray(img[:, ::-1] * (0.75 if UNLIT else 1.0))
     np.save(cache_path, img)
     log(f"rendered {os.path.basename(cache_path)} {img.shape[1]}x{img.shape[0]} in {time.time() - t:.0f} s")
     return img
@@ -733,10 +735,16 @@ def main():
     ap.add_argument("--only", default=None, help="comma list of pressures (kPa) to render")
     ap.add_argument("--no-calib", action="store_true", help="videos only (calib/ and scale.jpg not written)")
     ap.add_argument("--mottle", type=float, default=0.03, help="relative mottling of the silicone's colour")
-    ap.add_argument("--seed", type=int, default=0, help="Mitsuba's sampler seed")
+    ap.add_argument("--seed", type=int, default=0, help="Mitsuba's sampler seed (the first)")
+    ap.add_argument("--seeds", type=int, default=1,
+                    help="renders per pressure with successive seeds, cycled over the frames")
+    ap.add_argument("--unlit", action="store_true", help="albedo only: no shading, no shadows")
+    ap.add_argument("--png", action="store_true",
+                    help="one noiseless PNG per pressure instead of a video (no noise, no H.264)")
     args = ap.parse_args()
-    global SEED
+    global SEED, UNLIT
     SEED = args.seed
+    UNLIT = args.unlit
     import mitsuba as mi
     mi.set_variant("scalar_rgb")
     out = os.path.abspath(args.out)
@@ -752,6 +760,8 @@ def main():
         base_key["mottle"] = args.mottle
     if args.seed:
         base_key["seed"] = args.seed
+    if args.unlit:
+        base_key["unlit"] = True
     rng = np.random.default_rng(2024)
     plate_spp = 8
 
@@ -809,7 +819,7 @@ def main():
     rows = []
     x_clamp = chambers()[0][1] + 0.5
     for i, (kpa, radius) in enumerate(PRESSURES):
-        name = f"GX01{101 + i:04d}.MP4"
+        name = f"GX01{101 + i:04d}." + ("png" if args.png else "MP4")
         dots = bend(dot_centres_straight(), radius, x_clamp)
         r_truth = None if radius is None else truth_circle(dots[:, [0, 2]])
         uv = project_fisheye(dots)
@@ -819,16 +829,29 @@ def main():
         rows.append((name, kpa))
         if only is not None and kpa not in only:
             continue
-        key = digest({"video": base_key, "radius": radius})
         shapes = actuator_shapes(work, radius, flat=args.flat, mottle=args.mottle)
         (Vb, _), _ = actuator_meshes(step=2.0)
         crop = crop_of(np.vstack([bend(Vb, radius, x_clamp), [[-40, 0, 35], [-40, 0, -12]]]), 180)
-        sc = base_scene(work, args.spp, crop=crop)
-        sc.update(shapes)
-        pin = render_composite(plate, sc, os.path.join(cache, f"video-{kpa:g}-{key}.npy"), crop)
-        clean = to_fisheye(pin)
+        # One render per sampler seed; the frames cycle through them, so the renderer's
+        # noise changes from frame to frame as a sensor's does instead of staying frozen.
+        cleans = []
+        for seed in range(args.seed, args.seed + args.seeds):
+            SEED = seed
+            vkey = {k: v for k, v in base_key.items() if k != "seed"}
+            if seed:
+                vkey["seed"] = seed
+            key = digest({"video": vkey, "radius": radius})
+            sc = base_scene(work, args.spp, crop=crop)
+            sc.update(shapes)
+            pin = render_composite(plate, sc, os.path.join(cache, f"video-{kpa:g}-{key}.npy"), crop)
+            cleans.append(to_fisheye(pin))
+        SEED = args.seed
+        clean = sum(cleans) / len(cleans)
         n = max(1, int(round(args.seconds * SCENE["fps"])))
-        encode(os.path.join(out, name), [tone(clean, rng) for _ in range(n)])
+        if args.png:
+            cv2.imwrite(os.path.join(out, name), tone(clean, rng, noise=False)[..., ::-1])
+        else:
+            encode(os.path.join(out, name), [tone(cleans[f % len(cleans)], rng) for f in range(n)])
         log(f"{name}: {kpa:g} kPa, truth R {r_truth}")
     with open(os.path.join(out, "pressures.csv"), "w") as f:
         f.write("file,pressure_kpa\n" + "".join(f"{n},{p:g}\n" for n, p in rows))
