@@ -5,7 +5,9 @@
 # measures), measures it with the release bendscope and prints truth vs measured radius
 # per pressure, then the same with the true lens given as the calibration, and the
 # centroids' own share (their radius through the true lens onto the true marker plane).
-# Rendering the whole session takes about 15 min on 2 shared cores.
+# Each pressure is rendered with 4 sampler seeds cycled over the frames (the renderer's
+# noise then varies from frame to frame as a sensor's does); rendering the whole session
+# takes about 40 min on 2 shared cores.
 # BENDSCOPE=path/to/bendscope skips the build.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -20,7 +22,7 @@ if [ -z "${BENDSCOPE:-}" ]; then
 fi
 session=target/pbr/session
 py="$venv/bin/python"
-nice "$py" scripts/pbr/render_session.py "$session"
+nice "$py" scripts/pbr/render_session.py "$session" --seeds 4
 "$BENDSCOPE" process "$session" -o target/pbr/out --force > target/pbr/out.log 2>&1 || true
 "$py" scripts/pbr/compare.py "$session" target/pbr/out --label "calibrated from the rendered calib/ photos"
 "$BENDSCOPE" process "$session" -o target/pbr/out-truelens --calibration "$session/true-calibration.yaml" \
