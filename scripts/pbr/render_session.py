@@ -16,9 +16,11 @@ through them in the marker plane, per pressure, in `truth-pbr.json`.
 This file shares no code with bendscope's own `render`; it only writes the session layout
 `bendscope process` reads (videos, pressures.csv, calib/, scale.jpg, bendscope.toml).
 
-Usage: render_session.py OUT [--quick] [--experiment NAME]
+Usage: render_session.py OUT [--seeds N] [--no-calib] [--png] [--unlit] [--flat]
+                           [--mottle M] [--seed S] [--spp N] [--cache DIR]
 Renders are cached in OUT/../pbr-cache (keyed on every scene parameter), so a rerun
-only re-encodes what changed.
+only re-encodes what changed. The switches other than --seeds are the experiments of
+docs/src/validation.md ("Physically based renders").
 """
 import argparse
 import hashlib
