@@ -150,10 +150,8 @@ def profile(x0, x1, z0, z1, r, step):
 
 
 def prism(outline, y0, y1, step):
-    """A closed prism: the x-z outline extruded from y0 to y1. Returns (side walls, the
-    two caps) as (V, F) lists; caps are triangulated as a grid clipped to the outline
-    (fine enough to bend smoothly)."""
-    # Walls.
+    """The walls of the x-z outline extruded from y0 to y1, as (V, F); `cap` closes the
+    two ends."""
     n = len(outline)
     V, F = [], []
     ny = max(1, int(math.ceil((y1 - y0) / step)))
@@ -226,7 +224,8 @@ def merge(parts):
 def bend(P, radius, x_clamp):
     """Bends straight points onto a circle: the bottom layer (z = 0) becomes an arc of
     `radius` from the clamp face x_clamp; plane sections stay plane and normal to it,
-    so a point at height z ends on radius + z... toward -z, the strain-limited side."""
+    so a point at height z ends on the circle of radius + z. The centre of curvature is
+    below (-z): the actuator curls toward its strain-limited bottom."""
     P = np.array(P, float)
     if radius is None:
         return P
