@@ -886,6 +886,43 @@ mod tests {
         }
     }
 
+    /// The cut mesh's 6-node cavity faces: each loaded on its tetrahedron's face (C3D10
+    /// numbering, listed with its normal into the element as CalculiX's faces are), the
+    /// same corners and normal as bendscope's face; the deck lists the C3D10 card.
+    #[test]
+    fn every_tetrahedral_cavity_face_is_loaded_on_its_element_pushing_into_it() {
+        let mut cfg = coarse();
+        cfg.mesh.element = crate::fem::config::SolidElement::Tet10;
+        let mesh = build_mesh(&cfg).unwrap();
+        let m = &mesh.model;
+        let loads = pressure_face_loads(&mesh).unwrap();
+        assert_eq!(loads.len(), m.tets.pressure_faces.len());
+        assert!(loads.len() > 200, "{}", loads.len());
+        let tri_normal = |c: [usize; 3]| {
+            let [a, b, d] = c.map(|k| m.nodes[k]);
+            (b - a).cross(&(d - a))
+        };
+        for (f, (e, face)) in m.tets.pressure_faces.iter().zip(&loads) {
+            let el = m.tets.elements[*e - m.elements.len()];
+            let local = C3D10_FACES[face - 1].map(|a| el[a]);
+            let (mut a, mut b) = (local, [f[0], f[1], f[2]]);
+            a.sort_unstable();
+            b.sort_unstable();
+            assert_eq!(a, b);
+            // Into the element: towards its fourth corner.
+            let fourth = (0..4).find(|k| !local.contains(&el[*k])).unwrap();
+            let inward = m.nodes[el[fourth]] - m.nodes[local[0]];
+            assert!(tri_normal(local).dot(&inward) > 0.0);
+            let (nb, nc) = (tri_normal([f[0], f[1], f[2]]), tri_normal(local));
+            assert!((nb - nc).norm() < 1e-9 * nb.norm(), "{nb} vs {nc}");
+        }
+        let (text, summary) = inp_from_config(&cfg).unwrap();
+        assert_eq!(text.matches("*ELEMENT, TYPE=C3D10, ELSET=EALL").count(), 1);
+        assert_eq!(text.matches("TYPE=C3D8I").count(), 0);
+        assert_eq!(summary.tets, m.tets.elements.len());
+        assert_eq!(summary.pressure_faces, loads.len());
+    }
+
     #[test]
     fn the_deck_holds_the_model_once_and_one_print_per_pressure() {
         let cfg = coarse();
