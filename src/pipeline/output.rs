@@ -528,6 +528,7 @@ fn write_segment_plots(
                     .filter(|(x, y)| x.is_finite() && y.is_finite())
                     .collect(),
                 line: true,
+                errors: None,
             })
             .collect()
     };
@@ -605,11 +606,13 @@ fn write_plots(
                     label: "measured (mean per video)",
                     points: points(|v| v.stats.radius_mm),
                     line: false,
+                    errors: None,
                 },
                 Series {
                     label: "power-law fit",
                     points: curve(&fits.radius_mm_vs_kpa),
                     line: true,
+                    errors: None,
                 },
             ],
         ),
@@ -622,11 +625,13 @@ fn write_plots(
                     label: "measured",
                     points: points(|v| v.stats.curvature_per_m),
                     line: false,
+                    errors: None,
                 },
                 Series {
                     label: "power-law fit",
                     points: curve(&fits.curvature_per_m_vs_kpa),
                     line: true,
+                    errors: None,
                 },
             ],
         ),
@@ -638,6 +643,7 @@ fn write_plots(
                 label: "measured",
                 points: points(|v| v.stats.bending_angle_deg),
                 line: false,
+                errors: None,
             }],
         ),
     ];
@@ -659,6 +665,7 @@ fn write_plots(
             label: name,
             points: pts.clone(),
             line: true,
+            errors: None,
         })
         .collect();
     if plot_xy(
