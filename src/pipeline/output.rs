@@ -515,20 +515,29 @@ fn write_segment_plots(
         .enumerate()
         .map(|(k, s)| format!("segment {} (markers {})", k + 1, s.label()))
         .collect();
-    let series = |g: fn(&SegmentStats) -> f64| -> Vec<Series> {
+    // `e`: each point's error bar half-height (NaN: none).
+    let series = |g: fn(&SegmentStats) -> f64, e: fn(&SegmentStats) -> f64| -> Vec<Series> {
         labels
             .iter()
             .enumerate()
-            .map(|(k, label)| Series {
-                label,
-                points: videos
+            .map(|(k, label)| {
+                let (points, errors): (Vec<(f64, f64)>, Vec<f64>) = videos
                     .iter()
                     .filter(|v| v.status.is_measured())
-                    .filter_map(|v| v.stats.segments.get(k).map(|s| (v.pressure_kpa, g(s))))
-                    .filter(|(x, y)| x.is_finite() && y.is_finite())
-                    .collect(),
-                line: true,
-                errors: None,
+                    .filter_map(|v| {
+                        v.stats
+                            .segments
+                            .get(k)
+                            .map(|s| ((v.pressure_kpa, g(s)), e(s)))
+                    })
+                    .filter(|((x, y), _)| x.is_finite() && y.is_finite())
+                    .unzip();
+                Series {
+                    label,
+                    points,
+                    line: true,
+                    errors: Some(errors),
+                }
             })
             .collect()
     };
@@ -538,13 +547,13 @@ fn write_segment_plots(
             SEGMENT_PLOT_STEMS[0],
             "Radius of curvature per segment vs pressure",
             "radius (mm)",
-            series(|s| s.radius_mm),
+            series(|s| s.radius_mm, |s| s.radius_mm_std),
         ),
         (
             SEGMENT_PLOT_STEMS[1],
             "Curvature per segment vs pressure",
             "curvature (1/m)",
-            series(|s| s.curvature_per_m),
+            series(|s| s.curvature_per_m, |_| f64::NAN),
         ),
     ] {
         if plot_xy(
@@ -603,10 +612,10 @@ fn write_plots(
             "radius (mm)",
             vec![
                 Series {
-                    label: "measured (mean per video)",
+                    label: "measured (mean and std per video)",
                     points: points(|v| v.stats.radius_mm),
                     line: false,
-                    errors: None,
+                    errors: Some(ok.iter().map(|v| v.stats.radius_mm_std).collect()),
                 },
                 Series {
                     label: "power-law fit",
@@ -639,12 +648,20 @@ fn write_plots(
             PLOT_STEMS[2],
             "Bending angle vs pressure",
             "bending angle (deg)",
-            vec![Series {
-                label: "measured",
-                points: points(|v| v.stats.bending_angle_deg),
-                line: false,
-                errors: None,
-            }],
+            vec![
+                Series {
+                    label: "measured",
+                    points: points(|v| v.stats.bending_angle_deg),
+                    line: false,
+                    errors: None,
+                },
+                Series {
+                    label: "power-law fit",
+                    points: curve(&fits.bending_angle_deg_vs_kpa),
+                    line: true,
+                    errors: None,
+                },
+            ],
         ),
     ];
     let mut written = Vec::new();
