@@ -359,7 +359,13 @@ pub fn write_per_video_csv(
         Column::num("radius_mm_median", 4, f(|r| r.stats.radius_mm_median)),
         Column::num("radius_mm_std", 4, f(|r| r.stats.radius_mm_std)),
         Column::num("curvature_per_m", 4, f(|r| r.stats.curvature_per_m)),
+        Column::num("curvature_per_m_std", 4, f(|r| r.stats.curvature_per_m_std)),
         Column::num("bending_angle_deg", 4, f(|r| r.stats.bending_angle_deg)),
+        Column::num(
+            "bending_angle_deg_std",
+            4,
+            f(|r| r.stats.bending_angle_deg_std),
+        ),
         Column::num(rms.column(), 4, f(|r| r.stats.fit_rms)),
         Column::num("tip_x_mm", 4, f(|r| r.stats.tip_x_mm)),
         Column::num("tip_x_mm_std", 4, f(|r| r.stats.tip_x_mm_std)),
@@ -631,10 +637,10 @@ fn write_plots(
             "curvature (1/m)",
             vec![
                 Series {
-                    label: "measured",
+                    label: "measured (mean and std per video)",
                     points: points(|v| v.stats.curvature_per_m),
                     line: false,
-                    errors: None,
+                    errors: Some(ok.iter().map(|v| v.stats.curvature_per_m_std).collect()),
                 },
                 Series {
                     label: "power-law fit",
@@ -650,10 +656,10 @@ fn write_plots(
             "bending angle (deg)",
             vec![
                 Series {
-                    label: "measured",
+                    label: "measured (mean and std per video)",
                     points: points(|v| v.stats.bending_angle_deg),
                     line: false,
-                    errors: None,
+                    errors: Some(ok.iter().map(|v| v.stats.bending_angle_deg_std).collect()),
                 },
                 Series {
                     label: "power-law fit",
@@ -713,7 +719,9 @@ mod tests {
                 radius_mm_median: r,
                 radius_mm_std: 0.1,
                 curvature_per_m: 1000.0 / r,
+                curvature_per_m_std: 0.3,
                 bending_angle_deg: 10.0,
+                bending_angle_deg_std: 0.4,
                 fit_rms: 0.05,
                 tip_x_mm: 90.0,
                 tip_x_mm_std: 0.2,
@@ -741,11 +749,11 @@ mod tests {
         let mut lines = text.lines();
         assert_eq!(
             lines.next().unwrap(),
-            "file,pressure_kpa,pressure_bar,radius_mm,radius_mm_median,radius_mm_std,curvature_per_m,bending_angle_deg,fit_rms_px,tip_x_mm,tip_x_mm_std,tip_y_mm,tip_y_mm_std,tip_angle_deg,tip_angle_deg_std,frames_used,frames_rejected,status"
+            "file,pressure_kpa,pressure_bar,radius_mm,radius_mm_median,radius_mm_std,curvature_per_m,curvature_per_m_std,bending_angle_deg,bending_angle_deg_std,fit_rms_px,tip_x_mm,tip_x_mm_std,tip_y_mm,tip_y_mm_std,tip_angle_deg,tip_angle_deg_std,frames_used,frames_rejected,status"
         );
         assert_eq!(
             lines.next().unwrap(),
-            "a.mp4,20.0000,0.2000,120.0000,120.0000,0.1000,8.3333,10.0000,0.0500,90.0000,0.2000,30.0000,0.1000,40.0000,0.5000,10,0,ok"
+            "a.mp4,20.0000,0.2000,120.0000,120.0000,0.1000,8.3333,0.3000,10.0000,0.4000,0.0500,90.0000,0.2000,30.0000,0.1000,40.0000,0.5000,10,0,ok"
         );
         assert!(lines
             .next()
@@ -753,7 +761,7 @@ mod tests {
             .starts_with("\"b, c.mp4\",40.0000,0.4000,80.0000,,"));
         assert_eq!(
             lines.next().unwrap(),
-            "x.mp4,,,,,,,,,,,,,,,0,0,listed twice"
+            "x.mp4,,,,,,,,,,,,,,,,,0,0,listed twice"
         );
     }
 
