@@ -708,6 +708,7 @@ mod tests {
     use super::super::records::VideoStatus;
     use super::super::stats::FrameStats;
     use super::*;
+    use plotters::prelude::{Color, Palette, Palette99};
 
     fn row(file: &str, p: f64, r: f64) -> VideoRecord {
         VideoRecord {
@@ -825,5 +826,79 @@ mod tests {
             "{:?}",
             f.notes
         );
+    }
+
+    /// The `points` of the SVG polylines of colour `colour`, each as pixel pairs.
+    fn polylines(svg: &str, colour: &str) -> Vec<Vec<(f64, f64)>> {
+        let attr = |t: &str, n: &str| -> Option<String> {
+            let start = t.find(&format!(" {n}=\""))? + n.len() + 3;
+            Some(t[start..start + t[start..].find('"')?].to_string())
+        };
+        svg.split('<')
+            .filter(|t| t.starts_with("polyline") && attr(t, "stroke").as_deref() == Some(colour))
+            .map(|t| {
+                attr(t, "points")
+                    .unwrap()
+                    .split_whitespace()
+                    .map(|xy| {
+                        let (x, y) = xy.split_once(',').unwrap();
+                        (x.parse().unwrap(), y.parse().unwrap())
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// The angle plot draws fit.json's power law through its points and each video's
+    /// angle std as a bar: pixel positions from the plot's own mapping, 1.5 px.
+    #[test]
+    fn angle_plot_draws_its_fit_and_std_bars() {
+        let d = tempfile::tempdir().unwrap();
+        let angle = |p: f64| 3.0 * p.powf(0.7) + 2.0;
+        let rows: Vec<VideoRecord> = (1..=6)
+            .map(|i| {
+                let p = 15.0 * i as f64;
+                let mut r = row("v", p, 800.0 * p.powf(-0.8) + 10.0);
+                r.stats.bending_angle_deg = angle(p);
+                r
+            })
+            .collect();
+        let fits = fit_records(&rows, PressureUnit::Kpa);
+        assert!(fits.bending_angle_deg_vs_kpa.is_some(), "{:?}", fits.notes);
+        write_plots(d.path(), &rows, &fits, &[]).unwrap();
+        let svg = std::fs::read_to_string(d.path().join("plots/angle_vs_pressure.svg")).unwrap();
+        let hex = |i: usize| {
+            let c = Palette99::pick(i).to_rgba().rgb();
+            format!("#{:02X}{:02X}{:02X}", c.0, c.1, c.2)
+        };
+        let bars: Vec<Vec<(f64, f64)>> = polylines(&svg, &hex(0))
+            .into_iter()
+            .filter(|l| l.len() == 2 && l[0].0 == l[1].0)
+            .collect();
+        assert_eq!(bars.len(), 6, "one bar per video");
+        // Pixels per degree and the pixel row of 0 deg from the first and last bars' centres.
+        let mid = |b: &Vec<(f64, f64)>| (b[0].1 + b[1].1) / 2.0;
+        let (a0, a5) = (angle(15.0), angle(90.0));
+        let scale = (mid(&bars[0]) - mid(&bars[5])) / (a5 - a0);
+        let px = |deg: f64| mid(&bars[0]) - (deg - a0) * scale;
+        for (b, r) in bars.iter().zip(&rows) {
+            let len = (b[0].1 - b[1].1).abs();
+            assert!((len - 2.0 * 0.4 * scale).abs() <= 1.5, "bar {len} px");
+            assert!((mid(b) - px(r.stats.bending_angle_deg)).abs() <= 1.5);
+        }
+        let curves: Vec<Vec<(f64, f64)>> = polylines(&svg, &hex(1))
+            .into_iter()
+            .filter(|l| l.len() > 50)
+            .collect();
+        assert_eq!(curves.len(), 1, "the fit line");
+        let f = fits.bending_angle_deg_vs_kpa.unwrap();
+        for (end, p) in [(curves[0][0], 15.0), (*curves[0].last().unwrap(), 90.0)] {
+            assert!((end.0 - bars[if p == 15.0 { 0 } else { 5 }][0].0).abs() <= 1.5);
+            assert!(
+                (end.1 - px(f.eval(p))).abs() <= 1.5,
+                "{end:?} vs {}",
+                px(f.eval(p))
+            );
+        }
     }
 }
