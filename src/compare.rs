@@ -362,6 +362,7 @@ pub fn compare_to(
                         .zip(m.value.iter().copied())
                         .collect(),
                     line: false,
+                    errors: None,
                 },
                 Series {
                     label: "measured fit",
@@ -372,6 +373,7 @@ pub fn compare_to(
                         .zip(c.measured.iter().copied())
                         .collect(),
                     line: true,
+                    errors: None,
                 },
                 Series {
                     label: "FEM",
@@ -382,6 +384,7 @@ pub fn compare_to(
                         .zip(f.value.iter().copied())
                         .collect(),
                     line: false,
+                    errors: None,
                 },
                 Series {
                     label: "FEM fit",
@@ -392,6 +395,7 @@ pub fn compare_to(
                         .zip(c.fem.iter().copied())
                         .collect(),
                     line: true,
+                    errors: None,
                 },
             ],
         )

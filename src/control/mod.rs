@@ -671,6 +671,7 @@ fn write_outputs(out: &Path, run: &ControlRun) -> Result<(), ControlError> {
             label: "reference",
             points: xy(t, &t.reference_deg),
             line: true,
+            errors: None,
         },
         Series {
             label: if fem {
@@ -680,6 +681,7 @@ fn write_outputs(out: &Path, run: &ControlRun) -> Result<(), ControlError> {
             },
             points: xy(t, &t.angle_deg),
             line: true,
+            errors: None,
         },
     ];
     let mut pressure = vec![
@@ -687,6 +689,7 @@ fn write_outputs(out: &Path, run: &ControlRun) -> Result<(), ControlError> {
             label: "command",
             points: xy(t, &t.pressure_cmd_kpa),
             line: true,
+            errors: None,
         },
         Series {
             label: if fem {
@@ -696,6 +699,7 @@ fn write_outputs(out: &Path, run: &ControlRun) -> Result<(), ControlError> {
             },
             points: xy(t, &t.pressure_kpa),
             line: true,
+            errors: None,
         },
     ];
     if let Some(m) = &run.map_trace {
@@ -703,11 +707,13 @@ fn write_outputs(out: &Path, run: &ControlRun) -> Result<(), ControlError> {
             label: "angle (map in the loop)",
             points: xy(m, &m.angle_deg),
             line: true,
+            errors: None,
         });
         pressure.push(Series {
             label: "pressure (map in the loop)",
             points: xy(m, &m.pressure_kpa),
             line: true,
+            errors: None,
         });
     }
     let plots = out.join("plots");

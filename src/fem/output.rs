@@ -345,6 +345,7 @@ pub fn plot_steps(out: &Path, steps: &[StepResult], force: &[StepResult]) -> Res
                 label: "FEM",
                 points: pts,
                 line: true,
+                errors: None,
             }],
         )
         .map_err(output)
@@ -659,6 +660,7 @@ pub fn sweep_to(
                 label: "FEM",
                 points: pts(f),
                 line: true,
+                errors: None,
             }],
         )
         .map_err(output)?;

@@ -154,16 +154,19 @@ pub fn write_fit_model(
                 label: "measured",
                 points: rows.iter().copied().zip(meas.iter().copied()).collect(),
                 line: false,
+                errors: None,
             },
             Series {
                 label: "model, initial",
                 points: line(&fit.initial),
                 line: true,
+                errors: None,
             },
             Series {
                 label: "model, fitted",
                 points: line(&fit.fitted),
                 line: true,
+                errors: None,
             },
         ],
     )

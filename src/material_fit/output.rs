@@ -175,11 +175,13 @@ pub fn write_material_fit(
                     .map(|(l, p)| (*l, p))
                     .collect(),
                 line: false,
+                errors: None,
             },
             Series {
                 label: &label,
                 points: curve,
                 line: true,
+                errors: None,
             },
         ],
     )

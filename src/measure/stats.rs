@@ -20,8 +20,12 @@ pub struct FrameStats {
     pub radius_mm_std: f64,
     /// Mean curvature, 1/m.
     pub curvature_per_m: f64,
+    /// Sample standard deviation of the curvature, 1/m.
+    pub curvature_per_m_std: f64,
     /// Mean bending angle, degrees.
     pub bending_angle_deg: f64,
+    /// Sample standard deviation of the bending angle, degrees.
+    pub bending_angle_deg_std: f64,
     /// Mean fit RMS (px, or mm for RGB-D).
     pub fit_rms: f64,
     /// Mean tip x in the session's axes of markers.csv, mm.
@@ -53,7 +57,9 @@ impl PartialEq for FrameStats {
             (self.radius_mm_median, o.radius_mm_median),
             (self.radius_mm_std, o.radius_mm_std),
             (self.curvature_per_m, o.curvature_per_m),
+            (self.curvature_per_m_std, o.curvature_per_m_std),
             (self.bending_angle_deg, o.bending_angle_deg),
+            (self.bending_angle_deg_std, o.bending_angle_deg_std),
             (self.fit_rms, o.fit_rms),
             (self.tip_x_mm, o.tip_x_mm),
             (self.tip_x_mm_std, o.tip_x_mm_std),
@@ -78,7 +84,9 @@ impl FrameStats {
             radius_mm_median: f64::NAN,
             radius_mm_std: f64::NAN,
             curvature_per_m: f64::NAN,
+            curvature_per_m_std: f64::NAN,
             bending_angle_deg: f64::NAN,
+            bending_angle_deg_std: f64::NAN,
             fit_rms: f64::NAN,
             tip_x_mm: f64::NAN,
             tip_x_mm_std: f64::NAN,
@@ -150,6 +158,8 @@ pub fn summarize<'a>(frames: impl IntoIterator<Item = &'a FrameRecord>) -> Frame
     } else {
         0.0
     };
+    let (curvature_per_m, curvature_per_m_std) = mean_std(&col(|f| f.curvature_per_m));
+    let (bending_angle_deg, bending_angle_deg_std) = mean_std(&col(|f| f.bending_angle_deg));
     let (tip_x_mm, tip_x_mm_std) = mean_std(&col(|f| f.tip_x_mm));
     let (tip_y_mm, tip_y_mm_std) = mean_std(&col(|f| f.tip_y_mm));
     let (tip_angle_deg, tip_angle_deg_std) = mean_std(&col(|f| f.tip_angle_deg));
@@ -157,8 +167,10 @@ pub fn summarize<'a>(frames: impl IntoIterator<Item = &'a FrameRecord>) -> Frame
         radius_mm,
         radius_mm_median: median(&r),
         radius_mm_std,
-        curvature_per_m: mean(&col(|f| f.curvature_per_m)),
-        bending_angle_deg: mean(&col(|f| f.bending_angle_deg)),
+        curvature_per_m,
+        curvature_per_m_std,
+        bending_angle_deg,
+        bending_angle_deg_std,
         fit_rms: mean(&col(|f| f.fit_rms)),
         tip_x_mm,
         tip_x_mm_std,
@@ -243,6 +255,10 @@ mod tests {
         assert_eq!(s.radius_mm, 11.0);
         assert_eq!(s.radius_mm_median, 11.0);
         assert!((s.radius_mm_std - 2f64.sqrt()).abs() < 1e-12);
+        // Curvatures 100 and 1000/12 1/m: std |100 - 83.33| / sqrt 2; equal angles: 0.
+        let k_std = (100.0 - 1000.0 / 12.0) / 2f64.sqrt();
+        assert!((s.curvature_per_m_std - k_std).abs() < 1e-12);
+        assert_eq!(s.bending_angle_deg_std, 0.0);
         let none = summarize(&f[2..]);
         assert_eq!((none.frames_used, none.frames_rejected), (0, 1));
         assert!(none.radius_mm.is_nan());

@@ -496,16 +496,19 @@ fn plot_front(
                     .map(|e| (e.values[ia].mean, e.values[ib].mean))
                     .collect(),
                 line: true,
+                errors: None,
             },
             Series {
                 label: "designs (FEM)",
                 points: designs.y.iter().map(|y| (y[0], y[1])).collect(),
                 line: false,
+                errors: None,
             },
             Series {
                 label: "re-simulated (FEM)",
                 points: verified.iter().map(|v| (v.fem[ia], v.fem[ib])).collect(),
                 line: false,
+                errors: None,
             },
         ],
     )

@@ -359,7 +359,13 @@ pub fn write_per_video_csv(
         Column::num("radius_mm_median", 4, f(|r| r.stats.radius_mm_median)),
         Column::num("radius_mm_std", 4, f(|r| r.stats.radius_mm_std)),
         Column::num("curvature_per_m", 4, f(|r| r.stats.curvature_per_m)),
+        Column::num("curvature_per_m_std", 4, f(|r| r.stats.curvature_per_m_std)),
         Column::num("bending_angle_deg", 4, f(|r| r.stats.bending_angle_deg)),
+        Column::num(
+            "bending_angle_deg_std",
+            4,
+            f(|r| r.stats.bending_angle_deg_std),
+        ),
         Column::num(rms.column(), 4, f(|r| r.stats.fit_rms)),
         Column::num("tip_x_mm", 4, f(|r| r.stats.tip_x_mm)),
         Column::num("tip_x_mm_std", 4, f(|r| r.stats.tip_x_mm_std)),
@@ -515,19 +521,29 @@ fn write_segment_plots(
         .enumerate()
         .map(|(k, s)| format!("segment {} (markers {})", k + 1, s.label()))
         .collect();
-    let series = |g: fn(&SegmentStats) -> f64| -> Vec<Series> {
+    // `e`: each point's error bar half-height (NaN: none).
+    let series = |g: fn(&SegmentStats) -> f64, e: fn(&SegmentStats) -> f64| -> Vec<Series> {
         labels
             .iter()
             .enumerate()
-            .map(|(k, label)| Series {
-                label,
-                points: videos
+            .map(|(k, label)| {
+                let (points, errors): (Vec<(f64, f64)>, Vec<f64>) = videos
                     .iter()
                     .filter(|v| v.status.is_measured())
-                    .filter_map(|v| v.stats.segments.get(k).map(|s| (v.pressure_kpa, g(s))))
-                    .filter(|(x, y)| x.is_finite() && y.is_finite())
-                    .collect(),
-                line: true,
+                    .filter_map(|v| {
+                        v.stats
+                            .segments
+                            .get(k)
+                            .map(|s| ((v.pressure_kpa, g(s)), e(s)))
+                    })
+                    .filter(|((x, y), _)| x.is_finite() && y.is_finite())
+                    .unzip();
+                Series {
+                    label,
+                    points,
+                    line: true,
+                    errors: Some(errors),
+                }
             })
             .collect()
     };
@@ -537,13 +553,13 @@ fn write_segment_plots(
             SEGMENT_PLOT_STEMS[0],
             "Radius of curvature per segment vs pressure",
             "radius (mm)",
-            series(|s| s.radius_mm),
+            series(|s| s.radius_mm, |s| s.radius_mm_std),
         ),
         (
             SEGMENT_PLOT_STEMS[1],
             "Curvature per segment vs pressure",
             "curvature (1/m)",
-            series(|s| s.curvature_per_m),
+            series(|s| s.curvature_per_m, |_| f64::NAN),
         ),
     ] {
         if plot_xy(
@@ -602,14 +618,16 @@ fn write_plots(
             "radius (mm)",
             vec![
                 Series {
-                    label: "measured (mean per video)",
+                    label: "measured (mean and std per video)",
                     points: points(|v| v.stats.radius_mm),
                     line: false,
+                    errors: Some(ok.iter().map(|v| v.stats.radius_mm_std).collect()),
                 },
                 Series {
                     label: "power-law fit",
                     points: curve(&fits.radius_mm_vs_kpa),
                     line: true,
+                    errors: None,
                 },
             ],
         ),
@@ -619,14 +637,16 @@ fn write_plots(
             "curvature (1/m)",
             vec![
                 Series {
-                    label: "measured",
+                    label: "measured (mean and std per video)",
                     points: points(|v| v.stats.curvature_per_m),
                     line: false,
+                    errors: Some(ok.iter().map(|v| v.stats.curvature_per_m_std).collect()),
                 },
                 Series {
                     label: "power-law fit",
                     points: curve(&fits.curvature_per_m_vs_kpa),
                     line: true,
+                    errors: None,
                 },
             ],
         ),
@@ -634,11 +654,20 @@ fn write_plots(
             PLOT_STEMS[2],
             "Bending angle vs pressure",
             "bending angle (deg)",
-            vec![Series {
-                label: "measured",
-                points: points(|v| v.stats.bending_angle_deg),
-                line: false,
-            }],
+            vec![
+                Series {
+                    label: "measured (mean and std per video)",
+                    points: points(|v| v.stats.bending_angle_deg),
+                    line: false,
+                    errors: Some(ok.iter().map(|v| v.stats.bending_angle_deg_std).collect()),
+                },
+                Series {
+                    label: "power-law fit",
+                    points: curve(&fits.bending_angle_deg_vs_kpa),
+                    line: true,
+                    errors: None,
+                },
+            ],
         ),
     ];
     let mut written = Vec::new();
@@ -659,6 +688,7 @@ fn write_plots(
             label: name,
             points: pts.clone(),
             line: true,
+            errors: None,
         })
         .collect();
     if plot_xy(
@@ -678,6 +708,7 @@ mod tests {
     use super::super::records::VideoStatus;
     use super::super::stats::FrameStats;
     use super::*;
+    use plotters::prelude::{Color, Palette, Palette99};
 
     fn row(file: &str, p: f64, r: f64) -> VideoRecord {
         VideoRecord {
@@ -689,7 +720,9 @@ mod tests {
                 radius_mm_median: r,
                 radius_mm_std: 0.1,
                 curvature_per_m: 1000.0 / r,
+                curvature_per_m_std: 0.3,
                 bending_angle_deg: 10.0,
+                bending_angle_deg_std: 0.4,
                 fit_rms: 0.05,
                 tip_x_mm: 90.0,
                 tip_x_mm_std: 0.2,
@@ -717,11 +750,11 @@ mod tests {
         let mut lines = text.lines();
         assert_eq!(
             lines.next().unwrap(),
-            "file,pressure_kpa,pressure_bar,radius_mm,radius_mm_median,radius_mm_std,curvature_per_m,bending_angle_deg,fit_rms_px,tip_x_mm,tip_x_mm_std,tip_y_mm,tip_y_mm_std,tip_angle_deg,tip_angle_deg_std,frames_used,frames_rejected,status"
+            "file,pressure_kpa,pressure_bar,radius_mm,radius_mm_median,radius_mm_std,curvature_per_m,curvature_per_m_std,bending_angle_deg,bending_angle_deg_std,fit_rms_px,tip_x_mm,tip_x_mm_std,tip_y_mm,tip_y_mm_std,tip_angle_deg,tip_angle_deg_std,frames_used,frames_rejected,status"
         );
         assert_eq!(
             lines.next().unwrap(),
-            "a.mp4,20.0000,0.2000,120.0000,120.0000,0.1000,8.3333,10.0000,0.0500,90.0000,0.2000,30.0000,0.1000,40.0000,0.5000,10,0,ok"
+            "a.mp4,20.0000,0.2000,120.0000,120.0000,0.1000,8.3333,0.3000,10.0000,0.4000,0.0500,90.0000,0.2000,30.0000,0.1000,40.0000,0.5000,10,0,ok"
         );
         assert!(lines
             .next()
@@ -729,7 +762,7 @@ mod tests {
             .starts_with("\"b, c.mp4\",40.0000,0.4000,80.0000,,"));
         assert_eq!(
             lines.next().unwrap(),
-            "x.mp4,,,,,,,,,,,,,,,0,0,listed twice"
+            "x.mp4,,,,,,,,,,,,,,,,,0,0,listed twice"
         );
     }
 
@@ -793,5 +826,79 @@ mod tests {
             "{:?}",
             f.notes
         );
+    }
+
+    /// The `points` of the SVG polylines of colour `colour`, each as pixel pairs.
+    fn polylines(svg: &str, colour: &str) -> Vec<Vec<(f64, f64)>> {
+        let attr = |t: &str, n: &str| -> Option<String> {
+            let start = t.find(&format!(" {n}=\""))? + n.len() + 3;
+            Some(t[start..start + t[start..].find('"')?].to_string())
+        };
+        svg.split('<')
+            .filter(|t| t.starts_with("polyline") && attr(t, "stroke").as_deref() == Some(colour))
+            .map(|t| {
+                attr(t, "points")
+                    .unwrap()
+                    .split_whitespace()
+                    .map(|xy| {
+                        let (x, y) = xy.split_once(',').unwrap();
+                        (x.parse().unwrap(), y.parse().unwrap())
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// The angle plot draws fit.json's power law through its points and each video's
+    /// angle std as a bar: pixel positions from the plot's own mapping, 1.5 px.
+    #[test]
+    fn angle_plot_draws_its_fit_and_std_bars() {
+        let d = tempfile::tempdir().unwrap();
+        let angle = |p: f64| 3.0 * p.powf(0.7) + 2.0;
+        let rows: Vec<VideoRecord> = (1..=6)
+            .map(|i| {
+                let p = 15.0 * i as f64;
+                let mut r = row("v", p, 800.0 * p.powf(-0.8) + 10.0);
+                r.stats.bending_angle_deg = angle(p);
+                r
+            })
+            .collect();
+        let fits = fit_records(&rows, PressureUnit::Kpa);
+        assert!(fits.bending_angle_deg_vs_kpa.is_some(), "{:?}", fits.notes);
+        write_plots(d.path(), &rows, &fits, &[]).unwrap();
+        let svg = std::fs::read_to_string(d.path().join("plots/angle_vs_pressure.svg")).unwrap();
+        let hex = |i: usize| {
+            let c = Palette99::pick(i).to_rgba().rgb();
+            format!("#{:02X}{:02X}{:02X}", c.0, c.1, c.2)
+        };
+        let bars: Vec<Vec<(f64, f64)>> = polylines(&svg, &hex(0))
+            .into_iter()
+            .filter(|l| l.len() == 2 && l[0].0 == l[1].0)
+            .collect();
+        assert_eq!(bars.len(), 6, "one bar per video");
+        // Pixels per degree and the pixel row of 0 deg from the first and last bars' centres.
+        let mid = |b: &Vec<(f64, f64)>| (b[0].1 + b[1].1) / 2.0;
+        let (a0, a5) = (angle(15.0), angle(90.0));
+        let scale = (mid(&bars[0]) - mid(&bars[5])) / (a5 - a0);
+        let px = |deg: f64| mid(&bars[0]) - (deg - a0) * scale;
+        for (b, r) in bars.iter().zip(&rows) {
+            let len = (b[0].1 - b[1].1).abs();
+            assert!((len - 2.0 * 0.4 * scale).abs() <= 1.5, "bar {len} px");
+            assert!((mid(b) - px(r.stats.bending_angle_deg)).abs() <= 1.5);
+        }
+        let curves: Vec<Vec<(f64, f64)>> = polylines(&svg, &hex(1))
+            .into_iter()
+            .filter(|l| l.len() > 50)
+            .collect();
+        assert_eq!(curves.len(), 1, "the fit line");
+        let f = fits.bending_angle_deg_vs_kpa.unwrap();
+        for (end, p) in [(curves[0][0], 15.0), (*curves[0].last().unwrap(), 90.0)] {
+            assert!((end.0 - bars[if p == 15.0 { 0 } else { 5 }][0].0).abs() <= 1.5);
+            assert!(
+                (end.1 - px(f.eval(p))).abs() <= 1.5,
+                "{end:?} vs {}",
+                px(f.eval(p))
+            );
+        }
     }
 }

@@ -58,7 +58,32 @@ pub struct Series<'a> {
     pub points: Vec<(f64, f64)>,
     /// Draw as a line (else markers).
     pub line: bool,
+    /// Error bars: a half-height per point (e.g. one standard deviation), drawn as a
+    /// vertical bar with caps in the series colour; a NaN, negative or zero half-height,
+    /// or `None`, draws no bar.
+    pub errors: Option<Vec<f64>>,
 }
+
+impl Series<'_> {
+    /// The finite points with their drawable error half-height (0 when none).
+    fn finite_points(&self) -> impl Iterator<Item = ((f64, f64), f64)> + '_ {
+        self.points.iter().enumerate().filter_map(|(i, &(x, y))| {
+            if !(x.is_finite() && y.is_finite()) {
+                return None;
+            }
+            let e = self
+                .errors
+                .as_ref()
+                .and_then(|e| e.get(i).copied())
+                .filter(|e| e.is_finite() && *e > 0.0)
+                .unwrap_or(0.0);
+            Some(((x, y), e))
+        })
+    }
+}
+
+/// Width of an error bar's caps, px.
+const CAP_PX: i32 = 8;
 
 /// Plot size, px.
 pub const PLOT_SIZE: (u32, u32) = (900, 600);
@@ -75,11 +100,7 @@ pub fn plot_xy(
 ) -> Result<bool, ReportError> {
     let png = stem.with_extension("png");
     let svg = stem.with_extension("svg");
-    let finite: Vec<(f64, f64)> = series
-        .iter()
-        .flat_map(|s| s.points.iter().copied())
-        .filter(|(x, y)| x.is_finite() && y.is_finite())
-        .collect();
+    let finite: Vec<((f64, f64), f64)> = series.iter().flat_map(|s| s.finite_points()).collect();
     if finite.is_empty() {
         for p in [&png, &svg] {
             match std::fs::remove_file(p) {
@@ -96,7 +117,7 @@ pub fn plot_xy(
             f64::INFINITY,
             f64::NEG_INFINITY,
         ),
-        |(a, b, c, d), (x, y)| (a.min(*x), b.max(*x), c.min(*y), d.max(*y)),
+        |(a, b, c, d), ((x, y), e)| (a.min(*x), b.max(*x), c.min(y - e), d.max(y + e)),
     );
     let pad = |lo: &mut f64, hi: &mut f64| {
         let m = ((*hi - *lo) * 0.08).max(1e-9 + 0.05 * hi.abs());
@@ -173,12 +194,25 @@ fn draw_chart<DB: DrawingBackend>(
         .map_err(|e| e.to_string())?;
     for (i, s) in series.iter().enumerate() {
         let color = Palette99::pick(i).to_rgba();
-        let pts: Vec<(f64, f64)> = s
-            .points
-            .iter()
-            .copied()
-            .filter(|(x, y)| x.is_finite() && y.is_finite())
-            .collect();
+        let bars: Vec<((f64, f64), f64)> = s.finite_points().filter(|(_, e)| *e > 0.0).collect();
+        chart
+            .draw_series(bars.iter().map(|&((x, y), e)| {
+                PathElement::new(vec![(x, y - e), (x, y + e)], color.stroke_width(1))
+            }))
+            .map_err(|e| e.to_string())?;
+        let cap = |&((x, y), _): &((f64, f64), f64)| {
+            EmptyElement::at((x, y))
+                + PathElement::new(
+                    vec![(-CAP_PX / 2, 0), (CAP_PX / 2, 0)],
+                    color.stroke_width(1),
+                )
+        };
+        for sign in [-1.0, 1.0] {
+            chart
+                .draw_series(bars.iter().map(|&((x, y), e)| cap(&((x, y + sign * e), e))))
+                .map_err(|e| e.to_string())?;
+        }
+        let pts: Vec<(f64, f64)> = s.finite_points().map(|(p, _)| p).collect();
         if s.line {
             chart
                 .draw_series(LineSeries::new(pts, color.stroke_width(2)))
@@ -281,6 +315,7 @@ mod tests {
             label: "measured",
             points,
             line: false,
+            errors: None,
         };
         let pts: Vec<(f64, f64)> = (1..=6)
             .map(|i| (15.0 * i as f64, 100.0 / i as f64))
@@ -305,5 +340,107 @@ mod tests {
         let none = vec![(f64::NAN, 1.0)];
         assert!(!plot_xy(&stem, "radius", "p", "r", &[series(none)]).unwrap());
         assert!(!stem.with_extension("png").exists() && !stem.with_extension("svg").exists());
+    }
+
+    /// The value of attribute `name` in an SVG tag.
+    fn attr<'t>(tag: &'t str, name: &str) -> Option<&'t str> {
+        let start = tag.find(&format!(" {name}=\""))? + name.len() + 3;
+        Some(&tag[start..start + tag[start..].find('"')?])
+    }
+
+    /// The SVG tags `<kind .../>` whose `colour_attr` is `colour`.
+    fn tags<'t>(svg: &'t str, kind: &str, colour_attr: &str, colour: &str) -> Vec<&'t str> {
+        svg.split('<')
+            .filter(|t| t.starts_with(kind) && attr(t, colour_attr) == Some(colour))
+            .collect()
+    }
+
+    /// The two end points of a two-point polyline.
+    fn segment(tag: &str) -> Option<((f64, f64), (f64, f64))> {
+        let p: Vec<(f64, f64)> = attr(tag, "points")?
+            .split_whitespace()
+            .map(|xy| {
+                let (x, y) = xy.split_once(',').unwrap();
+                (x.parse().unwrap(), y.parse().unwrap())
+            })
+            .collect();
+        (p.len() == 2).then(|| (p[0], p[1]))
+    }
+
+    /// Error bars are drawn at the chart's own mapping of the data: a bar of half-height
+    /// e spans e data units either side of its marker's centre, with 8 px caps at both
+    /// ends; the y range is widened to hold the bars; a NaN error draws nothing.
+    #[test]
+    fn error_bars_span_their_half_height_at_the_chart_mapping() {
+        let d = tempfile::tempdir().unwrap();
+        let stem = d.path().join("bars");
+        let (ys, es) = ([10.0, 20.0, 15.0], [1.0, 4.0, f64::NAN]);
+        let series = Series {
+            label: "measured",
+            points: (0..3).map(|i| (1.0 + i as f64, ys[i])).collect(),
+            line: false,
+            errors: Some(es.to_vec()),
+        };
+        assert!(plot_xy(&stem, "bars", "x", "y", &[series]).unwrap());
+        let svg = std::fs::read_to_string(stem.with_extension("svg")).unwrap();
+        let c = Palette99::pick(0).to_rgba().rgb();
+        let colour = format!("#{:02X}{:02X}{:02X}", c.0, c.1, c.2);
+        // Marker centres: the data's in drawing order, then the legend's.
+        let centres: Vec<(f64, f64)> = tags(&svg, "circle", "fill", &colour)
+            .iter()
+            .map(|t| {
+                let v = |n| attr(t, n).unwrap().parse::<f64>().unwrap();
+                (v("cx"), v("cy"))
+            })
+            .collect();
+        assert_eq!(centres.len(), 4, "three markers and the legend's");
+        // Pixels per data unit from the first two markers (y grows downwards).
+        let scale = (centres[0].1 - centres[1].1) / (ys[1] - ys[0]);
+        let px = |y: f64| centres[0].1 - (y - ys[0]) * scale;
+        let tol = 1.5;
+        assert!((centres[2].1 - px(ys[2])).abs() <= tol, "linear mapping");
+        let lines: Vec<_> = tags(&svg, "polyline", "stroke", &colour)
+            .into_iter()
+            .filter_map(segment)
+            .collect();
+        let bars: Vec<_> = lines.iter().filter(|(a, b)| a.0 == b.0).collect();
+        let caps: Vec<_> = lines.iter().filter(|(a, b)| a.1 == b.1).collect();
+        assert_eq!((bars.len(), caps.len()), (2, 4), "no bar for the NaN error");
+        for i in 0..2 {
+            let (x, lo, hi) = (centres[i].0, ys[i] - es[i], ys[i] + es[i]);
+            let bar = bars
+                .iter()
+                .find(|(a, _)| (a.0 - x).abs() <= tol)
+                .expect("bar at its marker's x");
+            let (top, bottom) = (bar.0 .1.min(bar.1 .1), bar.0 .1.max(bar.1 .1));
+            assert!(
+                (top - px(hi)).abs() <= tol && (bottom - px(lo)).abs() <= tol,
+                "bar {i}: {top}..{bottom} px, expected {}..{}",
+                px(hi),
+                px(lo)
+            );
+            for y in [top, bottom] {
+                let cap = caps
+                    .iter()
+                    .find(|(a, b)| (a.1 - y).abs() <= tol && (a.0 + b.0) / 2.0 == x)
+                    .expect("cap at the bar's end");
+                assert_eq!((cap.1 .0 - cap.0 .0).abs(), CAP_PX as f64);
+            }
+        }
+        // The y axis (left edge of the plot area) spans the padded range of the bars,
+        // 9..24 widened by 8 % each way: 7.8..25.2.
+        let axis = tags(&svg, "polyline", "stroke", "#000000")
+            .into_iter()
+            .filter_map(segment)
+            .filter(|(a, b)| a.0 == b.0 && a.0 < centres[0].0)
+            .map(|(a, b)| (a.1.min(b.1), a.1.max(b.1)))
+            .max_by(|a, b| (a.1 - a.0).total_cmp(&(b.1 - b.0)))
+            .expect("y axis");
+        assert!(
+            (axis.0 - px(25.2)).abs() <= tol && (axis.1 - px(7.8)).abs() <= tol,
+            "y axis {axis:?} px, expected {}..{}",
+            px(25.2),
+            px(7.8)
+        );
     }
 }
