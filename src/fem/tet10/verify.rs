@@ -566,3 +566,52 @@ fn thick_cylinder_matches_the_analytic_inflation_pressure() {
         assert!((p_at / p - 1.0).abs() < 0.005, "{p_at} vs {p}");
     }
 }
+
+/// A wall in bending: a cantilever 20 x 2 x 1 mm (nearly incompressible, κ = 1000 μ),
+/// clamped at x = 0, a small tip shear, `nz` Kuhn cells through the 1 mm thickness and
+/// 10 nz along; the tip deflection over Timoshenko's (E = 3 μ, κ_s = 5/6).
+fn wall_bending_ratio(nz: usize) -> f64 {
+    let (l, w, t) = (20.0, 2.0, 1.0);
+    let mesh = kuhn_mesh([10 * nz, 2, nz], |s, u, v| {
+        Vector3::new(l * s, w * u, t * v)
+    });
+    let mu = 0.1;
+    let material = Yeoh {
+        c1: mu / 2.0,
+        c2: 0.0,
+        c3: 0.0,
+        bulk_modulus: 1000.0 * mu,
+    };
+    let mut pb = Problem::new(mesh, material, Formulation::MixedP0);
+    for (a, g) in pb.mesh.grid.iter().enumerate() {
+        if g[0] == 0 {
+            pb.fixed[3 * a..3 * a + 3].fill(true);
+        }
+    }
+    let scale = 1e-6;
+    let last = pb.mesh.last;
+    let right = pb.mesh.faces(|g| g[0] == last[0]);
+    pb.traction(&right, Vector3::new(0.0, 0.0, scale / (w * t)));
+    let u = pb.solve(1);
+    let tip: Vec<f64> = (0..pb.mesh.grid.len())
+        .filter(|a| pb.mesh.grid[*a][0] == last[0])
+        .map(|a| displacement(&u, a).z / scale)
+        .collect();
+    let mean = tip.iter().sum::<f64>() / tip.len() as f64;
+    let bending = l.powi(3) / (3.0 * 3.0 * mu * (w * t.powi(3) / 12.0));
+    let shear = l / (5.0 / 6.0 * mu * w * t);
+    mean / (bending + shear)
+}
+
+/// One pressure per element leaves the dilatation free to vary through a wall one
+/// element thick: the wall bends far too easily (1.29 x the beam's deflection), with
+/// two elements through 1.017 x, four 0.987 x (figures: docs/src/validation.md). Why
+/// the tetrahedral actuator needs several elements through its walls.
+#[test]
+fn a_wall_in_bending_needs_two_elements_through() {
+    let ratios: Vec<f64> = [1, 2, 4].iter().map(|n| wall_bending_ratio(*n)).collect();
+    eprintln!("wall bending, 1 / 2 / 4 cells through: {ratios:.4?}");
+    assert!(ratios[0] > 1.2, "{ratios:?}");
+    assert!((ratios[1] - 1.0).abs() < 0.03, "{ratios:?}");
+    assert!((ratios[2] - 1.0).abs() < 0.02, "{ratios:?}");
+}
