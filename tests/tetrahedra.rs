@@ -1,6 +1,6 @@
 //! `bendscope simulate` on 10-node tetrahedra: the reference actuator's CAD description
-//! meshed by gmsh (`[geometry] family = "mesh"`) against its built-in mesh cut into
-//! tetrahedra (`[mesh] element = "tet10"`), and the imported geometry's bad input.
+//! meshed by gmsh (`[geometry] family = "mesh"`) against the converged hexahedra, and the
+//! imported geometry's bad input.
 
 mod common;
 
@@ -15,55 +15,57 @@ fn radii(dir: &Path) -> Vec<f64> {
     rows.iter().map(|row| row[r].parse().unwrap()).collect()
 }
 
-/// The reference actuator from `examples/geo/pneunets_reference.geo`, meshed by gmsh
-/// at 3 mm (unstructured, 12.6k nodes), against the built-in structured mesh's
-/// hexahedra cut into six tetrahedra each (3 mm, 29k nodes): the same element on two
-/// independent meshes of one geometry. Measured 0.9% and 0.8% apart at 40 and 115 kPa
-/// (docs/src/validation.md, "Quadratic tetrahedra in the solver"); both within 0.3% of
-/// their 1.5 mm meshes there.
+/// The reference actuator from its CAD description (`examples/geo/pneunets_reference.geo`
+/// with the mesh study's 2 mm roof), meshed by gmsh into 10-node tetrahedra at 3 mm,
+/// against the converged hexahedra of that study (CalculiX C3D20R; bendscope's Q1/P0 at
+/// 1 mm: 92.62 and 42.52 mm at 40 and 115 kPa, no gravity, 100 mu0). Measured 90.20 and
+/// 41.92 mm (-2.6%, -1.4%): one pressure per tetrahedron leaves walls one element thick
+/// too soft in bending (docs/src/validation.md, "Quadratic tetrahedra"), so the bound is
+/// that known softness, not the 1% the hexahedra meet.
 #[test]
-fn the_reference_meshed_by_gmsh_agrees_with_its_built_in_mesh_in_tetrahedra() {
+fn the_reference_meshed_by_gmsh_lands_on_the_converged_hexahedra() {
     let dir = tempfile::tempdir().unwrap();
-    let geo = concat!(
+    let geo = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/examples/geo/pneunets_reference.geo"
-    );
+    ))
+    .unwrap();
+    let roof = "roof = {1, ";
+    assert!(geo.contains(roof), "the .geo's roof constant moved");
+    std::fs::write(
+        dir.path().join("reference.geo"),
+        geo.replace(roof, "roof = {2, "),
+    )
+    .unwrap();
     std::fs::write(
         dir.path().join("geo.toml"),
-        format!("[geometry]\nfamily = \"mesh\"\nfile = \"{geo}\"\n[mesh]\nsize_mm = 3.0\n"),
+        "[geometry]\nfamily = \"mesh\"\nfile = \"reference.geo\"\n[mesh]\nsize_mm = 3.0\n",
     )
     .unwrap();
-    std::fs::write(
-        dir.path().join("cut.toml"),
-        "[mesh]\nelement = \"tet10\"\nsize_mm = 3.0\n",
-    )
-    .unwrap();
-    let run = |config: &str, out: &str| {
-        let r = Run::new(
-            dir.path(),
-            &[
-                "simulate",
-                "--config",
-                config,
-                "--pressures",
-                "40,115",
-                "--no-gravity",
-                "--no-vtu",
-                "-o",
-                out,
-            ],
-        );
-        assert_eq!(r.code, 0, "{r}");
-        radii(&dir.path().join(out))
-    };
-    let gmsh = run("geo.toml", "gmsh");
-    let cut = run("cut.toml", "cut");
-    assert_eq!(gmsh.len(), 2);
-    for (a, b) in gmsh.iter().zip(&cut) {
-        assert!((a / b - 1.0).abs() < 0.015, "gmsh {gmsh:?} vs cut {cut:?}");
+    let r = Run::new(
+        dir.path(),
+        &[
+            "simulate",
+            "--config",
+            "geo.toml",
+            "--pressures",
+            "40,115",
+            "--no-gravity",
+            "--bulk-modulus",
+            "21.488",
+            "--no-vtu",
+            "-o",
+            "fem",
+        ],
+    );
+    assert_eq!(r.code, 0, "{r}");
+    let got = radii(&dir.path().join("fem"));
+    let converged = [92.62, 42.52];
+    assert_eq!(got.len(), 2);
+    for (g, c) in got.iter().zip(converged) {
+        let e = g / c - 1.0;
+        assert!(e < 0.0 && e > -0.035, "{got:?} against {converged:?}");
     }
-    // Bent well past a half turn at 115 kPa (radius ~42 mm over ~100 mm of markers).
-    assert!(gmsh[1] > 38.0 && gmsh[1] < 46.0, "{gmsh:?}");
 }
 
 /// An imported geometry that cannot be simulated: one line naming what and where, exit 2,

@@ -18,7 +18,7 @@ use nalgebra::Vector3;
 use super::config::ActuatorConfig;
 use super::mesh::{gravity_loads_tets, ActuatorMesh};
 use super::solve::Tetrahedra;
-use super::tet10::EDGES;
+use super::tet10::{EDGES, KUHN_AXIS_ORDERS};
 use super::FemError;
 
 /// Local hexahedron corner at parametric (i, j, k) ∈ {0, 1}³ ([`super::hex::CORNERS`]).
@@ -29,14 +29,7 @@ const fn corner(i: usize, j: usize, k: usize) -> usize {
 /// The six tetrahedra of the Kuhn cut, as local hexahedron corners: the paths from
 /// (0, 0, 0) to (1, 1, 1) one axis at a time.
 const KUHN: [[usize; 4]; 6] = {
-    const P: [[usize; 3]; 6] = [
-        [0, 1, 2],
-        [0, 2, 1],
-        [1, 0, 2],
-        [1, 2, 0],
-        [2, 0, 1],
-        [2, 1, 0],
-    ];
+    const P: [[usize; 3]; 6] = KUHN_AXIS_ORDERS;
     let mut out = [[0; 4]; 6];
     let mut t = 0;
     while t < 6 {

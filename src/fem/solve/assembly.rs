@@ -519,24 +519,26 @@ impl<'m> Solver<'m> {
         }
         let p = load.pressure_mpa;
         if p != 0.0 {
+            let mut add = |nodes: &[usize], g: &[f64], h: &[f64], slots: &[u32]| {
+                for (a, ga) in g.iter().enumerate() {
+                    if let Some(i) = eq[3 * nodes[a / 3] + a % 3] {
+                        ext[i] += p * ga;
+                        r[i] -= p * ga;
+                    }
+                }
+                for (s, v) in slots.iter().zip(h) {
+                    if *s != SKIP {
+                        values[*s as usize] -= p * v;
+                    }
+                }
+            };
             for ((face, (_, g, h)), slots) in model
                 .pressure_faces
                 .iter()
                 .zip(&faces)
                 .zip(&self.pattern.face_slots)
             {
-                let f = -p * g;
-                for a in 0..12 {
-                    if let Some(i) = eq[3 * face[a / 3] + a % 3] {
-                        ext[i] -= f[a];
-                        r[i] += f[a];
-                    }
-                }
-                for (s, v) in slots.iter().zip(h.as_slice()) {
-                    if *s != SKIP {
-                        values[*s as usize] -= p * v;
-                    }
-                }
+                add(face, g.as_slice(), h.as_slice(), slots);
             }
             for ((face, (_, g, h)), slots) in model
                 .tets
@@ -545,18 +547,7 @@ impl<'m> Solver<'m> {
                 .zip(&tri6_faces)
                 .zip(&self.pattern.tri6_slots)
             {
-                let f = -p * g;
-                for a in 0..18 {
-                    if let Some(i) = eq[3 * face[a / 3] + a % 3] {
-                        ext[i] -= f[a];
-                        r[i] += f[a];
-                    }
-                }
-                for (s, v) in slots.iter().zip(h.as_slice()) {
-                    if *s != SKIP {
-                        values[*s as usize] -= p * v;
-                    }
-                }
+                add(face, g.as_slice(), h.as_slice(), &slots[..]);
             }
         }
         let mut missing = Vec::new();

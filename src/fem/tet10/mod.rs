@@ -70,6 +70,17 @@ const GAUSS: [[f64; 4]; 4] = [
 ];
 const GAUSS_WEIGHT: f64 = 1.0 / 24.0;
 
+/// The orders in which a path from a cube's corner (0, 0, 0) to (1, 1, 1) takes the
+/// axes: each is one of the six tetrahedra of the cube's Kuhn (Freudenthal) cut.
+pub const KUHN_AXIS_ORDERS: [[usize; 3]; 6] = [
+    [0, 1, 2],
+    [0, 2, 1],
+    [1, 0, 2],
+    [1, 2, 0],
+    [2, 0, 1],
+    [2, 1, 0],
+];
+
 /// Shape functions and their derivatives with respect to (ξ, η, ζ) at volume
 /// coordinates `l`.
 pub fn shape(l: &[f64; 4]) -> ([f64; 10], [Vector3<f64>; 10]) {

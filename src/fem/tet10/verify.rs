@@ -45,14 +45,7 @@ fn kuhn_mesh(n: [usize; 3], map: impl Fn(f64, f64, f64) -> Vector3<f64>) -> Mesh
             }
         }
     }
-    const PERMUTATIONS: [[usize; 3]; 6] = [
-        [0, 1, 2],
-        [0, 2, 1],
-        [1, 0, 2],
-        [1, 2, 0],
-        [2, 0, 1],
-        [2, 1, 0],
-    ];
+    const PERMUTATIONS: [[usize; 3]; 6] = super::KUHN_AXIS_ORDERS;
     let mut tets = Vec::new();
     for ck in 0..n[2] {
         for cj in 0..n[1] {

@@ -240,14 +240,7 @@ fn cube(hole: [usize; 3], quadratic: bool) -> Msh {
         if [i, j, k] == hole {
             continue;
         }
-        for p in [
-            [0, 1, 2],
-            [0, 2, 1],
-            [1, 0, 2],
-            [1, 2, 0],
-            [2, 0, 1],
-            [2, 1, 0],
-        ] {
+        for p in crate::fem::tet10::KUHN_AXIS_ORDERS {
             let mut c = [i, j, k];
             let mut t = vec![id(c[0], c[1], c[2])];
             for axis in p {
