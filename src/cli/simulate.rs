@@ -37,7 +37,8 @@ pub struct SimulateArgs {
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
     /// Actuator family: pneunets, glove, strap, fibre-reinforced (the published designs, README
-    /// "Actuator families"); with --print-config prints the family's whole config.
+    /// "Actuator families"), or mesh (your own gmsh mesh or CAD file: a --config naming its
+    /// [geometry] file); with --print-config prints the family's whole config.
     #[arg(long, value_name = "NAME")]
     pub family: Option<Family>,
     /// Output folder.

@@ -561,10 +561,11 @@ mod tests {
 
     /// A mesh size whose mesh would not fit is refused from its count alone, quickly and
     /// before anything is allocated, for every family, with the smallest size that fits
-    /// (which is accepted); the count is the built mesh's.
+    /// (which is accepted); the count is the built mesh's. An imported mesh is bounded
+    /// by its reader instead (`fem::import`'s node and element limits).
     #[test]
     fn a_mesh_too_fine_to_fit_is_refused_before_anything_is_built() {
-        for family in Family::all() {
+        for family in Family::all().into_iter().filter(|f| *f != Family::Mesh) {
             let base = ActuatorConfig::for_family(family);
             for h in [1e-9, 1e-300, 5e-324, 1e-7, 0.05] {
                 let cfg = ActuatorConfig {

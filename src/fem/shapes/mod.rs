@@ -199,7 +199,7 @@ mod tests {
         let all = Family::all();
         assert_eq!(
             family_names(),
-            ["pneunets", "glove", "strap", "fibre-reinforced"]
+            ["pneunets", "glove", "strap", "fibre-reinforced", "mesh"]
         );
         for f in &all {
             let owners = REGISTRY.iter().filter(|s| s.families().contains(f)).count();
@@ -212,7 +212,7 @@ mod tests {
         let err = "bellows".parse::<Family>().unwrap_err();
         assert_eq!(
             err,
-            "unknown actuator family 'bellows': use pneunets, glove, strap, fibre-reinforced"
+            "unknown actuator family 'bellows': use pneunets, glove, strap, fibre-reinforced, mesh"
         );
     }
 }

@@ -420,7 +420,7 @@ fn bad_meshes_are_refused_with_what_is_wrong() {
         (
             "no clamp",
             base.clone().without("clamp").text(),
-            "no physical surface named `clamp`: name the clamped surfaces `clamp` (gmsh: Physical Surface(\"clamp\") = {...})".into(),
+            "no physical surface or volume named `clamp`: name the clamped surfaces `clamp` (gmsh: Physical Surface(\"clamp\") = {...})".into(),
         ),
         (
             "unknown name",
