@@ -612,22 +612,8 @@ fn mesh_tube(cfg: &ActuatorConfig, half: bool) -> Result<ActuatorMesh, FemError>
     };
     let bottom_line: Vec<usize> = (k_clamp..=nx).map(|k| id(k, sec.bottom)).collect();
     let mut parts = vec![
-        Part {
-            name: "silicone".into(),
-            tensile_strength_mpa: Some(cfg.material.tensile_strength_mpa),
-            solid_material: Some(0),
-            membranes: Vec::new(),
-            plate: None,
-            trusses: Vec::new(),
-        },
-        Part {
-            name: "outer".into(),
-            tensile_strength_mpa: Some(t.outer_material.tensile_strength_mpa),
-            solid_material: Some(1),
-            membranes: Vec::new(),
-            plate: None,
-            trusses: Vec::new(),
-        },
+        Part::solid("silicone", cfg.material.tensile_strength_mpa, 0),
+        Part::solid("outer", t.outer_material.tensile_strength_mpa, 1),
         Part {
             name: "fibre".into(),
             tensile_strength_mpa: Some(t.fibre_strength_mpa),

@@ -103,6 +103,20 @@ pub struct Part {
     pub trusses: Vec<usize>,
 }
 
+impl Part {
+    /// A solid part: the elements of material id `material`, no sheets or fibres.
+    pub fn solid(name: &str, tensile_strength_mpa: f64, material: u8) -> Self {
+        Self {
+            name: name.into(),
+            tensile_strength_mpa: Some(tensile_strength_mpa),
+            solid_material: Some(material),
+            membranes: Vec::new(),
+            plate: None,
+            trusses: Vec::new(),
+        }
+    }
+}
+
 /// A plate part's section and its bending terms in [`Model::plates`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct PlateSection {

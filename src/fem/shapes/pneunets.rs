@@ -652,14 +652,11 @@ pub fn build_pneunets(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
         .filter(|i| xs[*i] >= g.c - 1e-9)
         .map(|i| node_of[grid_id(i, 0, 0)])
         .collect();
-    let mut parts = vec![Part {
-        name: "silicone".into(),
-        tensile_strength_mpa: Some(cfg.material.tensile_strength_mpa),
-        solid_material: Some(0),
-        membranes: Vec::new(),
-        plate: None,
-        trusses: Vec::new(),
-    }];
+    let mut parts = vec![Part::solid(
+        "silicone",
+        cfg.material.tensile_strength_mpa,
+        0,
+    )];
     let mut solid_id = 0u8;
     for (layer, membranes) in cfg.layer.iter().zip(layer_membranes) {
         let solid_material = (layer.element == LayerElement::Solid).then(|| {
