@@ -106,3 +106,157 @@ fn bad_imported_geometry_is_refused_in_one_line() {
         );
     }
 }
+
+/// Column `name` of a CSV file's rows.
+fn column(path: &Path, name: &str) -> Vec<f64> {
+    let (header, rows) = read_csv(path);
+    let c = col(&header, name);
+    rows.iter().map(|row| row[c].parse().unwrap()).collect()
+}
+
+/// A bare STEP file (no groups: `fixtures/mesh/block.step`, a 30 x 10 x 8 mm block with a
+/// closed 20 x 4 x 4 mm void) simulates with its cavity found (the void), its clamp and
+/// markers from the config, and the mesh gmsh made beside the results; it inflates as
+/// the same CAD with its parts named in a .geo (`block-step.geo`, meshed apart: within
+/// the two meshes' difference, 3%).
+#[test]
+fn a_bare_step_simulates_with_its_parts_from_the_config() {
+    let dir = tempfile::tempdir().unwrap();
+    let fixtures = concat!(env!("CARGO_MANIFEST_DIR"), "/fixtures/mesh");
+    let config = |file: &str, extra: &str| {
+        format!("[geometry]\nfamily = \"mesh\"\nfile = \"{fixtures}/{file}\"\n{extra}[mesh]\nsize_mm = 3.0\n")
+    };
+    let parts = "clamp = \"x-min\"\n[geometry.markers]\nfrom = [6.0, 0.0, 4.0]\nto = [24.0, 0.0, 4.0]\ncount = 4\n";
+    std::fs::write(dir.path().join("bare.toml"), config("block.step", parts)).unwrap();
+    std::fs::write(dir.path().join("named.toml"), config("block-step.geo", "")).unwrap();
+    let mut results = Vec::new();
+    for name in ["bare", "named"] {
+        let r = Run::new(
+            dir.path(),
+            &[
+                "simulate",
+                "--config",
+                &format!("{name}.toml"),
+                "--pressures",
+                "2,4",
+                "--no-gravity",
+                "--no-vtu",
+                "-o",
+                name,
+            ],
+        );
+        assert_eq!(r.code, 0, "{r}");
+        let steps = dir.path().join(name).join("steps.csv");
+        results.push((
+            column(&steps, "cavity_volume_mm3"),
+            column(&steps, "tip_x_mm"),
+        ));
+        let msh = std::fs::read(dir.path().join(name).join("mesh.msh")).unwrap();
+        assert!(
+            msh.starts_with(b"$MeshFormat\n4.1 0 8\n"),
+            "{name}: mesh.msh"
+        );
+    }
+    let (bare, named) = (&results[0], &results[1]);
+    for k in 0..2 {
+        let (vb, vn) = (bare.0[k] - 320.0, named.0[k] - 320.0);
+        assert!(
+            vb > 1.0 && (vb / vn - 1.0).abs() < 0.03,
+            "cavity growth {vb} vs {vn}"
+        );
+        let (tb, tn) = (bare.1[k], named.1[k]);
+        assert!((tb / tn - 1.0).abs() < 0.03, "tip x {tb} vs {tn}");
+    }
+}
+
+/// A .geo's numbers from the config (`[geometry.parameters]`, gmsh's -setnumber) and
+/// swept by name: the cavity height of a block whose cavity volume is 80 mm² times it.
+#[test]
+fn a_geo_parameter_is_set_and_swept_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("box.geo"),
+        "SetFactory(\"OpenCASCADE\");\nDefineConstant[ ch = {4, Name \"Parameters/ch\"} ];\n\
+         Box(1) = {0, 0, 0, 30, 10, 8};\nBox(2) = {5, 3, 4 - ch / 2, 20, 4, ch};\n\
+         BooleanDifference{ Volume{1}; Delete; }{ Volume{2}; Delete; }\n",
+    )
+    .unwrap();
+    let config = |extra: &str| {
+        format!("[geometry]\nfamily = \"mesh\"\nfile = \"box.geo\"\nclamp = \"x-min\"\n{extra}[geometry.markers]\nfrom = [6.0, 0.0, 4.0]\nto = [24.0, 0.0, 4.0]\ncount = 4\n[mesh]\nsize_mm = 3.0\n")
+    };
+    std::fs::write(
+        dir.path().join("box.toml"),
+        config("[geometry.parameters]\nch = 4\n"),
+    )
+    .unwrap();
+    let r = Run::new(
+        dir.path(),
+        &[
+            "simulate",
+            "--config",
+            "box.toml",
+            "--pressures",
+            "0.01",
+            "--no-gravity",
+            "--no-vtu",
+            "--sweep",
+            "geometry.parameters.ch=2:6:2",
+            "-o",
+            "sweep",
+        ],
+    );
+    assert_eq!(r.code, 0, "{r}");
+    let volumes = column(&dir.path().join("sweep/sweep.csv"), "cavity_volume_mm3");
+    assert_eq!(volumes.len(), 3);
+    for (v, ch) in volumes.iter().zip([2.0, 4.0, 6.0]) {
+        assert!((v / (80.0 * ch) - 1.0).abs() < 0.01, "{volumes:?}");
+    }
+
+    // A name the .geo does not hold; parameters for a file that is no .geo.
+    std::fs::write(
+        dir.path().join("typo.toml"),
+        config("[geometry.parameters]\ncavity_h = 4\n"),
+    )
+    .unwrap();
+    let run = Run::new(
+        dir.path(),
+        &["simulate", "--config", "typo.toml", "-o", "out", "--no-vtu"],
+    );
+    run.assert_bad_input(&["geometry.parameters.cavity_h", "has no `cavity_h`"]);
+    // The geometry file's keys on a family built from its numbers.
+    std::fs::write(
+        dir.path().join("family.toml"),
+        "[geometry]\nfamily = \"pneunets\"\nclamp = \"x-min\"\n",
+    )
+    .unwrap();
+    let run = Run::new(
+        dir.path(),
+        &[
+            "simulate",
+            "--config",
+            "family.toml",
+            "-o",
+            "out",
+            "--no-vtu",
+        ],
+    );
+    run.assert_bad_input(&["geometry.clamp", "family = \"mesh\""]);
+}
+
+/// The segmented finger's material, the finger-design study's Yeoh set (C20 < 0), is
+/// Drucker-stable from stretch 0.2 to 4 in uniaxial, equibiaxial and planar
+/// deformation, beyond every strain the finger reaches at 90 kPa.
+#[test]
+fn the_finger_material_is_drucker_stable() {
+    use bendscope::fem::actuator::ActuatorConfig;
+    use bendscope::fem::config::Family;
+    use bendscope::material_fit::model::{Hyperelastic, ModelKind};
+    let m = ActuatorConfig::for_family(Family::SegmentedFinger).material;
+    let set = Hyperelastic {
+        kind: ModelKind::Yeoh3,
+        coefficients: vec![m.c1.unwrap(), m.c2.unwrap(), m.c3.unwrap()],
+    };
+    assert_eq!(set.coefficients, [3.061, -0.637651, 0.098623]);
+    let s = set.stability(0.2, 4.0);
+    assert!(s.stable, "{:?}", s.unstable);
+}

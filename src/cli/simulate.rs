@@ -27,7 +27,9 @@ Config sections: [geometry] chambers b i f m p r c g d e l n top_wall roof (mm, 
 [material] preset c1 c2 c3 bulk_modulus_mpa density_g_cm3 tensile_strength_mpa scale; [mesh] size_mm element (q1p0 or incompatible-modes); \
 [load] pressures_kpa gravity gravity_direction; [solver] max_iterations tolerance; [layer] (or several [[layer]]) name thickness_mm \
 youngs_modulus_mpa poisson_ratio height_mm element (membrane, plate or solid) width_mm strips spacing_mm tensile_strength_mpa; [contact]. \
-[geometry] family = pneunets, glove, strap or fibre-reinforced picks the published design whose values fill what the file leaves out. \
+[geometry] family = pneunets, glove, strap, fibre-reinforced or segmented-finger picks the published design whose values fill what the file leaves out \
+([tube] for fibre-reinforced, [finger] height_mm bellows wall_mm foot_mm length_mm width_mm gap_mm for segmented-finger); family = mesh reads [geometry] file \
+(.msh, or .geo/.step/.stp/.iges/.igs/.brep meshed by gmsh) with parameters (a .geo's numbers), clamp (x-min .. z-max) and [geometry.markers] from to count. \
 Print a family's whole config with --family NAME --print-config."
 )]
 pub struct SimulateArgs {
@@ -36,7 +38,7 @@ pub struct SimulateArgs {
     /// defaults for what it leaves out.
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
-    /// Actuator family: pneunets, glove, strap, fibre-reinforced (the published designs, README
+    /// Actuator family: pneunets, glove, strap, fibre-reinforced, segmented-finger (the published designs, README
     /// "Actuator families"), or mesh (your own gmsh mesh or CAD file: a --config naming its
     /// [geometry] file); with --print-config prints the family's whole config.
     #[arg(long, value_name = "NAME")]

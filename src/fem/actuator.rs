@@ -162,6 +162,9 @@ impl ActuatorConfig {
                 format!("{d:?}: give a non-zero direction, e.g. [0, 0, -1] (lying) or [1, 0, 0] (hanging)"),
             ));
         }
+        if !self.shape().reads_file() {
+            self.refuse_file_keys()?;
+        }
         self.shape().validate(self)?;
         if let Some(contact) = &self.contact {
             contact.validate()?;
@@ -182,6 +185,27 @@ impl ActuatorConfig {
             ));
         }
         Ok(())
+    }
+
+    /// Refuses `[geometry]`'s keys of a geometry file for a shape that reads none.
+    fn refuse_file_keys(&self) -> Result<(), FemError> {
+        let g = &self.geometry;
+        let given = [
+            ("file", g.file.is_some()),
+            ("parameters", !g.parameters.is_empty()),
+            ("clamp", g.clamp.is_some()),
+            ("markers", g.markers.is_some()),
+        ];
+        match given.iter().find(|(_, set)| *set) {
+            Some((key, _)) => Err(bad(
+                &format!("geometry.{key}"),
+                format!(
+                    "the {} family is built from its numbers, not from a file: remove `{key}`, or set family = \"mesh\" to simulate a geometry file",
+                    g.family
+                ),
+            )),
+            None => Ok(()),
+        }
     }
 
     /// Warnings about values that are valid but suspect: the material's

@@ -673,6 +673,7 @@ fn mesh_tube(cfg: &ActuatorConfig, half: bool) -> Result<ActuatorMesh, FemError>
         parts,
         twist_pair: (tip, id(nx, sec.top)),
         bottom_wall: Some(bottom_wall),
+        made_mesh: None,
         half_model: half,
         densities_g_cm3,
     }))

@@ -53,6 +53,9 @@ pub struct ActuatorMesh {
     pub densities_g_cm3: Vec<f64>,
     /// Where the bottom wall's inflation is read ([`BottomWall`]).
     pub bottom_wall: Option<BottomWall>,
+    /// The gmsh mesh (MSH 4.1 bytes) bendscope made of a CAD file, written as `mesh.msh`
+    /// beside the results (None: the shape was meshed by bendscope, or read from a mesh).
+    pub made_mesh: Option<std::sync::Arc<Vec<u8>>>,
 }
 
 /// A bottom wall whose inflation is reported: its centre's distance from the chord of its

@@ -36,8 +36,9 @@ fn output(e: impl std::fmt::Display) -> FemError {
 
 /// Files of a run's results in its folder (beside its `config.toml`, which the next run
 /// replaces): what [`simulate_to`], [`sweep_to`] and the analytic model write.
-pub const RUN_OUTPUT_FILES: [&str; 7] = [
+pub const RUN_OUTPUT_FILES: [&str; 8] = [
     "summary.json",
+    "mesh.msh",
     "steps.csv",
     "markers.csv",
     "side_face.json",
@@ -460,6 +461,9 @@ pub fn simulate_to(
     let pressures = cfg.pressures_kpa()?;
     let notes = mesh_notes(cfg);
     let mesh = build_mesh(cfg)?;
+    if let Some(msh) = &mesh.made_mesh {
+        write_atomic(&out.join("mesh.msh"), msh).map_err(output)?;
+    }
     let started = Instant::now();
     let RampOutputs {
         ramp,

@@ -6,6 +6,8 @@
 //! reading a document over a family's defaults and the checks across sections are
 //! [`super::actuator`]'s.
 
+pub mod finger;
+pub mod source;
 pub mod tube;
 
 use serde::{Deserialize, Serialize};
@@ -15,6 +17,7 @@ use super::layer::LayerConfig;
 use super::material::{MaterialPreset, Yeoh, DEFAULT_BULK_TO_SHEAR};
 use super::solve::NewtonSettings;
 use super::FemError;
+pub use source::{ClampPlane, MarkerLine};
 pub use tube::TubeConfig;
 
 /// An actuator family (`[geometry] family`): a published design, a preset of one of the
@@ -96,6 +99,15 @@ pub struct Geometry {
     /// path is relative to the config file.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub file: Option<std::path::PathBuf>,
+    /// A .geo file's numbers (its `DefineConstant`s), passed to gmsh as `-setnumber`.
+    #[serde(skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub parameters: std::collections::BTreeMap<String, f64>,
+    /// Where a file without a `clamp` group is clamped: its face on that side.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub clamp: Option<ClampPlane>,
+    /// Markers of a file without a `markers` group: points on a line.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub markers: Option<MarkerLine>,
 }
 
 impl Default for Geometry {
@@ -118,6 +130,9 @@ impl Default for Geometry {
             top_wall: 3.5,
             roof: 1.0,
             file: None,
+            parameters: Default::default(),
+            clamp: None,
+            markers: None,
         }
     }
 }
@@ -185,6 +200,7 @@ impl Geometry {
 
     /// Checks that the numbers describe a buildable actuator.
     pub fn validate(&self) -> Result<(), FemError> {
+        source::validate(&self.parameters, self.markers.as_ref())?;
         let sizes = [
             ("b", self.b),
             ("i", self.i),
@@ -365,10 +381,29 @@ impl MaterialConfig {
         if !(m.c1.is_finite() && m.c1 > 0.0) {
             return Err(bad("c1", format!("{} MPa: must be positive", m.c1)));
         }
-        for (name, v) in [("c2", m.c2), ("c3", m.c3)] {
-            if !v.is_finite() || v < 0.0 {
-                return Err(bad(name, format!("{v} MPa: must be >= 0")));
-            }
+        if !(m.c2.is_finite() && m.c3.is_finite() && m.c3 >= 0.0) {
+            let (name, v) = if m.c2.is_finite() {
+                ("c3", m.c3)
+            } else {
+                ("c2", m.c2)
+            };
+            return Err(bad(name, format!("{v} MPa: must be a number >= 0")));
+        }
+        // A negative C2 (a fitted set's S-shaped curve) is taken while the shear response
+        // dW/dI1 = C1 + 2 C2 x + 3 C3 x^2 (x = I1 - 3) stays positive at every strain.
+        if m.c2 < 0.0 && m.c2 * m.c2 >= 3.0 * m.c1 * m.c3 {
+            let x = if m.c3 > 0.0 {
+                -m.c2 / (3.0 * m.c3)
+            } else {
+                -m.c1 / (2.0 * m.c2)
+            };
+            return Err(bad(
+                "c2",
+                format!(
+                    "{} MPa: with this C1 and C3 the shear response C1 + 2 C2 (I1 - 3) + 3 C3 (I1 - 3)^2 turns negative near I1 - 3 = {x:.3} (unstable): a negative C2 needs C2^2 < 3 C1 C3",
+                    m.c2
+                ),
+            ));
         }
         if !(m.bulk_modulus.is_finite() && m.bulk_modulus > 0.0) {
             return Err(bad(
@@ -515,6 +550,9 @@ pub struct ActuatorConfig {
     /// The fibre-reinforced tube (`[tube]`; family `fibre-reinforced` only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub tube: Option<TubeConfig>,
+    /// The segmented finger's bellows and foot (its family only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub finger: Option<finger::FingerConfig>,
 }
 
 impl Serialize for ActuatorConfig {

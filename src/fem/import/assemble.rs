@@ -131,7 +131,7 @@ pub(crate) fn assemble(file: &str, raw: &RawMesh) -> Result<ImportedMesh, FemErr
     }
     let clamp_volume = materials.iter().position(|m| m == "clamp");
     if clamp_volume.is_none() && !parts.iter().any(|(p, _)| *p == Part::Clamp) {
-        return Err(err("no physical surface or volume named `clamp`: name the clamped surfaces `clamp` (gmsh: Physical Surface(\"clamp\") = {...})".into()));
+        return Err(err("no physical surface or volume named `clamp`: name the clamped surfaces `clamp` (gmsh: Physical Surface(\"clamp\") = {...}), or clamp a flat face of the solid with [geometry] clamp = \"x-min\"".into()));
     }
 
     // Nodes of the tetrahedra, in file order; then mid-edge nodes for 4-node ones.

@@ -14,6 +14,10 @@
 //! | curve | `thread.NAME` | a fibre or cable along tetrahedron edges |
 //! | curve or point | `markers` | the tracked points |
 //!
+//! A file may leave parts unnamed ([`complete`]): its cavity (the solid's closed inner
+//! surfaces), its clamp and markers (given in the config). A file without any physical
+//! group (a bare CAD file meshed by gmsh) is one volume of silicone.
+//!
 //! [`assemble`] turns the file's elements into the [`ImportedMesh`], whatever the file
 //! format: 4-node tetrahedra get shared mid-edge nodes, every face and line gets the
 //! mid-nodes of the tetrahedra's edges, and the checks refuse what a solver could not
@@ -21,6 +25,7 @@
 //! mesh) with one line naming the element or the place.
 
 mod assemble;
+mod complete;
 pub mod gmsh;
 pub mod msh;
 #[cfg(test)]
@@ -29,6 +34,7 @@ mod tests;
 use nalgebra::Vector3;
 
 pub(crate) use assemble::{assemble, RawElement, RawGroup, RawMesh};
+pub use complete::Completion;
 
 /// A tetrahedral mesh of an actuator with its parts, read from a gmsh mesh. Plain data:
 /// the solver's model is made from it elsewhere.

@@ -14,13 +14,18 @@ use std::path::Path;
 use mshio::ElementType;
 use nalgebra::Vector3;
 
-use super::{assemble, dim_word, ImportedMesh, RawElement, RawGroup, RawMesh};
+use super::complete::complete;
+use super::{assemble, dim_word, Completion, ImportedMesh, RawElement, RawGroup, RawMesh};
 use super::{MAX_ELEMENTS, MAX_NODES};
 use crate::fem::FemError;
 
 /// Largest mesh file read (bytes): beyond what [`MAX_NODES`] and [`MAX_ELEMENTS`]
 /// take in either encoding.
 pub const MAX_FILE_BYTES: u64 = 1 << 30;
+
+/// The group tag and name the tetrahedra of a file without physical groups take.
+const BARE_VOLUME: i32 = -1;
+const BARE_VOLUME_NAME: &str = "silicone";
 
 /// gmsh's 10-node tetrahedron lists the mid-nodes of edges 01, 12, 20, 03, 23, 13;
 /// C3D10 (and [`crate::fem::tet10`]) those of 01, 12, 20, 03, 13, 23: entry k is the
@@ -29,6 +34,11 @@ pub const GMSH_TET10: [usize; 10] = [0, 1, 2, 3, 4, 5, 6, 7, 9, 8];
 
 /// Reads a gmsh MSH 4.1 mesh file (ASCII or binary) into a checked [`ImportedMesh`].
 pub fn read(path: &Path) -> Result<ImportedMesh, FemError> {
+    read_completed(path, &Completion::default())
+}
+
+/// [`read`], with the parts the file leaves unnamed supplied ([`Completion`]).
+pub fn read_completed(path: &Path, completion: &Completion) -> Result<ImportedMesh, FemError> {
     let file = path.display().to_string();
     let fail = |why: String| FemError::Input {
         why: format!("{file}: {why}"),
@@ -42,12 +52,18 @@ pub fn read(path: &Path) -> Result<ImportedMesh, FemError> {
         )));
     }
     let bytes = std::fs::read(path).map_err(|e| fail(format!("cannot read it: {e}")))?;
-    read_bytes(&file, &bytes)
+    read_bytes(&file, &bytes, completion)
 }
 
 /// Reads a mesh from the bytes of a MSH 4.1 file; `file` names it in messages.
-pub fn read_bytes(file: &str, bytes: &[u8]) -> Result<ImportedMesh, FemError> {
-    assemble(file, &parse(file, bytes)?)
+pub fn read_bytes(
+    file: &str,
+    bytes: &[u8],
+    completion: &Completion,
+) -> Result<ImportedMesh, FemError> {
+    let mut raw = parse(file, bytes)?;
+    complete(file, &mut raw, completion)?;
+    assemble(file, &raw)
 }
 
 /// What the `$MeshFormat` section says.
@@ -287,14 +303,19 @@ pub(crate) fn parse(file: &str, bytes: &[u8]) -> Result<RawMesh, FemError> {
             "{count} elements, more than the {MAX_ELEMENTS} read: mesh coarser"
         )));
     }
+    let bare = physical.values().all(Vec::is_empty);
     let mut group_of: HashMap<(i32, i32), usize> = HashMap::new();
     for block in msh.data.elements.iter().flat_map(|e| &e.element_blocks) {
         let dim = block.entity_dim;
-        let groups = physical
-            .get(&(dim, block.entity_tag))
-            .map(Vec::as_slice)
-            .unwrap_or(&[]);
         let shape = element_shape(block.element_type).filter(|(d, _)| *d == dim);
+        // A file without any physical group (gmsh then saves every element): its
+        // tetrahedra are one silicone, the rest is found from them ([`super::complete`]).
+        let bare_volume = bare && shape.is_some_and(|(d, _)| d == 3);
+        let groups = match physical.get(&(dim, block.entity_tag)) {
+            Some(g) if !g.is_empty() => g.as_slice(),
+            _ if bare_volume => &[BARE_VOLUME],
+            _ => &[],
+        };
         if groups.is_empty() {
             if shape.is_some_and(|(d, _)| d == 3) {
                 raw.unnamed_tets += block.elements.len();
@@ -304,7 +325,8 @@ pub(crate) fn parse(file: &str, bytes: &[u8]) -> Result<RawMesh, FemError> {
         let mut members = Vec::with_capacity(groups.len());
         for &g in groups {
             let word = dim_word(dim as usize).to_lowercase();
-            let name = names.get(&(dim, g)).ok_or_else(|| {
+            let unnamed = (g == BARE_VOLUME).then(|| BARE_VOLUME_NAME.to_string());
+            let name = unnamed.as_ref().or_else(|| names.get(&(dim, g))).ok_or_else(|| {
                 fail(format!(
                     "physical {word} {g} has no name: name it (gmsh: Physical {}(\"NAME\") = {{...}})",
                     dim_word(dim as usize)

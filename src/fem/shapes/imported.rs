@@ -4,7 +4,10 @@
 //! silicone (every volume takes `[material]`; a volume named `clamp` is a clamped
 //! block), `cavity` surfaces (one pressure on all of them), `clamp` surfaces,
 //! `symmetry.x|y|z` planes, `markers` points (read from the clamp outward), and
-//! optionally a `tip` point (else the last marker). As the built-in families, the
+//! optionally a `tip` point (else the last marker). A file may leave its cavity (then
+//! its closed inner surfaces), its clamp (`[geometry] clamp = "x-min"`) and its markers
+//! (`[geometry.markers]`) unnamed ([`crate::fem::import::Completion`]); a .geo takes
+//! `[geometry.parameters]` as gmsh numbers. As the built-in families, the
 //! actuator lies along +x from its clamp and bends in the x-z plane: the radius is fitted
 //! to the markers' x and z.
 //!
@@ -12,10 +15,12 @@
 //! materials, cavities pressurised separately.
 
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+use std::time::SystemTime;
 
 use super::Shape;
 use crate::fem::config::{ActuatorConfig, Family, Geometry};
-use crate::fem::import::{gmsh, msh, ImportedMesh};
+use crate::fem::import::{gmsh, msh, Completion, ImportedMesh};
 use crate::fem::mesh::{gravity_loads_tets, ActuatorMesh, Part};
 use crate::fem::pressure::CLOSED;
 use crate::fem::solve::{Model, Tetrahedra};
@@ -64,26 +69,157 @@ fn source(cfg: &ActuatorConfig) -> Result<&Path, FemError> {
     Ok(file)
 }
 
-/// The mesh of the configured file: read, or made by gmsh into a temporary folder.
-fn read(cfg: &ActuatorConfig) -> Result<ImportedMesh, FemError> {
+/// An imported mesh, and the gmsh mesh file bendscope made for it (None: the config
+/// named a mesh file).
+pub(super) struct Made {
+    pub mesh: ImportedMesh,
+    pub msh: Option<Arc<Vec<u8>>>,
+}
+
+/// What a mesh depends on: the file (path, length, time), the mesh size, the .geo's
+/// numbers and the supplied parts.
+type Key = (
+    PathBuf,
+    u64,
+    Option<SystemTime>,
+    u64,
+    Vec<(String, u64)>,
+    String,
+);
+
+/// The meshes made last, newest first: a run reads its height, builds and writes its
+/// mesh from one meshing, and a sweep's steps over the same geometry share it.
+static MADE: Mutex<Vec<(Key, Arc<Made>)>> = Mutex::new(Vec::new());
+/// How many meshes [`MADE`] keeps.
+const MADE_KEPT: usize = 2;
+
+fn completion(cfg: &ActuatorConfig) -> Completion {
+    Completion {
+        clamp: cfg.geometry.clamp,
+        markers: cfg.geometry.markers.clone(),
+        marker_reach_mm: cfg.mesh.size_mm,
+    }
+}
+
+/// Refuses `[geometry] parameters` a file cannot take: a mesh or CAD file has none, and
+/// a .geo only those names it holds (gmsh would ignore the others).
+fn check_parameters(cfg: &ActuatorConfig, file: &Path, ext: &str) -> Result<(), FemError> {
+    let Some((name, _)) = cfg.geometry.parameters.iter().next() else {
+        return Ok(());
+    };
+    if ext != "geo" {
+        return Err(crate::fem::config::bad(
+            &format!("geometry.parameters.{name}"),
+            format!(
+                "{} is no .geo file: only a gmsh script has parameters (its DefineConstant numbers): remove [geometry] parameters",
+                file.display()
+            ),
+        ));
+    }
+    let text = std::fs::read_to_string(file)
+        .map_err(|e| bad(format!("{}: cannot read it: {e}", file.display())))?;
+    let words: std::collections::BTreeSet<&str> = text
+        .split(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
+        .collect();
+    for name in cfg.geometry.parameters.keys() {
+        if !words.contains(name.as_str()) {
+            return Err(crate::fem::config::bad(
+                &format!("geometry.parameters.{name}"),
+                format!(
+                    "{} has no `{name}`: name one of its DefineConstant numbers",
+                    file.display()
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The mesh of the configured file ([`made`]).
+fn read(cfg: &ActuatorConfig) -> Result<Arc<Made>, FemError> {
     let file = source(cfg)?;
+    let ext = file
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .unwrap_or_default();
+    check_parameters(cfg, file, &ext)?;
+    let numbers: Vec<(String, f64)> = cfg
+        .geometry
+        .parameters
+        .iter()
+        .map(|(k, v)| (k.clone(), *v))
+        .collect();
+    made(file, &numbers, cfg.mesh.size_mm, &completion(cfg))
+}
+
+/// The mesh of `file`: read (a .msh), or made by gmsh at `size_mm` with a .geo's
+/// `numbers` into a temporary folder; the same file, size and settings mesh once
+/// ([`MADE`]).
+pub(super) fn made(
+    file: &Path,
+    numbers: &[(String, f64)],
+    size_mm: f64,
+    completion: &Completion,
+) -> Result<Arc<Made>, FemError> {
+    let meta = std::fs::metadata(file)
+        .map_err(|e| bad(format!("{}: cannot read it: {e}", file.display())))?;
+    let key: Key = (
+        file.to_path_buf(),
+        meta.len(),
+        meta.modified().ok(),
+        size_mm.to_bits(),
+        numbers
+            .iter()
+            .map(|(k, v)| (k.clone(), v.to_bits()))
+            .collect(),
+        format!("{completion:?}"),
+    );
+    let mut kept = MADE.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some((_, m)) = kept.iter().find(|(k, _)| *k == key) {
+        return Ok(m.clone());
+    }
     let is_msh = file
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("msh"));
-    if is_msh {
-        return msh::read(file);
-    }
-    let dir = tempfile::tempdir().map_err(|e| FemError::Output {
-        why: format!("cannot make a temporary folder for gmsh's mesh: {e}"),
-    })?;
-    let out: PathBuf = dir.path().join("mesh.msh");
-    gmsh::mesh(file, cfg.mesh.size_mm, &[], &out)?;
-    msh::read(&out)
+    let m = Arc::new(if is_msh {
+        Made {
+            mesh: msh::read_completed(file, completion)?,
+            msh: None,
+        }
+    } else {
+        let dir = tempfile::tempdir().map_err(|e| FemError::Output {
+            why: format!("cannot make a temporary folder for gmsh's mesh: {e}"),
+        })?;
+        let out: PathBuf = dir.path().join("mesh.msh");
+        gmsh::mesh(file, size_mm, numbers, &out)?;
+        let bytes = std::fs::read(&out).map_err(|e| FemError::Output {
+            why: format!("{}: cannot read gmsh's mesh: {e}", out.display()),
+        })?;
+        Made {
+            mesh: msh::read_bytes(&file.display().to_string(), &bytes, completion)?,
+            msh: Some(Arc::new(bytes)),
+        }
+    });
+    kept.insert(0, (key, m.clone()));
+    kept.truncate(MADE_KEPT);
+    Ok(m)
+}
+
+/// The solver's model of a made mesh, with the mesh file gmsh made.
+pub(super) fn model_of(cfg: &ActuatorConfig, made: &Made) -> Result<ActuatorMesh, FemError> {
+    let mut mesh = from_imported(cfg, made.mesh.clone())?;
+    mesh.made_mesh = made.msh.clone();
+    Ok(mesh)
 }
 
 impl Shape for Imported {
     fn families(&self) -> &'static [Family] {
         &[Family::Mesh]
+    }
+
+    fn reads_file(&self) -> bool {
+        true
     }
 
     fn defaults(&self, family: Family) -> ActuatorConfig {
@@ -117,12 +253,13 @@ impl Shape for Imported {
     }
 
     fn build(&self, cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
-        from_imported(cfg, read(cfg)?)
+        let made = read(cfg)?;
+        model_of(cfg, &made)
     }
 
     fn height_mm(&self, cfg: &ActuatorConfig) -> f64 {
         read(cfg).map_or(f64::NAN, |m| {
-            let z = m.nodes.iter().map(|x| x.z);
+            let z = m.mesh.nodes.iter().map(|x| x.z);
             z.clone().fold(f64::NEG_INFINITY, f64::max) - z.fold(f64::INFINITY, f64::min)
         })
     }
@@ -155,7 +292,7 @@ pub fn from_imported(cfg: &ActuatorConfig, m: ImportedMesh) -> Result<ActuatorMe
     }
     if m.markers.len() < 3 {
         return Err(refuse(format!(
-            "{} `markers` point(s): the radius is fitted to at least 3 (Physical Point(\"markers\") = {{...}})",
+            "{} `markers` point(s): the radius is fitted to at least 3 (Physical Point(\"markers\") = {{...}}, or a line of them: [geometry.markers] from = [x, y, z], to = [x, y, z], count = 8)",
             m.markers.len()
         )));
     }
@@ -211,5 +348,6 @@ pub fn from_imported(cfg: &ActuatorConfig, m: ImportedMesh) -> Result<ActuatorMe
         half_model: !m.symmetry.is_empty(),
         densities_g_cm3,
         bottom_wall: None,
+        made_mesh: None,
     })
 }

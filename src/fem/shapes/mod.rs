@@ -12,6 +12,7 @@
 //! [`REGISTRY`] (docs: "Developer notes: adding an actuator shape").
 
 mod fibre_tube;
+pub mod finger;
 mod imported;
 mod pneunets;
 
@@ -32,7 +33,7 @@ pub use pneunets::{build_pneunets, thinnest_wall_mm, PneuNets};
 
 /// Every shape the model builds, in the order of the docs (its families in that order
 /// make `Family::all()` and the list an unknown family's message gives).
-pub static REGISTRY: &[&dyn Shape] = &[&PneuNets, &FibreTube, &Imported];
+pub static REGISTRY: &[&dyn Shape] = &[&PneuNets, &FibreTube, &finger::Finger, &Imported];
 
 /// One kind of actuator: its presets, its checks, its mesh.
 pub trait Shape: Sync {
@@ -49,6 +50,12 @@ pub trait Shape: Sync {
 
     /// Checks the layers against the shape: where each goes, whether it fits.
     fn validate_layers(&self, cfg: &ActuatorConfig) -> Result<(), FemError>;
+
+    /// Whether the shape is read from `[geometry] file` (and takes its `parameters`,
+    /// `clamp` and `markers`); the others refuse those keys.
+    fn reads_file(&self) -> bool {
+        false
+    }
 
     /// Checks the shape's own sections and what it needs of the others.
     fn validate(&self, cfg: &ActuatorConfig) -> Result<(), FemError>;
@@ -199,7 +206,14 @@ mod tests {
         let all = Family::all();
         assert_eq!(
             family_names(),
-            ["pneunets", "glove", "strap", "fibre-reinforced", "mesh"]
+            [
+                "pneunets",
+                "glove",
+                "strap",
+                "fibre-reinforced",
+                "segmented-finger",
+                "mesh"
+            ]
         );
         for f in &all {
             let owners = REGISTRY.iter().filter(|s| s.families().contains(f)).count();
@@ -212,7 +226,7 @@ mod tests {
         let err = "bellows".parse::<Family>().unwrap_err();
         assert_eq!(
             err,
-            "unknown actuator family 'bellows': use pneunets, glove, strap, fibre-reinforced, mesh"
+            "unknown actuator family 'bellows': use pneunets, glove, strap, fibre-reinforced, segmented-finger, mesh"
         );
     }
 }

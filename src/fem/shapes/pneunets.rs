@@ -731,6 +731,7 @@ pub fn build_pneunets(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
         parts,
         twist_pair,
         bottom_wall: Some(bottom_wall),
+        made_mesh: None,
         densities_g_cm3,
         half_model: true,
     })

@@ -41,16 +41,55 @@ fn gmsh_meshes_the_block_geo_and_its_step() {
     gmsh_mesh(&fixture("block-step.geo"), 4.0, &[], &out);
     check_block(&msh::read(&out).unwrap());
     gmsh_mesh(&fixture("block.step"), 4.0, &[], &out);
-    let err = msh::read(&out).unwrap_err().to_string();
-    assert_eq!(err, format!("{}: the tetrahedra are in no physical volume: name the material's volumes (gmsh: Physical Volume(\"silicone\") = {{...}})", out.display()));
-    let raw = msh::parse("block.msh", &std::fs::read(&out).unwrap()).unwrap();
-    assert!(raw.unnamed_tets > 0);
+    check_bare_block(&out);
     // Nothing left behind but the mesh.
     let files: Vec<_> = std::fs::read_dir(dir.path())
         .unwrap()
         .map(|e| e.unwrap().file_name())
         .collect();
     assert_eq!(files, ["block.msh"]);
+}
+
+/// The bare STEP (no groups): one silicone, its void the cavity, its face x = 0 the
+/// clamp, markers on the side face y = 0 from the config; without a clamp, refused.
+fn check_bare_block(out: &Path) {
+    use crate::fem::config::{ClampPlane, MarkerLine};
+    use crate::fem::import::Completion;
+    let err = msh::read(out).unwrap_err().to_string();
+    assert_eq!(err, format!("{}: no physical surface or volume named `clamp`: name the clamped surfaces `clamp` (gmsh: Physical Surface(\"clamp\") = {{...}}), or clamp a flat face of the solid with [geometry] clamp = \"x-min\"", out.display()));
+    let completion = Completion {
+        clamp: Some(ClampPlane {
+            axis: 0,
+            max: false,
+        }),
+        markers: Some(MarkerLine {
+            from: [6.0, 0.0, 4.0],
+            to: [24.0, 0.0, 4.0],
+            count: 4,
+        }),
+        marker_reach_mm: 4.0,
+    };
+    let m = msh::read_completed(out, &completion).unwrap();
+    assert_eq!(m.materials, ["silicone"]);
+    let v = mesh_volume(&m);
+    assert!(
+        rel(v, 30.0 * 10.0 * 8.0 - 20.0 * 4.0 * 4.0) < 1e-9,
+        "volume {v}"
+    );
+    assert_eq!(m.cavities.len(), 1);
+    let c = cavity_volume(&m, &m.cavities[0].1, &crate::fem::pressure::CLOSED);
+    assert!(rel(c, 20.0 * 4.0 * 4.0) < 1e-9, "cavity volume {c}");
+    let clamp_area = m.clamp.len();
+    assert!(clamp_area > 4 && m.clamp.iter().all(|&n| m.nodes[n].x.abs() < 1e-9));
+    assert_eq!(m.markers.len(), 4);
+    for (k, &n) in m.markers.iter().enumerate() {
+        let want = Vector3::new(6.0 + 6.0 * k as f64, 0.0, 4.0);
+        let x = m.nodes[n];
+        assert!(
+            x.y.abs() < 1e-9 && (x - want).norm() <= 4.0,
+            "marker {k} at {x:?}"
+        );
+    }
 }
 
 #[test]

@@ -391,6 +391,75 @@ fn a_half_model_cavity_may_be_open_on_its_symmetry_plane() {
 }
 
 /// Each bad file gives its one-line message, naming the file.
+/// A file that leaves its cavity, clamp and markers unnamed gets them from the solid's
+/// shape and the config: the same mesh as the file that names them.
+#[test]
+fn unnamed_parts_are_found_as_the_named_ones() {
+    use crate::fem::config::{ClampPlane, MarkerLine};
+    use crate::fem::import::Completion;
+    let dir = tempfile::tempdir().unwrap();
+    let named = read_text(dir.path(), "named.msh", &cube(CENTRE, true).text()).unwrap();
+    let bare = cube(CENTRE, true)
+        .without("cavity")
+        .without("clamp")
+        .without("markers");
+    let path = dir.path().join("bare.msh");
+    std::fs::write(&path, bare.text()).unwrap();
+    let completion = Completion {
+        clamp: Some(ClampPlane {
+            axis: 0,
+            max: false,
+        }),
+        markers: Some(MarkerLine {
+            from: [1.1, 0.0, 0.1],
+            to: [2.9, 0.0, -0.1],
+            count: 3,
+        }),
+        marker_reach_mm: 0.5,
+    };
+    let found = msh::read_completed(&path, &completion).unwrap();
+    assert_eq!(found.nodes, named.nodes);
+    assert_eq!(found.clamp, named.clamp);
+    assert_eq!(found.markers, named.markers);
+    let sorted = |m: &ImportedMesh| {
+        let mut f: Vec<[usize; 6]> = m.cavities[0].1.clone();
+        f.sort_unstable();
+        f
+    };
+    assert_eq!(found.cavities.len(), 1);
+    assert_eq!(sorted(&found), sorted(&named));
+
+    // Named in the file and in the config; a clamp side with no flat face; a marker
+    // off the surface; two markers on one node.
+    let whole = dir.path().join("whole.msh");
+    std::fs::write(&whole, cube(CENTRE, true).text()).unwrap();
+    let with = |clamp: Option<ClampPlane>, markers: Option<MarkerLine>| Completion {
+        clamp,
+        markers,
+        marker_reach_mm: 0.5,
+    };
+    let line = |to: [f64; 3], count| MarkerLine {
+        from: [1.0, 0.0, 0.0],
+        to,
+        count,
+    };
+    let x_min = Some(ClampPlane {
+        axis: 0,
+        max: false,
+    });
+    let shown = |p: &Path| p.display().to_string();
+    let cases = [
+        (&whole, with(x_min, None), "the file names a `clamp` and [geometry] clamp = \"x-min\" names another: remove one".to_string()),
+        (&whole, with(None, Some(line([3.0, 0.0, 0.0], 3))), "the file names `markers` and [geometry.markers] puts others: remove one".into()),
+        (&path, with(None, Some(line([3.0, 0.0, -4.0], 3))), "[geometry.markers]: marker 2 at (2.000, 0.000, -2.000) is 2.00 mm from the solid's surface, more than the mesh size 0.5 mm: put the line on a face of the actuator".into()),
+        (&path, with(None, Some(line([1.2, 0.0, 0.0], 3))), "[geometry.markers]: markers 1 and 2 fall on the same mesh node: use fewer markers or a finer mesh".into()),
+    ];
+    for (file, c, why) in cases {
+        let e = msh::read_completed(file, &c).unwrap_err().to_string();
+        assert_eq!(e, format!("{}: {why}", shown(file)));
+    }
+}
+
 #[test]
 fn bad_meshes_are_refused_with_what_is_wrong() {
     let base = cube(CENTRE, false);
@@ -414,13 +483,13 @@ fn bad_meshes_are_refused_with_what_is_wrong() {
         ),
         (
             "no cavity",
-            base.clone().without("cavity").text(),
-            "no physical surface named `cavity`: name the cavity's inner surfaces `cavity` (gmsh: Physical Surface(\"cavity\") = {...})".into(),
+            half.clone().without("cavity").text(),
+            "no cavity: no `cavity` group, and the solid has no closed inner surface: name the cavity's surfaces `cavity` (gmsh: Physical Surface(\"cavity\") = {...}), or close its inlet in the CAD so that the cavity is a void".into(),
         ),
         (
             "no clamp",
             base.clone().without("clamp").text(),
-            "no physical surface or volume named `clamp`: name the clamped surfaces `clamp` (gmsh: Physical Surface(\"clamp\") = {...})".into(),
+            "no physical surface or volume named `clamp`: name the clamped surfaces `clamp` (gmsh: Physical Surface(\"clamp\") = {...}), or clamp a flat face of the solid with [geometry] clamp = \"x-min\"".into(),
         ),
         (
             "unknown name",
