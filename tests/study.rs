@@ -197,22 +197,25 @@ fn check_study_csv(
     maps
 }
 
-/// Rewrites `per_video.csv` of `out` with the radius scaled by `k` and the curvature by
-/// 1/k (a session of a softer actuator).
+/// Rewrites `per_video.csv` of `out` with the radius scaled by `k` and the curvature and
+/// bending angle by 1/k (a session of a softer actuator: the same marker line on a
+/// circle k times larger).
 fn scale_radius(out: &Path, k: f64) {
     let path = out.join("per_video.csv");
     let text = fs::read_to_string(&path).unwrap();
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let (r, c) = (
-        header.iter().position(|h| *h == "radius_mm").unwrap(),
-        header.iter().position(|h| *h == "curvature_per_m").unwrap(),
+    let column = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (r, c, a) = (
+        column("radius_mm"),
+        column("curvature_per_m"),
+        column("bending_angle_deg"),
     );
     let mut out_text = header.join(",") + "\n";
     for l in lines {
         assert!(!l.contains('"'), "a plain row: {l}");
         let mut cells: Vec<String> = l.split(',').map(String::from).collect();
-        for (i, f) in [(r, k), (c, 1.0 / k)] {
+        for (i, f) in [(r, k), (c, 1.0 / k), (a, 1.0 / k)] {
             if let Ok(v) = cells[i].parse::<f64>() {
                 cells[i] = format!("{:.4}", v * f);
             }
@@ -394,6 +397,7 @@ fn two_samples_of_two_runs_give_the_statistics_of_their_tables_and_the_truth() {
         .filter(|l| l.contains("disagrees"))
         .collect();
     assert_eq!(flags.len(), 1, "{run}");
+    eprintln!("study test: {}", flags[0]);
     assert!(
         flags[0].starts_with("warning: sample A: session A-run3 disagrees"),
         "{run}"

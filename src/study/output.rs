@@ -6,6 +6,7 @@ use std::path::Path;
 
 use serde::Serialize;
 
+use crate::compare::GRID_POINTS;
 use crate::report::{plot_xy, write_json, Series};
 use crate::table::{write_csv, Column};
 
@@ -145,7 +146,7 @@ fn fem_points(curve: &crate::compare::Curve, (lo, hi): (f64, f64)) -> Vec<(f64, 
 }
 
 /// Draws the plot of quantity `q`: each sample's means with std error bars, the pooled
-/// fit and its band, and each simulation.
+/// fit and each simulation.
 fn plot_quantity(out: &Path, study: &Study, a: &Analysis, q: usize) -> Result<bool, StudyError> {
     let (stem, title) = PLOT_STEMS[q];
     let (name, axis) = QUANTITIES[q];
@@ -178,34 +179,18 @@ fn plot_quantity(out: &Path, study: &Study, a: &Analysis, q: usize) -> Result<bo
         .fits
         .iter()
         .find(|f| f.sample == POOLED && f.quantity == name);
-    let band_label = format!("{:.0} % band", 100.0 * BAND_LEVEL);
+    // The band stays in fits.json and the report: drawn here, its two edges (each a
+    // series of its own colour) would read as two more curves.
     if let Some(f) = pooled {
-        if let Some(b) = &f.band {
-            series.push(Series {
-                label: "pooled fit a p^b + c",
-                points: b
-                    .pressure_kpa
-                    .iter()
-                    .copied()
-                    .zip(b.value.iter().copied())
-                    .collect(),
-                line: true,
-                errors: None,
-            });
-            for edge in [&b.lower, &b.upper] {
-                series.push(Series {
-                    label: &band_label,
-                    points: b
-                        .pressure_kpa
-                        .iter()
-                        .copied()
-                        .zip(edge.iter().copied())
-                        .collect(),
-                    line: true,
-                    errors: None,
-                });
-            }
-        }
+        series.push(Series {
+            label: "pooled fit a p^b + c",
+            points: (0..GRID_POINTS)
+                .map(|k| range.0 + (range.1 - range.0) * k as f64 / (GRID_POINTS - 1) as f64)
+                .map(|p| (p, f.fit.eval(p)))
+                .collect(),
+            line: true,
+            errors: None,
+        });
     }
     for (m, model) in study.fem.iter().enumerate() {
         series.push(Series {
@@ -296,7 +281,7 @@ pub fn write_study(study: &Study, a: &Analysis, out: &Path) -> Result<StudyRepor
         "flags: {}",
         if a.warnings.iter().any(|w| w.contains("disagrees")) {
             format!(
-                "sessions outside the {:.0} % prediction interval of their sample (see warnings)",
+                "sessions outside the {:.1} % prediction interval of their sample (see warnings)",
                 100.0 * OUTLIER_LEVEL
             )
         } else {

@@ -104,7 +104,7 @@ pub fn study_report_html(
     }
     let _ = writeln!(
         h,
-        "</table>\n<h2>Fits (y = a p<sup>b</sup> + c, p in kPa)</h2>\n<p>Over every session's mean at each pressure; the {:.0} % confidence band of the curve (delta method, Student's t) is in fits.json and drawn for the pooled fit. A session is flagged when one of its values lies outside the {:.0} % prediction interval of the other sessions of its sample (three or more sessions).</p>",
+        "</table>\n<h2>Fits (y = a p<sup>b</sup> + c, p in kPa)</h2>\n<p>Over every session's mean at each pressure; the {:.0} % confidence band of the curve (delta method, Student's t) is in fits.json (its half-width at mid-range below). A session is flagged when one of its values lies outside the {:.0} % prediction interval of the other sessions of its sample (three or more sessions).</p>",
         100.0 * BAND_LEVEL,
         100.0 * OUTLIER_LEVEL
     );

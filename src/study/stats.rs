@@ -439,6 +439,7 @@ mod tests {
             }
         }
         let coverage = inside as f64 / total as f64;
+        eprintln!("band coverage: {coverage:.4} of {total}");
         // 1200 checks (not independent within a data set): 0.95 within ±0.03.
         assert!((coverage - 0.95).abs() < 0.03, "coverage {coverage}");
     }
