@@ -230,9 +230,9 @@ fn two_samples_of_two_runs_give_the_statistics_of_their_tables_and_the_truth() {
     let started = std::time::Instant::now();
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    for s in 0..2 {
-        for run in 0..2 {
-            render_run(&d.join(format!("{}-run{}", LAWS[s].0, run + 1)), s, run);
+    for (s, (name, _)) in LAWS.iter().enumerate() {
+        for run in 0..RUNS.len() {
+            render_run(&d.join(format!("{name}-run{}", run + 1)), s, run);
         }
     }
     // Three runs processed by `process`; B-run2 is left to `study` (a session folder).

@@ -176,7 +176,7 @@ fn fit_points(sample: &str, points: &[SessionPoint], notes: &mut Vec<String>) ->
                     });
                 out.push(FitResult {
                     sample: sample.to_string(),
-                    quantity: *name,
+                    quantity: name,
                     fit,
                     covariance: cov.map(|c| {
                         [
@@ -420,7 +420,7 @@ fn compare_fem(study: &Study, rows: &[StudyRow], warnings: &mut Vec<String>) -> 
                     Ok(c) => out.push(FemResult {
                         model: model.name.clone(),
                         sample: sample.to_string(),
-                        quantity: *name,
+                        quantity: name,
                         rmse: c.rmse,
                         rmse_pct: c.rmse_pct,
                         max_abs_deviation: c.max_abs_deviation,

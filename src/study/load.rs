@@ -155,6 +155,9 @@ fn read_rows(per_video: &Path) -> Result<Vec<Row>, StudyError> {
     Ok(rows)
 }
 
+/// A marker of a frame in markers.csv: its number and its x, y in mm.
+type MarkerXy = (usize, f64, f64);
+
 /// The most common value of `v`, the smaller on a tie.
 fn mode(v: impl IntoIterator<Item = usize>) -> Option<usize> {
     let mut counts: HashMap<usize, usize> = HashMap::new();
@@ -180,7 +183,7 @@ fn actuator_of(out: &Path) -> Result<(Option<usize>, Option<f64>), StudyError> {
         };
         let (x, y) = (t.column("x_mm"), t.column("y_mm"));
         // Per frame: its markers (index, x, y) in file order.
-        let mut frames: HashMap<(String, String), Vec<(usize, f64, f64)>> = HashMap::new();
+        let mut frames: HashMap<(String, String), Vec<MarkerXy>> = HashMap::new();
         for r in 0..t.len() {
             let k = t.number(t.cell(r, marker)).unwrap_or(0.0) as usize;
             let num = |c: Option<usize>| c.and_then(|c| t.number(t.cell(r, c))).unwrap_or(f64::NAN);

@@ -244,9 +244,9 @@ pub fn write_study(study: &Study, a: &Analysis, out: &Path) -> Result<StudyRepor
     )
     .map_err(output)?;
     let mut plots = Vec::new();
-    for q in 0..FITTED {
+    for (q, (stem, _)) in PLOT_STEMS.iter().enumerate() {
         if plot_quantity(out, study, a, q)? {
-            plots.push(format!("plots/{}", PLOT_STEMS[q].0));
+            plots.push(format!("plots/{stem}"));
         }
     }
     super::page::write_report(&out.join("report.html"), out, study, a, &plots, &notes)?;
