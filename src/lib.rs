@@ -11,7 +11,8 @@
 //! overlays, the HTML page). [`session`] (manifest, pressure log, settings), [`table`]
 //! (the one CSV layer), [`rgbd`] (colour + depth: PNG folders, RealSense bags) and
 //! [`io`] (atomic writes, content keys) serve them. Beside them: [`fem`] (the actuator model and its solver),
-//! [`render`] (synthetic camera images with known ground truth), [`compare`],
+//! [`render`] (synthetic camera images with known ground truth), [`compare`], [`study`]
+//! (several samples and runs: means, spreads, fits with bands, the FEM over them),
 //! [`material_fit`] (hyperelastic models from tensile tests), [`fit_model`] (model
 //! parameters fitted to a measurement) and [`control`] (a PID closing the loop on the
 //! model). Design exploration: [`sweep`] (many simulations: local pool, GNU parallel,
@@ -58,6 +59,7 @@ pub mod scale;
 pub mod segments;
 pub mod select;
 pub mod session;
+pub mod study;
 pub mod surrogate;
 pub mod sweep;
 pub mod table;

@@ -15,6 +15,7 @@ fn main() -> ExitCode {
         cli::Command::Simulate(a) => cli::simulate::run(a),
         cli::Command::Render(a) => cli::render::run(a),
         cli::Command::Compare(a) => cli::compare::run(a),
+        cli::Command::Study(a) => cli::study::run(a),
         cli::Command::Control(a) => cli::control::run(a),
         cli::Command::Demo(a) => cli::demo::run(a),
         cli::Command::Sweep(a) => cli::sweep::run(a),

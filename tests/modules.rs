@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 
 /// Modules whose direct submodules must import each other without a cycle: "" is the
 /// crate (its top-level modules, src/X.rs or src/X/). One line adds a scope.
-const SCOPES: &[&str] = &["", "pipeline", "fem", "detect", "video", "fit"];
+const SCOPES: &[&str] = &["", "pipeline", "fem", "detect", "video", "fit", "study"];
 
 /// A token of Rust source, comments and literals left out.
 #[derive(Debug, Clone, PartialEq)]

@@ -50,6 +50,8 @@ __all__ = [
     "simulate",
     "default_config",
     "compare",
+    "Study",
+    "study",
     "material_fit",
 ]
 
@@ -485,6 +487,73 @@ def compare(
         problems=["warning: " + w for w in raw["warnings"]]
         + ["note: " + n for n in raw["notes"]],
         compared=raw["compared"],
+    )
+
+
+@dataclass
+class Study:
+    """What :func:`study` wrote, read back from its folder.
+
+    Attributes:
+        out: the study folder (study.csv, repeatability.csv, fits.json, fem.csv,
+            plots/, report.html).
+        table: study.csv (per sample and pressure, then the pooled rows `all`: n and
+            the mean, std, min and max of each quantity over the sessions).
+        repeatability: repeatability.csv (coefficients of variation, %).
+        fits: fits.json as a dict (power laws with confidence bands, FEM comparisons).
+        fem: fem.csv, or None without simulations.
+        summary: the lines the CLI prints.
+        problems: warnings (sessions that disagree, samples of one session) and notes.
+    """
+
+    out: Path
+    table: pd.DataFrame
+    repeatability: pd.DataFrame
+    fits: dict
+    fem: Optional[pd.DataFrame]
+    summary: str
+    problems: list = field(default_factory=list)
+
+
+def study(
+    path_or_samples: Union[PathLike, dict],
+    out: Optional[PathLike] = None,
+    fem: Optional[Iterable[PathLike]] = None,
+) -> Study:
+    """Summarize several samples of several sessions, like ``bendscope study``.
+
+    Args:
+        path_or_samples: a study.toml, or a dict {sample name: [process output or
+            session folders]}.
+        out: study folder [default: study-out, as the CLI].
+        fem: `bendscope simulate` output folders to compare with (with a dict; a
+            study.toml lists its own).
+
+    Raises:
+        Error: the CLI's one-line error (unknown key, empty sample, missing
+            per_video.csv, sessions of different actuators in one sample, ...).
+    """
+    out = Path("study-out" if out is None else out)
+    fem_paths = None if fem is None else [os.fspath(f) for f in fem]
+    if isinstance(path_or_samples, dict):
+        samples = [
+            (str(name), [os.fspath(p) for p in ([paths] if isinstance(paths, (str, os.PathLike)) else paths)])
+            for name, paths in path_or_samples.items()
+        ]
+        raw = _native.study(os.fspath(out), None, samples, fem_paths)
+    else:
+        if fem is not None:
+            raise Error("fem=: a study.toml lists its own simulations (fem = [...]): give fem with a dict of samples")
+        raw = _native.study(os.fspath(out), os.fspath(path_or_samples), None, None)
+    raw = json.loads(raw)
+    return Study(
+        out=out,
+        table=pd.read_csv(out / "study.csv"),
+        repeatability=pd.read_csv(out / "repeatability.csv"),
+        fits=_json(out / "fits.json") or {},
+        fem=_table(out / "fem.csv"),
+        summary=raw["summary"],
+        problems=["warning: " + w for w in raw["warnings"]] + ["note: " + n for n in raw["notes"]],
     )
 
 

@@ -44,6 +44,16 @@ class Comparison:
     problems: list[str]
     compared: int
 
+@dataclass
+class Study:
+    out: Path
+    table: pd.DataFrame
+    repeatability: pd.DataFrame
+    fits: dict
+    fem: Optional[pd.DataFrame]
+    summary: str
+    problems: list[str]
+
 def process(
     session: PathLike,
     out: Optional[PathLike] = None,
@@ -77,6 +87,11 @@ def compare(
     force: Optional[PathLike] = None,
     out: Optional[PathLike] = None,
 ) -> Comparison: ...
+def study(
+    path_or_samples: Union[PathLike, dict[str, Union[PathLike, Sequence[PathLike]]]],
+    out: Optional[PathLike] = None,
+    fem: Optional[Iterable[PathLike]] = None,
+) -> Study: ...
 def material_fit(
     table: Union[PathLike, pd.DataFrame],
     model: str = "yeoh3",

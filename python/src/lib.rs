@@ -26,7 +26,8 @@ use bendscope::compare::compare_to;
 use bendscope::fem::actuator::ActuatorConfig;
 use bendscope::fem::output::{simulate_to, SimulateOptions};
 use bendscope::material_fit::{fit_material, write_material_fit, MaterialBlock, TensileData};
-use bendscope::pipeline::{measure_session, ProcessSettings, Progress};
+use bendscope::pipeline::{measure_session, ProcessSettings, Progress, Quiet};
+use bendscope::study::{run_study, SampleSpec, StudySpec};
 use pyo3::prelude::*;
 use serde_json::json;
 
@@ -368,6 +369,45 @@ fn compare(
     .to_string())
 }
 
+/// Summarizes a study (`bendscope study`) into `out`: `study_toml` a study.toml, or
+/// `samples` as (name, sessions) pairs with `fem` folders; returns JSON: summary,
+/// warnings, notes.
+#[pyfunction]
+#[pyo3(signature = (out, study_toml=None, samples=None, fem=None))]
+fn study(
+    py: Python<'_>,
+    out: PathBuf,
+    study_toml: Option<PathBuf>,
+    samples: Option<Vec<(String, Vec<PathBuf>)>>,
+    fem: Option<Vec<PathBuf>>,
+) -> PyResult<String> {
+    let spec = match (study_toml, samples) {
+        (Some(path), None) => StudySpec::read(&path),
+        (None, Some(samples)) => {
+            let spec = StudySpec {
+                samples: samples
+                    .into_iter()
+                    .map(|(name, sessions)| SampleSpec { name, sessions })
+                    .collect(),
+                fem: fem.unwrap_or_default(),
+                origin: "samples".into(),
+            };
+            spec.check().map(|_| spec)
+        }
+        _ => return Err(error("give a study.toml or the samples, not both")),
+    }
+    .map_err(|e| error(chain_message(&e)))?;
+    let report = py
+        .detach(|| run_study(&spec, &out, &mut Quiet))
+        .map_err(|e| error(chain_message(&e)))?;
+    Ok(json!({
+        "summary": report.summary,
+        "warnings": report.warnings,
+        "notes": report.notes,
+    })
+    .to_string())
+}
+
 /// Fits a hyperelastic model to uniaxial tensile data (`bendscope material fit`) into
 /// `out`; returns JSON: the data's warnings and why no material block was written.
 /// `data_name` names the data in the outputs instead of `table` (a DataFrame's
@@ -417,6 +457,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
     m.add_function(wrap_pyfunction!(default_config, m)?)?;
     m.add_function(wrap_pyfunction!(compare, m)?)?;
+    m.add_function(wrap_pyfunction!(study, m)?)?;
     m.add_function(wrap_pyfunction!(material_fit, m)?)?;
     Ok(())
 }

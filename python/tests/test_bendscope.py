@@ -197,6 +197,32 @@ def test_compare_matches_the_cli(tmp_path):
     assert py.summary == (tmp_path / "cli" / "summary.txt").read_text()
 
 
+def test_study_matches_the_cli_and_its_per_video_tables(tmp_path):
+    # Two runs of one sample: the example processed, and a copy 1 % larger in radius.
+    r = bendscope.process(EXAMPLE, out=tmp_path / "run1")
+    run2 = tmp_path / "run2"
+    run2.mkdir()
+    pv = pd.read_csv(r.out / "per_video.csv")
+    pv["radius_mm"] = (pv["radius_mm"] * 1.01).round(4)
+    pv.to_csv(run2 / "per_video.csv", index=False)
+    py = bendscope.study({"A": [r.out, run2]}, out=tmp_path / "py")
+    run = run_cli("study", "--sample", f"A={r.out},{run2}", "-o", tmp_path / "cli", cwd=tmp_path)
+    assert run.returncode == 0, run.stderr
+    assert_frames_close(py.table, pd.read_csv(tmp_path / "cli" / "study.csv"), SAME_RUN_TOLERANCE)
+    # The mean radius of each pressure is the mean of the two runs' (one video each).
+    measured = pd.read_csv(r.out / "per_video.csv")
+    measured = measured[measured["status"] == "ok"]
+    a = py.table[py.table["sample"] == "A"].reset_index(drop=True)
+    assert list(a["n"]) == [2] * len(measured)
+    for (_, row), r1, r2 in zip(a.iterrows(), measured["radius_mm"], pv.loc[measured.index, "radius_mm"]):
+        assert abs(row["radius_mm_mean"] - (r1 + r2) / 2) <= 1e-9 * abs(r1)
+    assert {f["sample"] for f in py.fits["fits"]} == {"A", "all"}
+    with pytest.raises(bendscope.Error) as e:
+        bendscope.study({"A": []}, out=tmp_path / "bad")
+    assert "sample `A` has no session" in str(e.value)
+    assert not (tmp_path / "bad").exists()
+
+
 # ---------------------------------------------------------------- bad input, by name
 
 @pytest.mark.parametrize(

@@ -24,6 +24,7 @@ pub mod process;
 pub mod render;
 pub mod scale;
 pub mod simulate;
+pub mod study;
 pub mod surrogate;
 pub mod sweep;
 
@@ -74,6 +75,8 @@ pub enum Command {
     Render(render::RenderArgs),
     /// Compare measured bending (process output) with the simulation (simulate output).
     Compare(compare::CompareArgs),
+    /// Summarize samples x runs (process outputs): means, spreads, fits, the FEM over them.
+    Study(study::StudyArgs),
     /// Drive the pressure regulator and the camera through a protocol: record a session.
     Acquire(acquire::AcquireArgs),
     /// Close the loop: a PID bends the simulated actuator to a reference angle.

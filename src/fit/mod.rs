@@ -28,6 +28,6 @@ pub use circle::{
 pub use error::FitError;
 pub use plane::{fit_plane_robust, PlaneFit, PLANE_RANSAC_ITERATIONS};
 pub use power_law::{
-    distinct_values, fit_power_law, PowerLawErrors, PowerLawFit, DISTINCT_X_REL,
-    POWER_LAW_MIN_DISTINCT_X,
+    distinct_values, fit_power_law, fit_power_law_with_covariance, PowerLawErrors, PowerLawFit,
+    DISTINCT_X_REL, POWER_LAW_MIN_DISTINCT_X,
 };

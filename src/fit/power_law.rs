@@ -113,6 +113,17 @@ impl LeastSquaresProblem<f64, Dyn, U3> for PowerLaw<'_> {
 /// more distinct x), started from the best of a grid of offsets c with a log-log
 /// regression for a and b at each.
 pub fn fit_power_law(x: &[f64], y: &[f64]) -> Result<PowerLawFit, FitError> {
+    fit_power_law_with_covariance(x, y).map(|(fit, _)| fit)
+}
+
+/// [`fit_power_law`] with the covariance of (a, b, c): (JᵀJ)⁻¹ SSE / (n - 3) at the
+/// optimum (the matrix whose diagonal gives [`PowerLawErrors`]); `None` with only 3
+/// points or a singular JᵀJ. A confidence band of the curve follows from it by the
+/// delta method.
+pub fn fit_power_law_with_covariance(
+    x: &[f64],
+    y: &[f64],
+) -> Result<(PowerLawFit, Option<Matrix3<f64>>), FitError> {
     if x.len() != y.len() {
         return Err(FitError::LengthMismatch {
             x: x.len(),
@@ -207,27 +218,26 @@ pub fn fit_power_law(x: &[f64], y: &[f64]) -> Result<PowerLawFit, FitError> {
     let sst: f64 = y.iter().map(|v| (v - mean).powi(2)).sum();
     let r_squared = if sst > 0.0 { 1.0 - sse / sst } else { 1.0 };
     let problem = PowerLaw { x, y, p };
-    let errors = problem
+    let covariance = problem
         .jacobian()
         .and_then(|j| {
             let jtj: Matrix3<f64> = j.transpose() * &j;
             jtj.try_inverse()
         })
         .filter(|_| n > 3)
-        .map(|cov| {
-            let s2 = sse / (n as f64 - 3.0);
-            PowerLawErrors {
-                a: (cov[(0, 0)] * s2).sqrt(),
-                b: (cov[(1, 1)] * s2).sqrt(),
-                c: (cov[(2, 2)] * s2).sqrt(),
-            }
+        .map(|inv| inv * (sse / (n as f64 - 3.0)));
+    let errors = covariance
+        .map(|cov| PowerLawErrors {
+            a: cov[(0, 0)].sqrt(),
+            b: cov[(1, 1)].sqrt(),
+            c: cov[(2, 2)].sqrt(),
         })
         .unwrap_or(PowerLawErrors {
             a: f64::NAN,
             b: f64::NAN,
             c: f64::NAN,
         });
-    Ok(PowerLawFit {
+    let fit = PowerLawFit {
         a: p.x,
         b: p.y,
         c: p.z,
@@ -235,7 +245,8 @@ pub fn fit_power_law(x: &[f64], y: &[f64]) -> Result<PowerLawFit, FitError> {
         r_squared,
         rmse: (sse / n as f64).sqrt(),
         n,
-    })
+    };
+    Ok((fit, covariance))
 }
 
 #[cfg(test)]
@@ -269,6 +280,20 @@ mod tests {
         assert!((f.c - c).abs() < 3.0 * f.std_errors.c, "{f:?}");
         assert!(f.std_errors.b > 0.0 && f.std_errors.b < 0.2, "{f:?}");
         assert!(f.rmse > 0.15 && f.rmse < 0.5, "{f:?}");
+        // The covariance's diagonal is the squared standard errors; it is symmetric.
+        let (g, cov) = fit_power_law_with_covariance(&x, &y).unwrap();
+        let cov = cov.unwrap();
+        assert_eq!(g, f);
+        for (k, e) in [f.std_errors.a, f.std_errors.b, f.std_errors.c]
+            .iter()
+            .enumerate()
+        {
+            assert!((cov[(k, k)].sqrt() / e - 1.0).abs() < 1e-12, "{cov}");
+        }
+        assert!((cov - cov.transpose()).abs().max() <= 1e-12 * cov.abs().max());
+        // Three points: no covariance.
+        let (_, none) = fit_power_law_with_covariance(&x[..3], &y[..3]).unwrap();
+        assert!(none.is_none());
     }
 
     #[test]

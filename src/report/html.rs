@@ -144,7 +144,35 @@ pub fn escape(s: &str) -> String {
     o
 }
 
-fn num(v: f64, digits: usize) -> String {
+/// The start of a bendscope page: doctype, head with the shared style, and `title`
+/// (escaped here) as the title and first heading.
+pub fn page_start(title: &str) -> String {
+    let title = escape(title);
+    format!(
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{title}</title>\n<style>\
+body{{font-family:sans-serif;margin:2em;color:#222}}table{{border-collapse:collapse;font-size:0.9em}}\
+td,th{{border:1px solid #ccc;padding:3px 8px;text-align:right}}td.l,th.l{{text-align:left}}\
+tr.bad td{{background:#fde8e8}}tr.partial td{{background:#fff6dd}}figure{{display:inline-block;margin:1em}}\
+figure img,figure svg{{max-width:900px;height:auto}}</style></head><body>\n<h1>{title}</h1>\n"
+    )
+}
+
+/// The plot `stem` of `out` (`stem.svg` inlined, a link to `stem.png`) as a figure.
+pub fn plot_figure(out: &Path, stem: &str) -> String {
+    let svg = std::fs::read_to_string(out.join(format!("{stem}.svg"))).unwrap_or_default();
+    // The SVG's own XML declaration is not allowed inside HTML.
+    let body = svg
+        .find("<svg")
+        .map(|i| &svg[i..])
+        .unwrap_or("<p>(plot missing)</p>");
+    format!(
+        "<figure data-plot=\"{s}.svg\">{body}<figcaption><a href=\"{s}.png\">{s}</a></figcaption></figure>",
+        s = escape(stem)
+    )
+}
+
+/// A number with `digits` decimals for a table cell: empty for NaN, `inf` for infinities.
+pub fn num(v: f64, digits: usize) -> String {
     if v.is_finite() {
         format!("{v:.digits$}")
     } else if v.is_nan() {
@@ -168,16 +196,7 @@ fn overlay_img(out: &Path, file: &str, rel: &str) -> Option<String> {
 
 /// Renders the report's HTML.
 pub fn session_report_html(r: &SessionReport) -> String {
-    let mut h = String::new();
-    let title = format!("bendscope: {}", escape(r.name));
-    let _ = write!(
-        h,
-        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{title}</title>\n<style>\
-body{{font-family:sans-serif;margin:2em;color:#222}}table{{border-collapse:collapse;font-size:0.9em}}\
-td,th{{border:1px solid #ccc;padding:3px 8px;text-align:right}}td.l,th.l{{text-align:left}}\
-tr.bad td{{background:#fde8e8}}tr.partial td{{background:#fff6dd}}figure{{display:inline-block;margin:1em}}\
-figure img,figure svg{{max-width:900px;height:auto}}</style></head><body>\n<h1>{title}</h1>\n"
-    );
+    let mut h = page_start(&format!("bendscope: {}", r.name));
     let measured = r.videos.iter().filter(|v| v.measured).count();
     let _ = writeln!(
         h,
@@ -264,17 +283,8 @@ figure img,figure svg{{max-width:900px;height:auto}}</style></head><body>\n<h1>{
     }
     h.push_str("</ul>\n<h2>Plots</h2>\n");
     for stem in r.plots {
-        let svg = std::fs::read_to_string(r.out.join(format!("{stem}.svg"))).unwrap_or_default();
-        // The SVG's own XML declaration is not allowed inside HTML.
-        let body = svg
-            .find("<svg")
-            .map(|i| &svg[i..])
-            .unwrap_or("<p>(plot missing)</p>");
-        let _ = writeln!(
-            h,
-            "<figure data-plot=\"{s}.svg\">{body}<figcaption><a href=\"{s}.png\">{s}</a></figcaption></figure>",
-            s = escape(stem)
-        );
+        h.push_str(&plot_figure(r.out, stem));
+        h.push('\n');
     }
     h.push_str("<h2>Overlays</h2>\n<p>One measured frame per video, undistorted: mask outline (green), markers from the clamp (yellow) to the tip (blue), fitted circle (magenta).</p>\n");
     // A set: a session may list many thousands of rows (skipped ones included).
