@@ -34,6 +34,23 @@ pub struct SessionReport<'a> {
     pub segments: &'a [Segment],
     /// Warnings about the measurement (one-circle check, ...), shown above the tables.
     pub warnings: &'a [String],
+    /// Sections of their own (hysteresis, step response), after the fits.
+    pub sections: &'a [Section],
+}
+
+/// A section of the report beside the standard ones: a title, lines of text, a table
+/// and plots (stems relative to the output folder, each with an .svg), all given as
+/// plain text (escaped here).
+#[derive(Debug, Clone, Default)]
+pub struct Section {
+    /// Its heading.
+    pub title: String,
+    /// Lines of text, a list.
+    pub lines: Vec<String>,
+    /// A table: header and rows.
+    pub table: Option<(Vec<String>, Vec<Vec<String>>)>,
+    /// Its plots.
+    pub plots: Vec<String>,
 }
 
 /// How a row of the per-video table is marked.
@@ -262,19 +279,13 @@ figure img,figure svg{{max-width:900px;height:auto}}</style></head><body>\n<h1>{
     for n in &r.fits.notes {
         let _ = writeln!(h, "<li>{}</li>", escape(n));
     }
-    h.push_str("</ul>\n<h2>Plots</h2>\n");
+    h.push_str("</ul>\n");
+    for s in r.sections {
+        section(&mut h, r.out, s);
+    }
+    h.push_str("<h2>Plots</h2>\n");
     for stem in r.plots {
-        let svg = std::fs::read_to_string(r.out.join(format!("{stem}.svg"))).unwrap_or_default();
-        // The SVG's own XML declaration is not allowed inside HTML.
-        let body = svg
-            .find("<svg")
-            .map(|i| &svg[i..])
-            .unwrap_or("<p>(plot missing)</p>");
-        let _ = writeln!(
-            h,
-            "<figure data-plot=\"{s}.svg\">{body}<figcaption><a href=\"{s}.png\">{s}</a></figcaption></figure>",
-            s = escape(stem)
-        );
+        plot_figure(&mut h, r.out, stem);
     }
     h.push_str("<h2>Overlays</h2>\n<p>One measured frame per video, undistorted: mask outline (green), markers from the clamp (yellow) to the tip (blue), fitted circle (magenta).</p>\n");
     // A set: a session may list many thousands of rows (skipped ones included).
@@ -290,6 +301,51 @@ figure img,figure svg{{max-width:900px;height:auto}}</style></head><body>\n<h1>{
     }
     h.push_str("</body></html>\n");
     h
+}
+
+/// A plot's SVG inlined in a figure, with a link to its PNG.
+fn plot_figure(h: &mut String, out: &Path, stem: &str) {
+    let svg = std::fs::read_to_string(out.join(format!("{stem}.svg"))).unwrap_or_default();
+    // The SVG's own XML declaration is not allowed inside HTML.
+    let body = svg
+        .find("<svg")
+        .map(|i| &svg[i..])
+        .unwrap_or("<p>(plot missing)</p>");
+    let _ = writeln!(
+        h,
+        "<figure data-plot=\"{s}.svg\">{body}<figcaption><a href=\"{s}.png\">{s}</a></figcaption></figure>",
+        s = escape(stem)
+    );
+}
+
+/// A [`Section`]: heading, lines, table, plots.
+fn section(h: &mut String, out: &Path, s: &Section) {
+    let _ = writeln!(h, "<h2>{}</h2>", escape(&s.title));
+    if !s.lines.is_empty() {
+        h.push_str("<ul>\n");
+        for l in &s.lines {
+            let _ = writeln!(h, "<li>{}</li>", escape(l));
+        }
+        h.push_str("</ul>\n");
+    }
+    if let Some((header, rows)) = &s.table {
+        h.push_str("<table><tr>");
+        for c in header {
+            let _ = write!(h, "<th>{}</th>", escape(c));
+        }
+        h.push_str("</tr>\n");
+        for row in rows {
+            h.push_str("<tr>");
+            for c in row {
+                let _ = write!(h, "<td>{}</td>", escape(c));
+            }
+            h.push_str("</tr>\n");
+        }
+        h.push_str("</table>\n");
+    }
+    for stem in &s.plots {
+        plot_figure(h, out, stem);
+    }
 }
 
 /// The per-segment table (per_segment.csv) and each segment's fits.
