@@ -194,7 +194,19 @@ fn draw_steps(s: &StepResults, draw: &mut Draw) -> Result<(), PipelineError> {
     let mut fitted: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
     for r in s.rows.iter().filter(|r| r.quantity == "bending_angle_deg") {
         if let Some(f) = r.fit() {
-            let (a, b) = s.windows[r.step.step - 1];
+            // Over the step's window where there are frames.
+            let (w0, w1) = s.windows[r.step.step - 1];
+            let inside = || {
+                s.angle_series
+                    .iter()
+                    .map(|p| p.0)
+                    .filter(|t| *t >= w0 && *t <= w1)
+            };
+            let a = inside().fold(f64::INFINITY, f64::min);
+            let b = inside().fold(f64::NEG_INFINITY, f64::max);
+            if !(b > a) {
+                continue;
+            }
             let curve = (0..=200)
                 .map(|i| a + (b - a) * i as f64 / 200.0)
                 .map(|t| (t, f.eval(t)))
