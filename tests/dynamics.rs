@@ -436,3 +436,80 @@ fn one_level_small_steps_and_late_steps_are_said_once() {
         start.elapsed().as_secs_f64()
     );
 }
+
+/// A step session whose manifest goes 20 -> 80 kPa and back down through copies of the
+/// 65, 35 and 20 kPa videos: rows split into a loading and an unloading branch (the
+/// 80 kPa video ends the first and starts the loop's second), and the loop is the one
+/// between the per_video.csv means: the unloading branch has no 50 kPa video, so the
+/// two polylines differ only by d = (a35 + a65)/2 - a50 at 50 kPa, a triangle of area
+/// 15 |d| deg kPa on 35..65 kPa.
+#[test]
+fn step_session_up_and_down_splits_its_videos() {
+    let start = std::time::Instant::now();
+    let dir = tempfile::tempdir().unwrap();
+    let s = dir.path().join("s");
+    common::copy_dir(&common::fixture("sessions/example"), &s);
+    for (copy, of) in [
+        ("down65.MP4", "GX010104.MP4"),
+        ("down35.MP4", "GX010102.MP4"),
+        ("down20.MP4", "GX010101.MP4"),
+    ] {
+        fs::copy(s.join(of), s.join(copy)).unwrap();
+    }
+    fs::write(
+        s.join("pressures.csv"),
+        "file,pressure_kpa\nGX010101.MP4,20\nGX010102.MP4,35\nGX010103.MP4,50\nGX010104.MP4,65\nGX010105.MP4,80\ndown65.MP4,65\ndown35.MP4,35\ndown20.MP4,20\n",
+    )
+    .unwrap();
+    let run = Run::new(dir.path(), &["process", "s"]);
+    assert_eq!(run.code, 0, "{run}");
+    let out = s.join("bendscope-out");
+    let (h, rows) = read_csv(&out.join("per_video.csv"));
+    let labels: Vec<&str> = rows.iter().map(|r| r[col(&h, "branch")].as_str()).collect();
+    assert_eq!(
+        labels,
+        [
+            "loading",
+            "loading",
+            "loading",
+            "loading",
+            "loading",
+            "unloading",
+            "unloading",
+            "unloading"
+        ]
+    );
+    let angle = |f: &str| -> f64 {
+        rows.iter().find(|r| r[0] == f).unwrap()[col(&h, "bending_angle_deg")]
+            .parse()
+            .unwrap()
+    };
+    let d = (angle("GX010102.MP4") + angle("GX010104.MP4")) / 2.0 - angle("GX010103.MP4");
+    let hy: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(out.join("hysteresis.json")).unwrap()).unwrap();
+    let l = &hy["loops"][0]["bending_angle_deg"];
+    assert_eq!(l["from_kpa"].as_f64(), Some(20.0), "{hy}");
+    assert_eq!(
+        l["to_kpa"].as_f64(),
+        Some(80.0),
+        "the top is on both branches: {hy}"
+    );
+    // per_video.csv's 4 decimals: 1e-4 deg on each mean.
+    assert!(
+        (l["area"].as_f64().unwrap() - 15.0 * d.abs()).abs() < 15.0 * 2e-4,
+        "{l} vs d {d}"
+    );
+    assert!(
+        (l["max_difference"].as_f64().unwrap() - d).abs() < 2e-4,
+        "{l} vs {d}"
+    );
+    assert_eq!(l["at_kpa"].as_f64(), Some(50.0));
+    let (fh, frames) = read_csv(&out.join("per_frame.csv"));
+    assert!(frames
+        .iter()
+        .all(|f| (f[0].starts_with("down")) == (f[col(&fh, "branch")] == "unloading")));
+    eprintln!(
+        "step_session_up_and_down_splits_its_videos: {:.1} s",
+        start.elapsed().as_secs_f64()
+    );
+}

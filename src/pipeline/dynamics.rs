@@ -328,8 +328,11 @@ pub fn hysteresis(
     )
 }
 
+/// A per_frame.csv column and how to read it from a frame.
+pub type FrameQuantity = (&'static str, fn(&FrameRecord) -> f64);
+
 /// The quantities a step response is measured for, with their per_frame.csv names.
-pub const STEP_QUANTITIES: [(&str, fn(&FrameRecord) -> f64); 3] = [
+pub const STEP_QUANTITIES: [FrameQuantity; 3] = [
     ("bending_angle_deg", |f| f.bending_angle_deg),
     ("radius_mm", |f| f.radius_mm),
     ("curvature_per_m", |f| f.curvature_per_m),
