@@ -10,7 +10,9 @@ use crate::dynamics::branches::{self, Branch, Direction};
 use crate::dynamics::hysteresis::{loop_metrics, LoopMetrics};
 use crate::dynamics::noise_sd;
 use crate::dynamics::response::{step_response, FirstOrderFit, ResponseError, StepResponse};
-use crate::dynamics::steps::{find_steps, PressureStep, StepSearch};
+use crate::dynamics::steps::{
+    find_steps, PressureStep, StepSearch, HOLD_BAND_NOISE, STEP_BAND_FACTOR, STEP_MIN_KPA,
+};
 use crate::fit::{fit_power_law, PowerLawFit};
 use crate::session::PressureLog;
 
@@ -496,6 +498,65 @@ pub fn step_results(
         windows,
         normalised,
     })
+}
+
+/// The session's branches, loops and step responses: a recording's from its pressure
+/// log (`history`), a step session's from its rows' pressures in manifest order.
+pub fn session_dynamics(
+    history: Option<&LogHistory>,
+    videos: &[VideoRecord],
+    row_branches: Vec<Option<RowBranch>>,
+    frames: &[FrameRecord],
+) -> SessionDynamics {
+    let mut d = SessionDynamics::default();
+    match history {
+        Some(h) => {
+            if h.has_branches() {
+                d.frames = frames.iter().map(|f| h.branch_at(f.time_s)).collect();
+                let (hy, fits) = hysteresis(
+                    videos,
+                    &row_branches,
+                    &h.branches,
+                    h.reversal_kpa,
+                    true,
+                    &mut d.notes,
+                );
+                d.rows = row_branches;
+                d.hysteresis = Some(hy);
+                d.branch_fits = fits;
+            }
+            let file = frames.first().map_or("", |f| f.file.as_str());
+            d.steps = step_results(h, frames, file, &mut d.notes);
+            if let Some(c) = h.steps.small_change {
+                d.notes.push(format!(
+                    "{}: the pressure changes by {:.2} kPa at {:.2} s, less than the {:.2} kPa a step needs here ({STEP_MIN_KPA} kPa, and {STEP_BAND_FACTOR} times the holds' band of {HOLD_BAND_NOISE} noise sds; noise sd {:.3} kPa): no step response measured",
+                    crate::session::PRESSURE_LOG,
+                    c.change_kpa,
+                    c.at_s,
+                    h.steps.threshold_kpa,
+                    h.steps.noise_sd_kpa
+                ));
+            }
+        }
+        None => {
+            if let Some((bs, rows)) = manifest_branches(videos) {
+                let of_file: std::collections::HashMap<&str, RowBranch> = videos
+                    .iter()
+                    .zip(&rows)
+                    .filter_map(|(v, r)| r.map(|r| (v.file.as_str(), r)))
+                    .collect();
+                d.frames = frames
+                    .iter()
+                    .map(|f| of_file.get(f.file.as_str()).copied())
+                    .collect();
+                let (hy, fits) = hysteresis(videos, &rows, &bs, 0.0, false, &mut d.notes);
+                d.rows = rows;
+                d.hysteresis = Some(hy);
+                d.branch_fits = fits;
+            }
+        }
+    }
+    d
 }
 
 #[cfg(test)]

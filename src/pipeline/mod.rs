@@ -302,7 +302,7 @@ fn measure_session_into(
         row_branches.push(None);
         failed += 1;
     }
-    let dynamics = session_dynamics(history.as_ref(), &videos, row_branches, &frames);
+    let dynamics = dynamics::session_dynamics(history.as_ref(), &videos, row_branches, &frames);
     for n in &dynamics.notes {
         notes.push(format!("warning: {n}"));
         report_warnings.push(n.clone());
@@ -344,63 +344,4 @@ fn measure_session_into(
         notes: notes.lines,
         provenance,
     })
-}
-
-/// The session's branches, loops and step responses: a recording's from its pressure
-/// log (`history`), a step session's from its rows' pressures in manifest order.
-fn session_dynamics(
-    history: Option<&dynamics::LogHistory>,
-    videos: &[VideoRecord],
-    row_branches: Vec<Option<dynamics::RowBranch>>,
-    frames: &[FrameRecord],
-) -> dynamics::SessionDynamics {
-    let mut d = dynamics::SessionDynamics::default();
-    match history {
-        Some(h) => {
-            if h.has_branches() {
-                d.frames = frames.iter().map(|f| h.branch_at(f.time_s)).collect();
-                let (hy, fits) = dynamics::hysteresis(
-                    videos,
-                    &row_branches,
-                    &h.branches,
-                    h.reversal_kpa,
-                    true,
-                    &mut d.notes,
-                );
-                d.rows = row_branches;
-                d.hysteresis = Some(hy);
-                d.branch_fits = fits;
-            }
-            let file = frames.first().map_or("", |f| f.file.as_str());
-            d.steps = dynamics::step_results(h, frames, file, &mut d.notes);
-            if let Some(c) = h.steps.small_change {
-                d.notes.push(format!(
-                    "{}: the pressure changes by {:.2} kPa at {:.2} s, less than the {:.2} kPa a step needs here (2 kPa, and twice the holds' band of 8 noise sds; noise sd {:.3} kPa): no step response measured",
-                    crate::session::PRESSURE_LOG,
-                    c.change_kpa,
-                    c.at_s,
-                    h.steps.threshold_kpa,
-                    h.steps.noise_sd_kpa
-                ));
-            }
-        }
-        None => {
-            if let Some((bs, rows)) = dynamics::manifest_branches(videos) {
-                let of_file: std::collections::HashMap<&str, dynamics::RowBranch> = videos
-                    .iter()
-                    .zip(&rows)
-                    .filter_map(|(v, r)| r.map(|r| (v.file.as_str(), r)))
-                    .collect();
-                d.frames = frames
-                    .iter()
-                    .map(|f| of_file.get(f.file.as_str()).copied())
-                    .collect();
-                let (hy, fits) = dynamics::hysteresis(videos, &rows, &bs, 0.0, false, &mut d.notes);
-                d.rows = rows;
-                d.hysteresis = Some(hy);
-                d.branch_fits = fits;
-            }
-        }
-    }
-    d
 }
