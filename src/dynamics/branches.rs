@@ -153,7 +153,7 @@ pub fn branches(times: &[f64], values: &[f64], reversal: f64) -> Vec<Branch> {
 /// belongs to the branch it ends. `None` outside the history.
 pub fn branch_at(branches: &[Branch], t: f64) -> Option<usize> {
     let first = branches.first()?;
-    if !(t >= first.start_s) {
+    if t.is_nan() || t < first.start_s {
         return None;
     }
     branches.iter().position(|b| t <= b.end_s)

@@ -57,7 +57,7 @@ pub fn loop_metrics(loading: &[(f64, f64)], unloading: &[(f64, f64)]) -> Option<
     }
     let from = l[0].0.max(u[0].0);
     let to = l[l.len() - 1].0.min(u[u.len() - 1].0);
-    if !(to > from) {
+    if to <= from {
         return None;
     }
     let mut grid: Vec<f64> = l

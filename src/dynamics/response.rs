@@ -121,7 +121,7 @@ pub fn fit_first_order(t: &[f64], y: &[f64], start: &FirstOrderFit) -> Option<Fi
         .filter(|(t, y)| t.is_finite() && y.is_finite())
         .map(|(t, y)| (*t, *y))
         .unzip();
-    if t.len() < 5 || !(start.tau_s > 0.0) {
+    if t.len() < 5 || start.tau_s.is_nan() || start.tau_s <= 0.0 {
         return None;
     }
     let p0 = Vector4::new(start.y0, start.dy, start.t0_s, start.tau_s.ln());
@@ -255,7 +255,7 @@ pub fn step_response(
             .collect(),
     );
     let dy = final_value - initial;
-    if !(dy.abs() > 0.0) {
+    if dy.is_nan() || dy == 0.0 {
         return Err(ResponseError::NoChange);
     }
     let sign = dy.signum();

@@ -204,7 +204,7 @@ fn draw_steps(s: &StepResults, draw: &mut Draw) -> Result<(), PipelineError> {
             };
             let a = inside().fold(f64::INFINITY, f64::min);
             let b = inside().fold(f64::NEG_INFINITY, f64::max);
-            if !(b > a) {
+            if b <= a {
                 continue;
             }
             let curve = (0..=200)
