@@ -107,9 +107,15 @@ impl LogHistory {
     }
 }
 
+/// Videos a step session's branch needs of its own (besides the turning video it
+/// starts from) for the session to be split: a manifest that repeats its pressures in
+/// order (20..80, 20..80, ...) or lists them shuffled is not an up-and-down protocol.
+pub const MIN_ROWS_PER_BRANCH: usize = 2;
+
 /// The branches of a step session's rows (videos in manifest order, by their
 /// pressures: setpoints, so any reversal turns) and each row's branch; rows without a
-/// pressure have none. `None` when the pressures never reverse.
+/// pressure have none. `None` when the pressures never reverse, or when a branch has
+/// fewer than [`MIN_ROWS_PER_BRANCH`] videos.
 pub fn manifest_branches(videos: &[VideoRecord]) -> Option<(Vec<Branch>, Vec<Option<RowBranch>>)> {
     let with_p: Vec<usize> = (0..videos.len())
         .filter(|&i| videos[i].pressure_kpa.is_finite())
@@ -121,8 +127,16 @@ pub fn manifest_branches(videos: &[VideoRecord]) -> Option<(Vec<Branch>, Vec<Opt
         return None;
     }
     let mut rows = vec![None; videos.len()];
+    let mut own = vec![0usize; bs.len()];
     for (k, &i) in with_p.iter().enumerate() {
-        rows[i] = branches::branch_at(&bs, k as f64).map(|b| RowBranch::of(&bs[b]));
+        let b = branches::branch_at(&bs, k as f64);
+        if let Some(b) = b {
+            own[b] += 1;
+        }
+        rows[i] = b.map(|b| RowBranch::of(&bs[b]));
+    }
+    if own.iter().any(|n| *n < MIN_ROWS_PER_BRANCH) {
+        return None;
     }
     Some((bs, rows))
 }
@@ -230,6 +244,9 @@ fn branch_points(
         .collect()
 }
 
+/// Branches a note names before it counts the rest.
+const NAMED_BRANCHES: usize = 5;
+
 /// The loops and per-branch fits of rows labelled `rows` (aligned with `videos`);
 /// `times` says whether the branches' times are a recording's (else row positions).
 pub fn hysteresis(
@@ -278,8 +295,15 @@ pub fn hysteresis(
         fits.push(f);
     }
     if !failed.is_empty() {
+        let more = failed.len().saturating_sub(NAMED_BRANCHES);
+        failed.truncate(NAMED_BRANCHES);
+        let more = if more > 0 {
+            format!(" and {more} more")
+        } else {
+            String::new()
+        };
         notes.push(format!(
-            "no power-law fit of branch {}: fewer than 3 measured pressures above 0 kPa on it",
+            "no power-law fit of branch {}{more}: fewer than 3 measured pressures above 0 kPa on it",
             failed.join(", ")
         ));
     }
@@ -444,6 +468,8 @@ pub fn step_results(
             );
         }
     };
+    // Steps the frames do not cover: said in one line.
+    let mut uncovered: Vec<String> = Vec::new();
     for step in &h.steps.steps {
         let (start, end) = (step.before.start_s, step.after.end_s);
         windows.push((start, end));
@@ -483,14 +509,23 @@ pub fn step_results(
                     rows.push(row(quantity, r));
                 }
                 Err(e @ ResponseError::TooFewSamples { .. }) => {
-                    notes.push(format!(
-                        "{file}: {describe}: measured frames: {e}: no step response for it (the other outputs are kept)"
-                    ));
+                    uncovered.push(format!("{describe}: measured frames: {e}"));
                     break;
                 }
                 Err(e) => notes.push(format!("{file}: {describe}: {quantity}: {e}")),
             }
         }
+    }
+    match uncovered.len() {
+        0 => {}
+        1 => notes.push(format!(
+            "{file}: {}: no step response for it (the other outputs are kept)",
+            uncovered[0]
+        )),
+        n => notes.push(format!(
+            "{file}: {n} steps without enough measured frames around them, no step response for them (the other outputs are kept); the first: {}",
+            uncovered[0]
+        )),
     }
     Some(StepResults {
         rows,
@@ -679,5 +714,10 @@ mod tests {
             ]
         );
         assert!(manifest_branches(&videos[..4]).is_none(), "rising only");
+        // Pressures repeated in order: the drops have one video each, no protocol.
+        let repeated: Vec<VideoRecord> = [20.0, 35.0, 50.0, 20.0, 35.0, 50.0, 20.0, 35.0]
+            .map(mk)
+            .to_vec();
+        assert!(manifest_branches(&repeated).is_none());
     }
 }
