@@ -6,7 +6,8 @@
 //! undistortion) -> [`scale`] (mm per undistorted pixel) -> [`detect`] (red mask, hole
 //! fill, labels, centroids) -> [`select`] (the markers among red blobs) -> [`fit`]
 //! (circle, plane, bending angle, power law) -> [`pipeline`] (a session measured:
-//! sources, `measure_frame`, cache, outputs; its records and statistics in [`measure`])
+//! sources, `measure_frame`, cache, outputs; its records and statistics in [`measure`];
+//! hysteresis loops and step responses of the pressure history in [`dynamics`])
 //! -> [`report`] (plots,
 //! overlays, the HTML page). [`session`] (manifest, pressure log, settings), [`table`]
 //! (the one CSV layer), [`rgbd`] (colour + depth: PNG folders, RealSense bags) and
@@ -42,6 +43,7 @@ pub mod child;
 pub mod compare;
 pub mod control;
 pub mod detect;
+pub mod dynamics;
 pub mod fem;
 pub mod fit;
 pub mod fit_model;

@@ -12,8 +12,11 @@
 //!              source (video chapters / RGB-D frames) -> frame::measure_frame ->
 //!              FrameRecord; stats::summarize -> VideoRecord; the overlay
 //!              [`video_run`], [`rgbd_run`], [`item`]
+//!   dynamics   loading / unloading branches of the pressure history (bins per
+//!              branch), the loops, step responses of a recording [`dynamics`]
 //!   output     per_frame.csv, markers.csv (in the session's axes, [`markers`]),
-//!              per_video.csv, fit.json, session.json, plots/, report.html [`output`]
+//!              per_video.csv, fit.json, session.json, plots/, report.html [`output`];
+//!              hysteresis.json, step_response.csv [`dynamics_out`]
 //! ```
 //!
 //! A run holds OUT's lock ([`lock`]) from its first write to its last, so two runs never
@@ -30,6 +33,8 @@
 
 pub mod cache;
 pub mod camera;
+pub mod dynamics;
+pub mod dynamics_out;
 pub mod error;
 pub mod frame;
 pub mod item;
@@ -139,6 +144,14 @@ fn measure_session_into(
         videos: vec![],
     };
     let cache = Cache::new(out);
+    // A recording's pressure log: its branches (bins per branch) and steps.
+    let history = match &layout {
+        Layout::Rgbd(log, _) | Layout::Ramp(log, _) => {
+            Some(dynamics::LogHistory::of_log(log, config.ramp_time_offset_s))
+        }
+        Layout::Step(_) => None,
+    };
+    let branched = history.as_ref().filter(|h| h.has_branches());
     let mut items: Vec<ItemResult> = Vec::new();
     let (unit, skipped, binned) = match &layout {
         Layout::Rgbd(log, frames) => {
@@ -216,6 +229,8 @@ fn measure_session_into(
         markers::set_tip_poses(items.iter_mut().flat_map(|i| &mut i.frames), axes);
     }
     let mut videos: Vec<VideoRecord> = Vec::new();
+    // Each row's branch (a ramp whose pressure rises and falls).
+    let mut row_branches: Vec<Option<dynamics::RowBranch>> = Vec::new();
     let mut frames: Vec<FrameRecord> = Vec::new();
     let mut report_warnings: Vec<String> = Vec::new();
     if let Some(w) = markers::clamp_end_warning(items.iter().flat_map(|i| &i.frames)) {
@@ -249,7 +264,19 @@ fn measure_session_into(
         }
         match binned {
             Some(bin_kpa) if record.status.is_measured() => {
-                for (p, stats) in stats::bin_by_pressure(&item.frames, bin_kpa) {
+                let bins: Vec<(Option<dynamics::RowBranch>, f64, stats::FrameStats)> =
+                    match branched {
+                        Some(h) => h
+                            .bin_by_branch(&item.frames, bin_kpa)
+                            .into_iter()
+                            .map(|(b, p, s)| (Some(b), p, s))
+                            .collect(),
+                        None => stats::bin_by_pressure(&item.frames, bin_kpa)
+                            .into_iter()
+                            .map(|(p, s)| (None, p, s))
+                            .collect(),
+                    };
+                for (branch, p, stats) in bins {
                     videos.push(VideoRecord {
                         file: item.file.clone(),
                         pressure_kpa: p,
@@ -257,9 +284,13 @@ fn measure_session_into(
                         stats,
                         status: record.status.clone(),
                     });
+                    row_branches.push(branch);
                 }
             }
-            _ => videos.push(record),
+            _ => {
+                videos.push(record);
+                row_branches.push(None);
+            }
         }
         frames.extend(item.frames);
     }
@@ -268,7 +299,13 @@ fn measure_session_into(
     }
     for issue in &skipped {
         videos.push(VideoRecord::skipped(&issue.file, issue.message.clone()));
+        row_branches.push(None);
         failed += 1;
+    }
+    let dynamics = dynamics::session_dynamics(history.as_ref(), &videos, row_branches, &frames);
+    for n in &dynamics.notes {
+        notes.push(format!("warning: {n}"));
+        report_warnings.push(n.clone());
     }
     let name = session
         .canonicalize()
@@ -292,6 +329,7 @@ fn measure_session_into(
             unit,
             rms,
             provenance: &provenance,
+            dynamics: &dynamics,
         },
     )?;
     for n in &fits.notes {

@@ -17,6 +17,8 @@ use crate::table::{write_csv, Column};
 
 use crate::segments::{Segment, SegmentStats};
 
+use super::dynamics::{BranchFits, SessionDynamics};
+use super::dynamics_out::{self, DYNAMICS_PLOT_STEMS, HYSTERESIS_JSON, STEP_RESPONSE_CSV};
 use super::error::PipelineError;
 use super::markers::{write_markers_csv, SessionAxes};
 use super::page;
@@ -50,6 +52,7 @@ fn output_stages() -> Vec<Vec<String>> {
     let plots = PLOT_STEMS
         .iter()
         .chain(&SEGMENT_PLOT_STEMS)
+        .chain(&DYNAMICS_PLOT_STEMS)
         .flat_map(|s| [format!("plots/{s}.png"), format!("plots/{s}.svg")])
         .collect();
     vec![
@@ -58,6 +61,8 @@ fn output_stages() -> Vec<Vec<String>> {
         vec!["per_video.csv".into()],
         vec![PER_SEGMENT_CSV.into()],
         vec!["fit.json".into()],
+        vec![HYSTERESIS_JSON.into()],
+        vec![STEP_RESPONSE_CSV.into()],
         vec![SESSION_JSON.into()],
         plots,
         vec!["report.html".into()],
@@ -87,6 +92,10 @@ pub struct SessionFits {
     /// Segmented actuators: each segment's fits (absent without segments).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub segments: Vec<SegmentFits>,
+    /// A session whose pressure rises and falls: each loading and unloading branch's
+    /// fits (absent with one branch).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub branches: Vec<BranchFits>,
 }
 
 /// Power-law fits of one segment of a segmented actuator (`null` when there are too few
@@ -235,6 +244,7 @@ pub fn fit_records(rows: &[VideoRecord], unit: PressureUnit) -> SessionFits {
         ),
         notes,
         segments: vec![],
+        branches: vec![],
     };
     for (names, why) in failed {
         fits.notes
@@ -265,12 +275,14 @@ impl RmsUnit {
 /// `curvature_m<k>_per_m` per inner marker k = 2 .. n-1 of the longest marker chain
 /// (the circle through markers k-1, k, k+1, [`profile::curvature_profile_per_m`]).
 /// With `smoothed`, `radius_mm_smooth`, `curvature_per_m_smooth` and
-/// `bending_angle_deg_smooth` follow their raw columns ([`super::smooth`]).
+/// `bending_angle_deg_smooth` follow their raw columns ([`super::smooth`]). `branch`
+/// columns (a session whose pressure rises and falls) follow `pressure_kpa`.
 pub fn write_per_frame_csv(
     path: &Path,
     rows: &[FrameRecord],
     rms: RmsUnit,
     smoothed: bool,
+    branch: Vec<Column>,
 ) -> Result<(), PipelineError> {
     let f = |g: fn(&FrameRecord) -> f64| rows.iter().map(g).collect::<Vec<f64>>();
     let profiles: Vec<Vec<f64>> = rows
@@ -283,11 +295,14 @@ pub fn write_per_frame_csv(
         Column::int("frame", rows.iter().map(|r| r.frame)),
         Column::num("time_s", 4, f(|r| r.time_s)),
         Column::num("pressure_kpa", 3, f(|r| r.pressure_kpa)),
+    ];
+    cols.extend(branch);
+    cols.extend([
         Column::int("n_markers", rows.iter().map(|r| r.n_markers as u64)),
         Column::int("n_ignored", rows.iter().map(|r| r.n_ignored as u64)),
         Column::num("radius_px", 3, f(|r| r.radius_px)),
         Column::num("radius_mm", 4, f(|r| r.radius_mm)),
-    ];
+    ]);
     if smoothed {
         cols.push(Column::num(
             "radius_mm_smooth",
@@ -335,12 +350,13 @@ pub fn write_per_frame_csv(
 }
 
 /// Writes `per_video.csv` (a `pressure_<unit>` column follows `pressure_kpa` when the
-/// manifest used another unit).
+/// manifest used another unit; then the `branch` columns, when given).
 pub fn write_per_video_csv(
     path: &Path,
     rows: &[VideoRecord],
     unit: PressureUnit,
     rms: RmsUnit,
+    branch: Vec<Column>,
 ) -> Result<(), PipelineError> {
     let f = |g: fn(&VideoRecord) -> f64| rows.iter().map(g).collect::<Vec<f64>>();
     let mut cols = vec![
@@ -354,6 +370,7 @@ pub fn write_per_video_csv(
             f(|r| r.pressure),
         ));
     }
+    cols.extend(branch);
     cols.extend([
         Column::num("radius_mm", 4, f(|r| r.stats.radius_mm)),
         Column::num("radius_mm_median", 4, f(|r| r.stats.radius_mm_median)),
@@ -410,6 +427,8 @@ pub struct SessionOutputs<'a> {
     pub rms: RmsUnit,
     /// How the results were made (session.json, and the report's setup lines).
     pub provenance: &'a Provenance,
+    /// Branches, loops and step responses ([`super::dynamics`]).
+    pub dynamics: &'a SessionDynamics,
 }
 
 /// Writes every output of a session into `out`; returns its fits (their notes are for
@@ -432,11 +451,23 @@ fn write_stages(
     s: &SessionOutputs,
     done: &mut usize,
 ) -> Result<SessionFits, PipelineError> {
-    write_per_frame_csv(&out.join("per_frame.csv"), s.frames, s.rms, s.smoothed)?;
+    write_per_frame_csv(
+        &out.join("per_frame.csv"),
+        s.frames,
+        s.rms,
+        s.smoothed,
+        dynamics_out::branch_columns(&s.dynamics.frames),
+    )?;
     *done += 1;
     write_markers_csv(&out.join(MARKERS_CSV), s.frames, s.axes)?;
     *done += 1;
-    write_per_video_csv(&out.join("per_video.csv"), s.videos, s.unit, s.rms)?;
+    write_per_video_csv(
+        &out.join("per_video.csv"),
+        s.videos,
+        s.unit,
+        s.rms,
+        dynamics_out::branch_columns(&s.dynamics.rows),
+    )?;
     *done += 1;
     if s.segments.is_empty() {
         // An earlier run's table must not stand for this run's.
@@ -447,12 +478,18 @@ fn write_stages(
     *done += 1;
     let mut fits = fit_records(s.videos, s.unit);
     fits.segments = fit_segment_records(s.videos, s.segments);
+    fits.branches = s.dynamics.branch_fits.clone();
     write_json(&out.join("fit.json"), &fits)?;
+    *done += 1;
+    dynamics_out::write_hysteresis_json(out, s.dynamics)?;
+    *done += 1;
+    dynamics_out::write_step_response_csv(out, s.dynamics)?;
     *done += 1;
     write_json(&out.join(SESSION_JSON), s.provenance)?;
     *done += 1;
     let mut plots = write_plots(out, s.videos, &fits, s.frames)?;
     plots.extend(write_segment_plots(out, s.videos, s.segments)?);
+    let dynamic_plots = dynamics_out::write_dynamics_plots(out, s.videos, s.dynamics)?;
     *done += 1;
     html::write_session_report(
         &out.join("report.html"),
@@ -465,6 +502,7 @@ fn write_stages(
             setup: Some(&page::setup(s.provenance)),
             segments: s.segments,
             warnings: s.warnings,
+            sections: &dynamics_out::report_sections(s.dynamics, &dynamic_plots),
         },
     )?;
     *done += 1;
@@ -745,7 +783,7 @@ mod tests {
         let mut rows = vec![row("a.mp4", 20.0, 120.0), row("b, c.mp4", 40.0, 80.0)];
         rows[1].stats.radius_mm_median = f64::NAN;
         rows.push(VideoRecord::skipped("x.mp4", "listed twice".into()));
-        write_per_video_csv(&p, &rows, PressureUnit::Bar, RmsUnit::Px).unwrap();
+        write_per_video_csv(&p, &rows, PressureUnit::Bar, RmsUnit::Px, vec![]).unwrap();
         let text = std::fs::read_to_string(&p).unwrap();
         let mut lines = text.lines();
         assert_eq!(

@@ -34,6 +34,23 @@ pub struct SessionReport<'a> {
     pub segments: &'a [Segment],
     /// Warnings about the measurement (one-circle check, ...), shown above the tables.
     pub warnings: &'a [String],
+    /// Sections of their own (hysteresis, step response), after the fits.
+    pub sections: &'a [Section],
+}
+
+/// A section of the report beside the standard ones: a title, lines of text, a table
+/// and plots (stems relative to the output folder, each with an .svg), all given as
+/// plain text (escaped here).
+#[derive(Debug, Clone, Default)]
+pub struct Section {
+    /// Its heading.
+    pub title: String,
+    /// Lines of text, a list.
+    pub lines: Vec<String>,
+    /// A table: header and rows.
+    pub table: Option<(Vec<String>, Vec<Vec<String>>)>,
+    /// Its plots.
+    pub plots: Vec<String>,
 }
 
 /// How a row of the per-video table is marked.
@@ -281,7 +298,11 @@ pub fn session_report_html(r: &SessionReport) -> String {
     for n in &r.fits.notes {
         let _ = writeln!(h, "<li>{}</li>", escape(n));
     }
-    h.push_str("</ul>\n<h2>Plots</h2>\n");
+    h.push_str("</ul>\n");
+    for s in r.sections {
+        section(&mut h, r.out, s);
+    }
+    h.push_str("<h2>Plots</h2>\n");
     for stem in r.plots {
         h.push_str(&plot_figure(r.out, stem));
         h.push('\n');
@@ -300,6 +321,37 @@ pub fn session_report_html(r: &SessionReport) -> String {
     }
     h.push_str("</body></html>\n");
     h
+}
+
+/// A [`Section`]: heading, lines, table, plots.
+fn section(h: &mut String, out: &Path, s: &Section) {
+    let _ = writeln!(h, "<h2>{}</h2>", escape(&s.title));
+    if !s.lines.is_empty() {
+        h.push_str("<ul>\n");
+        for l in &s.lines {
+            let _ = writeln!(h, "<li>{}</li>", escape(l));
+        }
+        h.push_str("</ul>\n");
+    }
+    if let Some((header, rows)) = &s.table {
+        h.push_str("<table><tr>");
+        for c in header {
+            let _ = write!(h, "<th>{}</th>", escape(c));
+        }
+        h.push_str("</tr>\n");
+        for row in rows {
+            h.push_str("<tr>");
+            for c in row {
+                let _ = write!(h, "<td>{}</td>", escape(c));
+            }
+            h.push_str("</tr>\n");
+        }
+        h.push_str("</table>\n");
+    }
+    for stem in &s.plots {
+        h.push_str(&plot_figure(out, stem));
+        h.push('\n');
+    }
 }
 
 /// The per-segment table (per_segment.csv) and each segment's fits.
