@@ -98,14 +98,10 @@ impl Shape for Finger {
     }
 
     fn validate_layers(&self, cfg: &ActuatorConfig) -> Result<(), FemError> {
-        if cfg.layer.is_empty() {
-            Ok(())
-        } else {
-            Err(crate::fem::config::bad(
-                "layer",
-                "the segmented finger takes no [[layer]] tables: remove them".into(),
-            ))
-        }
+        super::no_layers(
+            cfg,
+            "the segmented finger takes no [[layer]] tables: remove them",
+        )
     }
 
     fn validate(&self, cfg: &ActuatorConfig) -> Result<(), FemError> {

@@ -233,14 +233,7 @@ impl Shape for Imported {
     }
 
     fn validate_layers(&self, cfg: &ActuatorConfig) -> Result<(), FemError> {
-        if cfg.layer.is_empty() {
-            Ok(())
-        } else {
-            Err(crate::fem::config::bad(
-                "layer",
-                "an imported mesh takes no [[layer]] tables yet: remove them (its layers would be `layer.NAME` surfaces of the mesh, not yet read either)".into(),
-            ))
-        }
+        super::no_layers(cfg, "an imported mesh takes no [[layer]] tables yet: remove them (its layers would be `layer.NAME` surfaces of the mesh, not yet read either)")
     }
 
     fn validate(&self, cfg: &ActuatorConfig) -> Result<(), FemError> {

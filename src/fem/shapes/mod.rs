@@ -138,6 +138,15 @@ impl ActuatorConfig {
     }
 }
 
+/// Refuses `[[layer]]` tables on a shape that takes none, saying `why`.
+fn no_layers(cfg: &ActuatorConfig, why: &str) -> Result<(), FemError> {
+    if cfg.layer.is_empty() {
+        Ok(())
+    } else {
+        Err(super::config::bad("layer", why.into()))
+    }
+}
+
 /// The families' names, in the registry's order.
 fn family_names() -> &'static [&'static str] {
     static NAMES: OnceLock<Vec<&'static str>> = OnceLock::new();
