@@ -109,6 +109,19 @@ fn smooth_start(pts: &[Point2<f64>], window: f64) -> (usize, f64) {
     (kept, net)
 }
 
+/// Length ratio over which the longer smooth run is the strain-limited edge: above the
+/// ratio of a bend's outer to inner edge unless its inner radius is under half the body's
+/// height.
+pub const LONGER_RUN: f64 = 3.0;
+
+/// Length of the first `k` points of `pts`.
+fn run_length(pts: &[Point2<f64>], k: usize) -> f64 {
+    pts[..k.min(pts.len())]
+        .windows(2)
+        .map(|w| (w[1] - w[0]).norm())
+        .sum()
+}
+
 /// Twice the signed area of the closed loop `pts` (positive: clockwise on screen, y
 /// down).
 fn signed_area2(pts: &[Point2<f64>]) -> f64 {
@@ -166,10 +179,18 @@ pub fn strain_limited_edge(
     // the concave edge turns the other way. The reversed walk flips the sign.
     let sense = signed_area2(loop_mm).signum();
     let (concave_a, concave_b) = (-sense * ta, sense * tb);
-    eprintln!(
-        "DEBUG n {n} lo {lo} hi {hi} len {len} ka {ka} ta {ta} kb {kb} tb {tb} sense {sense}"
-    );
-    let edge: Vec<usize> = if concave_a >= concave_b {
+    // The chambered edge stops at its first gap, the strain-limited one runs to the tip:
+    // a run [`LONGER_RUN`] times the other's length is the edge whatever the turnings say,
+    // since a short run's turning is mostly the onset of the corner that stopped it.
+    let (la, lb) = (run_length(&pts, ka), run_length(&rev, kb));
+    let take_a = if la >= LONGER_RUN * lb {
+        true
+    } else if lb >= LONGER_RUN * la {
+        false
+    } else {
+        concave_a >= concave_b
+    };
+    let edge: Vec<usize> = if take_a {
         chain[..ka].to_vec()
     } else {
         chain.iter().rev().take(kb).copied().collect()
@@ -378,9 +399,10 @@ mod tests {
 
     /// The boundary of a band bent about (0, -r0) (y down, the body bending upward, the
     /// clamp on the left at x = 0): inner edge of radius `r_in`, outer of `r_in + h`,
-    /// `angle` of turn; the outer edge notched every `notch` rad when given. Points
-    /// about 0.1 mm apart, walked clockwise on screen.
-    fn band(r_in: f64, h: f64, angle: f64, notch: Option<f64>) -> Vec<Point2<f64>> {
+    /// `angle` of turn; the outer edge notched every `notch` rad when given, each
+    /// chamber's top then dented `dent` mm into the body (a half sine between notches).
+    /// Points about 0.1 mm apart, walked clockwise on screen.
+    fn band(r_in: f64, h: f64, angle: f64, notch: Option<f64>, dent: f64) -> Vec<Point2<f64>> {
         let c = Point2::new(0.0, -r_in);
         let at = |r: f64, a: f64| Point2::new(c.x + r * a.sin(), c.y + r * a.cos());
         let mut pts = vec![];
@@ -402,7 +424,8 @@ mod tests {
         while a > 0.0 {
             let depth = match notch {
                 Some(p) if (a / p).fract() < 0.05 => 3.0,
-                _ => 0.0,
+                Some(p) => dent * (std::f64::consts::PI * (a / p).fract()).sin(),
+                None => 0.0,
             };
             pts.push(at(r_in + h - depth, a));
             a -= step(r_in + h);
@@ -418,14 +441,18 @@ mod tests {
 
     #[test]
     fn the_concave_edge_is_kept_from_past_the_clamp_to_before_the_tip() {
-        for (r_in, notch, reversed) in [
-            (60.0, None, false),
-            (60.0, Some(0.15), false),
-            (30.0, Some(0.3), true),
-            (200.0, None, true),
+        // The last two: nearly straight, chambers 16 mm long whose dented tops make the
+        // short run before the first gap turn more concavely than the whole long edge.
+        for (r_in, notch, dent, reversed) in [
+            (60.0, None, 0.0, false),
+            (60.0, Some(0.15), 0.0, false),
+            (30.0, Some(0.3), 0.0, true),
+            (200.0, None, 0.0, true),
+            (260.0, Some(16.0 / 283.5), 4.0, false),
+            (260.0, Some(16.0 / 283.5), 4.0, true),
         ] {
             let (h, angle) = (23.5, 100.0 / r_in);
-            let mut pts = band(r_in, h, angle, notch);
+            let mut pts = band(r_in, h, angle, notch, dent);
             if reversed {
                 pts.reverse();
             }
