@@ -9,8 +9,8 @@
 //!
 //! One module per fit, each re-exported here: `circle` (Pratt, Kasa and geometric circles,
 //! and circles through 3D points), `angle` (bending angles), `plane` (a robust plane
-//! through 3D points), `power_law` (y = a x^b + c), `student` (Student's t quantiles); `error` holds [`FitError`], which they
-//! share.
+//! through 3D points), `power_law` (y = a x^b + c), `student` (Student's t quantiles for
+//! confidence intervals); `error` holds [`FitError`], which they share.
 
 mod angle;
 mod circle;
