@@ -455,6 +455,95 @@ pub fn write_session_report(path: &Path, r: &SessionReport) -> Result<(), Report
 mod tests {
     use super::*;
 
+    fn row(file: &str, measured: bool) -> VideoRow {
+        VideoRow {
+            file: file.into(),
+            overlay: format!("overlays/{file}.png"),
+            pressure_kpa: 20.0,
+            radius_mm: 100.0,
+            radius_mm_median: 100.0,
+            radius_mm_std: 0.1,
+            curvature_per_m: 10.0,
+            bending_angle_deg: 30.0,
+            frames_used: 3,
+            frames_rejected: 0,
+            status: "ok".into(),
+            state: if measured {
+                RowState::Ok
+            } else {
+                RowState::Bad
+            },
+            measured,
+            segments: vec![],
+        }
+    }
+
+    /// A thumbnail beside each measured row with an overlay, THUMBNAIL_WIDTH_PX wide at
+    /// the overlay's aspect ratio, linking to its figure; none for a row not measured or
+    /// without an overlay file; at most MAX_THUMBNAILS, and the page says so when capped.
+    #[test]
+    fn thumbnails_sit_beside_measured_rows_and_are_capped() {
+        let d = tempfile::tempdir().unwrap();
+        std::fs::create_dir(d.path().join("overlays")).unwrap();
+        let n = MAX_THUMBNAILS + 2;
+        let mut rows: Vec<VideoRow> = (0..n).map(|i| row(&format!("v{i}"), true)).collect();
+        let overlay = image::RgbImage::from_pixel(640, 480, image::Rgb([200, 10, 10]));
+        for r in &rows {
+            overlay.save(d.path().join(&r.overlay)).unwrap();
+        }
+        rows.insert(0, row("bad", false));
+        overlay.save(d.path().join("overlays/bad.png")).unwrap();
+        rows.insert(1, row("no-overlay", true));
+        let fits = Fits {
+            radius_mm_vs_kpa: None,
+            curvature_per_m_vs_kpa: None,
+            bending_angle_deg_vs_kpa: None,
+            notes: vec![],
+            segments: vec![],
+        };
+        let html = session_report_html(&SessionReport {
+            name: "s",
+            out: d.path(),
+            videos: &rows,
+            fits: &fits,
+            plots: &[],
+            setup: None,
+            segments: &[],
+            warnings: &[],
+            sections: &[],
+        });
+        let thumbs: Vec<&str> = html.split("<img class=\"thumb\"").skip(1).collect();
+        assert_eq!(thumbs.len(), MAX_THUMBNAILS);
+        // 640 x 480 -> 160 x 120.
+        assert!(thumbs[0].starts_with(" alt=\"overlay of v0\" width=\"160\" height=\"120\""));
+        let line = |file: &str| {
+            html.lines()
+                .find(|l| l.contains(&format!(">{file}</a></td>")))
+                .unwrap()
+                .to_string()
+        };
+        assert!(line("v0").contains("<td class=\"thumb\"><a href=\"#overlay-v0\"><img"));
+        for none in ["bad", "no-overlay", &format!("v{}", MAX_THUMBNAILS)] {
+            assert!(line(none).contains("<td class=\"thumb\"></td>"), "{none}");
+        }
+        assert!(html.contains(&format!(
+            "Thumbnails for the first {MAX_THUMBNAILS} measured rows only"
+        )));
+        rows.truncate(5);
+        let html = session_report_html(&SessionReport {
+            videos: &rows,
+            name: "s",
+            out: d.path(),
+            fits: &fits,
+            plots: &[],
+            setup: None,
+            segments: &[],
+            warnings: &[],
+            sections: &[],
+        });
+        assert!(!html.contains("Thumbnails for the first"), "not capped");
+    }
+
     #[test]
     fn escapes_markup() {
         assert_eq!(
