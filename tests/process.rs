@@ -5,10 +5,12 @@ mod common;
 
 use std::fs;
 use std::path::{Path, PathBuf};
+use std::process::Command;
 
 use bendscope::render::session::SessionTruth;
 use bendscope::video::{EncodeSettings, VideoWriter};
 use common::{col, copy_dir, fixture, read_csv, Run};
+use plotters::style::{Color, Palette, Palette99};
 
 /// Accuracy the issue asks for on every video.
 const RADIUS_TOLERANCE: f64 = 0.005;
@@ -102,6 +104,201 @@ fn example_session_matches_the_ground_truth() {
         out.join("calibration.yaml").is_file(),
         "calib/ calibrated and cached"
     );
+    for p in ["radius_vs_pressure", "angle_vs_pressure"] {
+        let pdf = fs::read(out.join("plots").join(format!("{p}.pdf"))).unwrap();
+        assert!(pdf.starts_with(b"%PDF-"), "{p}.pdf");
+    }
+    let names: Vec<&str> = t.videos.iter().map(|v| v.file.as_str()).collect();
+    report_picture_shows_plots_and_thumbnails(&out, &names);
+}
+
+/// Chromium's arguments for a reproducible headless page at `width` x `height` CSS px.
+fn chromium(profile: &Path, width: u32, height: u32) -> Command {
+    let mut c = Command::new(CHROMIUM);
+    c.args([
+        "--headless=new",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--hide-scrollbars",
+        "--force-device-scale-factor=1",
+        "--no-first-run",
+        "--disable-background-networking",
+        "--disable-component-update",
+        "--disable-sync",
+    ])
+    .arg(format!("--user-data-dir={}", profile.display()))
+    .arg(format!("--window-size={width},{height}"));
+    c
+}
+
+/// Debian's Chromium (scripts/setup.sh installs it).
+const CHROMIUM: &str = "/usr/bin/chromium";
+
+/// A box on the page, CSS px (= screenshot px at scale factor 1).
+#[derive(Debug, Clone, Copy)]
+struct Rect {
+    x: u32,
+    y: u32,
+    w: u32,
+    h: u32,
+}
+
+/// The page boxes of the elements `report.html` shows, measured by the browser: a copy
+/// of the page with a script that writes each box into the DOM (the report itself has
+/// no script), laid out at the same window size as the screenshot.
+fn page_boxes(out: &Path, profile: &Path, width: u32, height: u32) -> Vec<(String, Rect)> {
+    let html = fs::read_to_string(out.join("report.html")).unwrap();
+    let script = r#"<script>var o=[];function box(n,e){var r=e.getBoundingClientRect();o.push(n+"|"+[r.left,r.top,r.width,r.height].map(Math.round).join(","));}
+document.querySelectorAll("img.thumb").forEach(function(e){box("thumb:"+e.alt,e);});
+document.querySelectorAll("figure[data-plot] svg").forEach(function(e){box("plot:"+e.parentNode.getAttribute("data-plot"),e);});
+var p=document.createElement("pre");p.id="boxes";p.textContent=o.join("\n");document.body.appendChild(p);</script>"#;
+    let probe = out.join("report-probe.html");
+    fs::write(&probe, html.replace("</body>", &format!("{script}</body>"))).unwrap();
+    let dom = chromium(profile, width, height)
+        .arg("--dump-dom")
+        .arg(format!("file://{}", probe.display()))
+        .output()
+        .unwrap();
+    fs::remove_file(&probe).unwrap();
+    assert!(
+        dom.status.success(),
+        "{}",
+        String::from_utf8_lossy(&dom.stderr)
+    );
+    let dom = String::from_utf8_lossy(&dom.stdout).into_owned();
+    let at = dom.find("<pre id=\"boxes\">").expect("the script ran") + 16;
+    dom[at..at + dom[at..].find("</pre>").unwrap()]
+        .lines()
+        .map(|l| {
+            let (name, b) = l.split_once('|').unwrap();
+            let v: Vec<u32> = b.split(',').map(|x| x.parse().unwrap()).collect();
+            let r = Rect {
+                x: v[0],
+                y: v[1],
+                w: v[2],
+                h: v[3],
+            };
+            (name.replace("&amp;", "&"), r)
+        })
+        .collect()
+}
+
+/// Pixels of `img` in `r` within `tol` of `rgb` on every channel.
+fn count_colour(img: &image::RgbImage, r: Rect, rgb: [u8; 3], tol: u8) -> usize {
+    (r.y..r.y + r.h)
+        .flat_map(|y| (r.x..r.x + r.w).map(move |x| (x, y)))
+        .filter(|&(x, y)| {
+            let p = img.get_pixel(x, y).0;
+            (0..3).all(|c| p[c].abs_diff(rgb[c]) <= tol)
+        })
+        .count()
+}
+
+/// Mean absolute difference per channel between `img` in `r` and `other` (r's size).
+fn mean_abs_diff(img: &image::RgbImage, r: Rect, other: &image::RgbImage) -> f64 {
+    let mut sum = 0u64;
+    for y in 0..r.h {
+        for x in 0..r.w {
+            let (a, b) = (img.get_pixel(r.x + x, r.y + y).0, other.get_pixel(x, y).0);
+            sum += (0..3).map(|c| a[c].abs_diff(b[c]) as u64).sum::<u64>();
+        }
+    }
+    sum as f64 / (3 * r.w * r.h) as f64
+}
+
+/// Headless Chromium renders the session's report.html and its picture holds what a
+/// reader should see: in the radius plot, the measured markers and the fit line in their
+/// series colours (plotters' Palette99, as src/report draws them); beside each video's
+/// row a thumbnail that is that video's overlay, downscaled (compared with the overlay
+/// the test downscales itself, with another filter).
+fn report_picture_shows_plots_and_thumbnails(out: &Path, videos: &[&str]) {
+    assert!(
+        Path::new(CHROMIUM).is_file(),
+        "{CHROMIUM} is missing: this test renders report.html in it; install it with scripts/setup.sh (Debian: apt-get install chromium)"
+    );
+    let started = std::time::Instant::now();
+    let profile = tempfile::tempdir().unwrap();
+    let (width, height) = (1400, 3000);
+    let boxes = page_boxes(out, profile.path(), width, height);
+    let shot = out.join("report-shot.png");
+    let run = chromium(profile.path(), width, height)
+        .arg(format!("--screenshot={}", shot.display()))
+        .arg(format!("file://{}", out.join("report.html").display()))
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let img = image::open(&shot).unwrap().to_rgb8();
+    fs::remove_file(&shot).unwrap();
+    assert_eq!(img.dimensions(), (width, height));
+    let inside = |r: Rect| r.w > 0 && r.x + r.w <= width && r.y + r.h <= height;
+    // The plot: markers (series 0) and the power-law line (series 1).
+    let plot = boxes
+        .iter()
+        .find(|(n, _)| n == "plot:plots/radius_vs_pressure.svg")
+        .map(|(_, r)| *r)
+        .expect("radius plot on the page");
+    assert!(inside(plot), "radius plot {plot:?} in the screenshot");
+    let colour = |i: usize| {
+        let c = Palette99::pick(i).to_rgba().rgb();
+        [c.0, c.1, c.2]
+    };
+    let markers = count_colour(&img, plot, colour(0), 8);
+    let line = count_colour(&img, plot, colour(1), 8);
+    // Five markers of radius 10 plot units (6.3 CSS px at 640 px wide) are ~600 px;
+    // the fit line, 6 units (3.8 px) wide over ~400 px, ~1500 px.
+    eprintln!("report picture: radius plot {plot:?}: {markers} marker px, {line} fit-line px");
+    assert!(markers > 300, "marker pixels {markers}");
+    assert!(line > 500, "fit line pixels {line}");
+    // Thumbnails: one per measured video, each its own overlay (nearer to it than to
+    // any other video's: the videos differ only in the arc, a small part of the frame).
+    let thumbs: Vec<Rect> = videos
+        .iter()
+        .map(|v| {
+            boxes
+                .iter()
+                .find(|(n, _)| *n == format!("thumb:overlay of {v}"))
+                .map(|(_, r)| *r)
+                .unwrap_or_else(|| panic!("{v}: no thumbnail"))
+        })
+        .collect();
+    let (w, h) = (thumbs[0].w, thumbs[0].h);
+    let smalls: Vec<image::RgbImage> = videos
+        .iter()
+        .map(|v| {
+            let overlay = image::open(out.join("overlays").join(format!("{v}.png")))
+                .unwrap()
+                .to_rgb8();
+            image::imageops::resize(&overlay, w, h, image::imageops::FilterType::Triangle)
+        })
+        .collect();
+    let white = image::RgbImage::from_pixel(w, h, image::Rgb([255, 255, 255]));
+    for (i, (v, r)) in videos.iter().zip(&thumbs).enumerate() {
+        assert!(inside(*r) && (r.w, r.h) == (160, h), "{v}: thumbnail {r:?}");
+        let own = mean_abs_diff(&img, *r, &smalls[i]);
+        let blank = mean_abs_diff(&img, *r, &white);
+        let other = (0..videos.len())
+            .filter(|&j| j != i)
+            .map(|j| mean_abs_diff(&img, *r, &smalls[j]))
+            .fold(f64::INFINITY, f64::min);
+        // Two downscaling filters (the report's and Triangle here) differ by < 1 level.
+        assert!(own < 1.0, "{v}: thumbnail {own:.2} levels from its overlay");
+        assert!(
+            other > 2.0 * own,
+            "{v}: as near another video's overlay ({other:.2})"
+        );
+        assert!(
+            blank > 20.0,
+            "{v}: thumbnail near blank ({blank:.1} levels from white)"
+        );
+        eprintln!(
+            "report picture: {v}: thumbnail {own:.2} levels from its overlay, {other:.2} from the nearest other, {blank:.1} from white"
+        );
+    }
+    eprintln!("report picture: {:.1} s", started.elapsed().as_secs_f64());
 }
 
 /// `[video] frames = "keyframes"` on the example (each video's first frame is its only
@@ -176,6 +373,22 @@ fn rerun_skips_current_videos_unless_forced() {
         fs::read_to_string(session.join("bendscope-out/per_video.csv")).unwrap(),
         before
     );
+    // The error bars as 95 % confidence intervals: the same cached results, the plots
+    // redrawn and saying so, the choice kept in session.json.
+    let ci = Run::new(dir.path(), &["process", "s", "--error-bars", "ci95"]);
+    assert_eq!(ci.code, 0, "{ci}");
+    let out = session.join("bendscope-out");
+    let svg = fs::read_to_string(out.join("plots/radius_vs_pressure.svg")).unwrap();
+    assert!(
+        svg.contains("measured (mean ± 95 % CI per video)"),
+        "legend"
+    );
+    let json: serde_json::Value =
+        serde_json::from_slice(&fs::read(out.join("session.json")).unwrap()).unwrap();
+    assert_eq!(json["settings"]["error_bars"], "ci95", "{json}");
+    let bad = Run::new(dir.path(), &["process", "s", "--error-bars", "sem"]);
+    assert_eq!(bad.code, 2, "{bad}");
+    assert!(bad.stderr.contains("give std"), "{bad}");
     let forced = Run::new(dir.path(), &["process", "s", "--force"]);
     assert_eq!(forced.code, 0, "{forced}");
     assert_ne!(

@@ -343,7 +343,7 @@ fn two_samples_of_two_runs_give_the_statistics_of_their_tables_and_the_truth() {
         "curvature_vs_pressure",
         "angle_vs_pressure",
     ] {
-        for ext in ["png", "svg"] {
+        for ext in ["png", "svg", "pdf"] {
             let p = out.join("plots").join(format!("{stem}.{ext}"));
             assert!(
                 fs::metadata(&p).map(|m| m.len() > 1000).unwrap_or(false),
@@ -388,6 +388,8 @@ fn two_samples_of_two_runs_give_the_statistics_of_their_tables_and_the_truth() {
             "B=B-run1/bendscope-out",
             "-o",
             "out2",
+            "--error-bars",
+            "ci95",
         ],
     );
     assert_eq!(run.code, 0, "{run}");
@@ -435,7 +437,94 @@ fn two_samples_of_two_runs_give_the_statistics_of_their_tables_and_the_truth() {
     }
     let html = fs::read_to_string(d.join("out2/report.html")).unwrap();
     assert!(html.contains("session A-run3 disagrees"));
+    ci95_bars_are_drawn_at_their_half_height(&d.join("out2"), &rows);
     eprintln!("study test: {:.1} s", started.elapsed().as_secs_f64());
+}
+
+/// The value of attribute `name` in an SVG tag.
+fn attr<'t>(tag: &'t str, name: &str) -> Option<&'t str> {
+    let start = tag.find(&format!(" {name}=\""))? + name.len() + 3;
+    Some(&tag[start..start + tag[start..].find('"')?])
+}
+
+/// With `--error-bars ci95`, each of sample A's bars (3 sessions a set point) spans
+/// t_{0.975, 2} std / sqrt(3) = 4.3027 std / sqrt(3) either side of its marker, the std
+/// from study.csv, at the plot's own px per mm (from A's first and last markers); B
+/// (one session) has none; the legend says which bars these are.
+fn ci95_bars_are_drawn_at_their_half_height(out: &Path, rows: &[BTreeMap<String, String>]) {
+    use plotters::style::{Color, Palette, Palette99};
+    let svg = fs::read_to_string(out.join("plots/radius_vs_pressure.svg")).unwrap();
+    assert!(svg.contains("sample A (mean ± 95 % CI)"), "legend");
+    let colour = |i: usize| {
+        let c = Palette99::pick(i).to_rgba().rgb();
+        format!("#{:02X}{:02X}{:02X}", c.0, c.1, c.2)
+    };
+    let tags = |kind: &str, key: &str, c: &str| -> Vec<String> {
+        svg.split('<')
+            .filter(|t| t.starts_with(kind) && attr(t, key) == Some(c))
+            .map(str::to_string)
+            .collect()
+    };
+    let num = |t: &str, n: &str| attr(t, n).unwrap().parse::<f64>().unwrap();
+    // Vertical two-point polylines: (x, top, bottom).
+    let bars = |c: &str| -> Vec<(f64, f64, f64)> {
+        tags("polyline", "stroke", c)
+            .iter()
+            .filter_map(|t| {
+                let p: Vec<(f64, f64)> = attr(t, "points")?
+                    .split_whitespace()
+                    .map(|xy| {
+                        let (x, y) = xy.split_once(',').unwrap();
+                        (x.parse().unwrap(), y.parse().unwrap())
+                    })
+                    .collect();
+                (p.len() == 2 && p[0].0 == p[1].0)
+                    .then(|| (p[0].0, p[0].1.min(p[1].1), p[0].1.max(p[1].1)))
+            })
+            .collect()
+    };
+    assert!(bars(&colour(1)).is_empty(), "no bar for B's one session");
+    let value = |r: &BTreeMap<String, String>, k: &str| r[k].parse::<f64>().unwrap();
+    let mut a: Vec<&BTreeMap<String, String>> =
+        rows.iter().filter(|r| r["sample"] == "A").collect();
+    a.sort_by(|p, q| value(p, "pressure_kpa").total_cmp(&value(q, "pressure_kpa")));
+    let mut markers: Vec<(f64, f64)> = tags("circle", "fill", &colour(0))
+        .iter()
+        .map(|t| (num(t, "cx"), num(t, "cy")))
+        .collect();
+    markers.sort_by(|p, q| p.0.total_cmp(&q.0));
+    let a_bars = bars(&colour(0));
+    assert_eq!(a_bars.len(), a.len(), "one bar per set point of A");
+    // The markers with a bar, left to right = the set points by pressure.
+    let with_bar: Vec<(f64, f64)> = markers
+        .into_iter()
+        .filter(|m| a_bars.iter().any(|b| (b.0 - m.0).abs() <= 1.5))
+        .collect();
+    assert_eq!(with_bar.len(), a.len());
+    let (first, last) = (a[0], a[a.len() - 1]);
+    let px_per_mm = (with_bar[0].1 - with_bar[a.len() - 1].1)
+        / (value(last, "radius_mm_mean") - value(first, "radius_mm_mean"));
+    for (r, m) in a.iter().zip(&with_bar) {
+        assert_eq!(r["n"], "3");
+        let std = value(r, "radius_mm_std");
+        let expected = 4.3027 * std / 3f64.sqrt() * px_per_mm.abs();
+        let b = a_bars.iter().find(|b| (b.0 - m.0).abs() <= 1.5).unwrap();
+        let half = 0.5 * (b.2 - b.1);
+        // SVG coordinates are whole px: 1.5 px for the rounding of both ends.
+        assert!(
+            (half - expected).abs() <= 1.5,
+            "{} kPa: bar half-length {half} px, expected {expected:.1} px",
+            r["pressure_kpa"]
+        );
+        assert!(
+            (half - std * px_per_mm.abs()).abs() > 3.0,
+            "a ci95 bar differs from a std bar"
+        );
+        assert!(
+            (0.5 * (b.1 + b.2) - m.1).abs() <= 1.5,
+            "centred on its marker"
+        );
+    }
 }
 
 /// A hand-made process output: per_video.csv at [`PRESSURES`] (radius law A times

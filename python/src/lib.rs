@@ -145,6 +145,7 @@ fn process(
         calibration,
         config,
         force,
+        error_bars: None,
     };
     let mut stages = StageProgress {
         callback: Callback::new(progress),
@@ -391,6 +392,7 @@ fn study(
                     .collect(),
                 fem: fem.unwrap_or_default(),
                 origin: "samples".into(),
+                error_bars: Default::default(),
             };
             spec.check().map(|_| spec)
         }

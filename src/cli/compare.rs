@@ -17,7 +17,7 @@ over the range both cover (rows at 0 kPa are left out of the fits, with a note).
 Deviation = simulated - measured (FEM fit minus measured fit, in the quantity's unit: a positive radius deviation is a simulated \
 radius larger than measured); RMSE % is relative to the RMS of the measured fit. \
 Writes in REPORT: compare.csv (per quantity: NAME_measured, NAME_fem, NAME_deviation on the grid), summary.txt, \
-compare.json and plots/ (PNG + SVG).
+compare.json and plots/ (PNG + SVG + PDF).
 Exit codes: 0 every quantity compared, 1 some could not be (why on stderr), 2 bad input, 3 none could be compared."
 )]
 pub struct CompareArgs {

@@ -16,7 +16,7 @@ use super::{EXIT_BAD_INPUT, EXIT_NOTHING, EXIT_OK, EXIT_PARTIAL};
 #[command(
     after_help = "NAME: a config field, section.field (geometry.f, material.c1, material.scale: a factor on every material coefficient) or a field name found in one section; bounds NAME=LO:HI (default: the config's value / and x 5).
 Each evaluation simulates the config (its mesh and solver settings) at the measured pressures; a coarse mesh (--mesh-size 3 or 4, or [mesh] size_mm in the config) keeps the fit to minutes.
-Outputs in OUT: fitted.toml (the config with the fitted values, for simulate --config), fit_model.json, fit_model.csv, plots/fit_model.png|svg."
+Outputs in OUT: fitted.toml (the config with the fitted values, for simulate --config), fit_model.json, fit_model.csv, plots/fit_model.png|svg|pdf."
 )]
 pub struct FitModelArgs {
     /// Output folder of bendscope process (holds per_video.csv), or that CSV.

@@ -32,7 +32,7 @@ pub enum MaterialCommand {
 #[derive(Debug, Args)]
 #[command(
     after_help = "DATA: CSV with the stretch (`stretch`) or strain (`strain` as a fraction, `strain_pct` in %) and the nominal stress with its unit (`stress_mpa`, `stress_kpa`, `stress_pa`, `stress_psi`).
-Outputs in OUT: material.toml (a [material] block for simulate --config; not for mooney-rivlin2 or negative Yeoh terms), material_fit.json, material_fit.csv, plots/material_fit.png|svg.
+Outputs in OUT: material.toml (a [material] block for simulate --config; not for mooney-rivlin2 or negative Yeoh terms), material_fit.json, material_fit.csv, plots/material_fit.png|svg|pdf.
 Exit codes: 0 fitted and block written, 1 fitted but no block written (the reason on stderr), 2 bad input."
 )]
 pub struct FitArgs {

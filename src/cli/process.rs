@@ -40,6 +40,11 @@ pub struct ProcessArgs {
     /// Reprocess videos whose results are current.
     #[arg(long)]
     pub force: bool,
+    /// What the plots' error bars show: std (one standard deviation of a video's frames)
+    /// or ci95 (95 % confidence interval of the mean, t with n - 1 over the frames used)
+    /// [default: the session's error_bars, else std].
+    #[arg(long, value_name = "std|ci95")]
+    pub error_bars: Option<bendscope::report::ErrorBars>,
 }
 
 /// Seconds between progress lines when stderr is not a terminal (a log file, a pipe):
@@ -117,6 +122,7 @@ pub fn run(args: &ProcessArgs) -> Result<u8> {
         calibration: args.calibration.clone(),
         config: args.config.clone(),
         force: args.force,
+        error_bars: args.error_bars,
     };
     let (mut measured, mut failed, mut bad_input, mut no_space) = (0usize, 0usize, 0usize, 0usize);
     let dirs = output_dirs(&args.sessions, args.output.as_deref());

@@ -47,7 +47,7 @@ pub const RUN_OUTPUT_FILES: [&str; 8] = [
     "sweep.csv",
 ];
 
-/// Plots of a run's results in its `plots/` (PNG and SVG each).
+/// Plots of a run's results in its `plots/` (PNG, SVG and PDF each).
 pub const RUN_PLOTS: [&str; 8] = [
     "radius",
     "curvature",
@@ -78,7 +78,7 @@ pub fn remove_earlier_outputs(out: &Path) -> Result<(), FemError> {
     let vtu = out.join("vtu");
     gone(std::fs::remove_dir_all(&vtu), &vtu)?;
     for stem in RUN_PLOTS {
-        for ext in ["png", "svg"] {
+        for ext in crate::report::PLOT_EXTENSIONS {
             let p = out.join("plots").join(format!("{stem}.{ext}"));
             gone(std::fs::remove_file(&p), &p)?;
         }
@@ -159,9 +159,11 @@ pub fn is_run_output(out: &Path, path: &Path) -> bool {
         return true;
     }
     dir == out.join("plots")
-        && RUN_PLOTS
-            .iter()
-            .any(|p| name == format!("{p}.png") || name == format!("{p}.svg"))
+        && RUN_PLOTS.iter().any(|p| {
+            crate::report::PLOT_EXTENSIONS
+                .iter()
+                .any(|e| name == format!("{p}.{e}"))
+        })
 }
 
 /// A ramp run by [`ramp_with_outputs`]: its steps, the VTU files written (pressure,

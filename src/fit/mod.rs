@@ -9,14 +9,15 @@
 //!
 //! One module per fit, each re-exported here: `circle` (Pratt, Kasa and geometric circles,
 //! and circles through 3D points), `angle` (bending angles), `plane` (a robust plane
-//! through 3D points), `power_law` (y = a x^b + c); `error` holds [`FitError`], which they
-//! share.
+//! through 3D points), `power_law` (y = a x^b + c), `student` (Student's t quantiles for
+//! confidence intervals); `error` holds [`FitError`], which they share.
 
 mod angle;
 mod circle;
 mod error;
 mod plane;
 mod power_law;
+mod student;
 
 pub use angle::{
     bending_angle_along_markers_deg, bending_angle_deg, bending_angle_from_circle_deg,
@@ -31,3 +32,4 @@ pub use power_law::{
     distinct_values, fit_power_law, fit_power_law_with_covariance, PowerLawErrors, PowerLawFit,
     DISTINCT_X_REL, POWER_LAW_MIN_DISTINCT_X,
 };
+pub use student::{t_cdf, t_two_sided};

@@ -1,6 +1,6 @@
 //! The outputs of a material fit: `material.toml` (a `[material]` block `simulate
 //! --config` reads, when the FEM can use the model), `material_fit.json`,
-//! `material_fit.csv` (data and fitted stress) and `plots/material_fit.{png,svg}`.
+//! `material_fit.csv` (data and fitted stress) and `plots/material_fit.{png,svg,pdf}`.
 
 use std::path::{Path, PathBuf};
 

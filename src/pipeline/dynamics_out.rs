@@ -6,7 +6,7 @@
 use std::path::Path;
 
 use crate::report::html::Section;
-use crate::report::{plot_xy, write_json, Series};
+use crate::report::{plot_xy, write_json, ErrorBars, Series};
 use crate::table::{write_csv, Column};
 
 use super::dynamics::{RowBranch, SessionDynamics, StepResults, PRESSURE_QUANTITY};
@@ -19,7 +19,7 @@ pub const HYSTERESIS_JSON: &str = "hysteresis.json";
 /// The step responses of a recording whose pressure log steps.
 pub const STEP_RESPONSE_CSV: &str = "step_response.csv";
 
-/// Stems (in plots/) of the dynamics plots; each has a .png and an .svg.
+/// Stems (in plots/) of the dynamics plots; each has a .png, an .svg and a .pdf.
 pub const DYNAMICS_PLOT_STEMS: [&str; 4] = [
     "hysteresis_angle",
     "hysteresis_radius",
@@ -116,6 +116,7 @@ pub fn write_dynamics_plots(
     out: &Path,
     videos: &[VideoRecord],
     d: &SessionDynamics,
+    bars: ErrorBars,
 ) -> Result<Vec<String>, PipelineError> {
     let plots = out.join("plots");
     let mut drawn = Vec::new();
@@ -131,7 +132,7 @@ pub fn write_dynamics_plots(
         branches.dedup_by_key(|b| b.branch);
         let labels: Vec<String> = branches
             .iter()
-            .map(|b| format!("cycle {} {}", b.cycle, b.direction))
+            .map(|b| format!("cycle {} {} ± {}", b.cycle, b.direction, bars.label()))
             .collect();
         let series = |y: fn(&VideoRecord) -> f64, e: fn(&VideoRecord) -> f64| -> Vec<Series> {
             branches
@@ -144,7 +145,10 @@ pub fn write_dynamics_plots(
                         .filter(|(v, r)| {
                             v.status.is_measured() && r.is_some_and(|r| r.branch == b.branch)
                         })
-                        .map(|(v, _)| ((v.pressure_kpa, y(v)), e(v)))
+                        .map(|(v, _)| {
+                            let bar = bars.half_height(e(v), v.stats.frames_used);
+                            ((v.pressure_kpa, y(v)), bar)
+                        })
                         .unzip();
                     Series {
                         label,
@@ -178,7 +182,7 @@ pub fn write_dynamics_plots(
     }
     for stem in DYNAMICS_PLOT_STEMS {
         if !drawn.iter().any(|d| d.ends_with(stem)) {
-            for ext in ["png", "svg"] {
+            for ext in crate::report::PLOT_EXTENSIONS {
                 remove_stale(&plots.join(format!("{stem}.{ext}")))?;
             }
         }

@@ -106,10 +106,13 @@ fn measure_session_into(
         Some(p) => Some(p.clone()),
         None => Some(session.join(CONFIG)).filter(|p| p.is_file()),
     };
-    let config = match &config_file {
+    let mut config = match &config_file {
         Some(p) => SessionConfig::read(p)?,
         None => SessionConfig::default(),
     };
+    if let Some(bars) = settings.error_bars {
+        config.error_bars = bars;
+    }
     let layout = read_layout(session)?;
     if out.exists() && !out.is_dir() {
         return Err(PipelineError::Layout {

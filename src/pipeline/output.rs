@@ -11,7 +11,7 @@ use std::path::Path;
 use serde::Serialize;
 
 use crate::fit::{fit_power_law, PowerLawFit};
-use crate::report::{html, plot_xy, write_json, Series};
+use crate::report::{html, plot_xy, write_json, ErrorBars, Series};
 use crate::session::PressureUnit;
 use crate::table::{write_csv, Column};
 
@@ -38,7 +38,7 @@ pub const SEGMENT_PLOT_STEMS: [&str; 2] = [
     "segment_curvature_vs_pressure",
 ];
 
-/// Stems (in plots/) of the session's plots; each has a .png and an .svg.
+/// Stems (in plots/) of the session's plots; each has a .png, an .svg and a .pdf.
 pub const PLOT_STEMS: [&str; 4] = [
     "radius_vs_pressure",
     "curvature_vs_pressure",
@@ -53,7 +53,7 @@ fn output_stages() -> Vec<Vec<String>> {
         .iter()
         .chain(&SEGMENT_PLOT_STEMS)
         .chain(&DYNAMICS_PLOT_STEMS)
-        .flat_map(|s| [format!("plots/{s}.png"), format!("plots/{s}.svg")])
+        .flat_map(|s| crate::report::PLOT_EXTENSIONS.map(|e| format!("plots/{s}.{e}")))
         .collect();
     vec![
         vec!["per_frame.csv".into()],
@@ -487,9 +487,10 @@ fn write_stages(
     *done += 1;
     write_json(&out.join(SESSION_JSON), s.provenance)?;
     *done += 1;
-    let mut plots = write_plots(out, s.videos, &fits, s.frames)?;
-    plots.extend(write_segment_plots(out, s.videos, s.segments)?);
-    let dynamic_plots = dynamics_out::write_dynamics_plots(out, s.videos, s.dynamics)?;
+    let bars = s.provenance.settings.error_bars;
+    let mut plots = write_plots(out, s.videos, &fits, s.frames, bars)?;
+    plots.extend(write_segment_plots(out, s.videos, s.segments, bars)?);
+    let dynamic_plots = dynamics_out::write_dynamics_plots(out, s.videos, s.dynamics, bars)?;
     *done += 1;
     html::write_session_report(
         &out.join("report.html"),
@@ -545,22 +546,31 @@ fn write_segment_plots(
     out: &Path,
     videos: &[VideoRecord],
     segments: &[Segment],
+    bars: ErrorBars,
 ) -> Result<Vec<String>, PipelineError> {
     if segments.is_empty() {
         for stem in SEGMENT_PLOT_STEMS {
-            for ext in ["png", "svg"] {
+            for ext in crate::report::PLOT_EXTENSIONS {
                 remove_stale(&out.join("plots").join(format!("{stem}.{ext}")))?;
             }
         }
         return Ok(vec![]);
     }
-    let labels: Vec<String> = segments
-        .iter()
-        .enumerate()
-        .map(|(k, s)| format!("segment {} (markers {})", k + 1, s.label()))
-        .collect();
-    // `e`: each point's error bar half-height (NaN: none).
-    let series = |g: fn(&SegmentStats) -> f64, e: fn(&SegmentStats) -> f64| -> Vec<Series> {
+    let labels = |bar: &str| -> Vec<String> {
+        segments
+            .iter()
+            .enumerate()
+            .map(|(k, s)| format!("segment {} (markers {}){bar}", k + 1, s.label()))
+            .collect()
+    };
+    let (with_bars, without) = (labels(&format!(" ± {}", bars.label())), labels(""));
+    // `e`: each point's standard deviation (NaN: no bar).
+    // `bars_shown`: the labels that name the error bars.
+    let series = |bars_shown: bool,
+                  g: fn(&SegmentStats) -> f64,
+                  e: fn(&SegmentStats) -> f64|
+     -> Vec<Series> {
+        let labels = if bars_shown { &with_bars } else { &without };
         labels
             .iter()
             .enumerate()
@@ -569,10 +579,12 @@ fn write_segment_plots(
                     .iter()
                     .filter(|v| v.status.is_measured())
                     .filter_map(|v| {
-                        v.stats
-                            .segments
-                            .get(k)
-                            .map(|s| ((v.pressure_kpa, g(s)), e(s)))
+                        v.stats.segments.get(k).map(|s| {
+                            (
+                                (v.pressure_kpa, g(s)),
+                                bars.half_height(e(s), s.frames_used),
+                            )
+                        })
                     })
                     .filter(|((x, y), _)| x.is_finite() && y.is_finite())
                     .unzip();
@@ -591,13 +603,13 @@ fn write_segment_plots(
             SEGMENT_PLOT_STEMS[0],
             "Radius of curvature per segment vs pressure",
             "radius (mm)",
-            series(|s| s.radius_mm, |s| s.radius_mm_std),
+            series(true, |s| s.radius_mm, |s| s.radius_mm_std),
         ),
         (
             SEGMENT_PLOT_STEMS[1],
             "Curvature per segment vs pressure",
             "curvature (1/m)",
-            series(|s| s.curvature_per_m, |_| f64::NAN),
+            series(false, |s| s.curvature_per_m, |_| f64::NAN),
         ),
     ] {
         if plot_xy(
@@ -613,13 +625,14 @@ fn write_segment_plots(
     Ok(written)
 }
 
-/// Draws the session's plots; returns their stems relative to OUT (each has a .png and
-/// an .svg).
+/// Draws the session's plots; returns their stems relative to OUT (each has a .png,
+/// an .svg and a .pdf).
 fn write_plots(
     out: &Path,
     videos: &[VideoRecord],
     fits: &SessionFits,
     frames: &[FrameRecord],
+    bars: ErrorBars,
 ) -> Result<Vec<String>, PipelineError> {
     let ok: Vec<&VideoRecord> = videos.iter().filter(|v| v.status.is_measured()).collect();
     let pmax = ok.iter().map(|v| v.pressure_kpa).fold(0.0, f64::max);
@@ -642,6 +655,15 @@ fn write_plots(
     let points = |g: fn(&VideoRecord) -> f64| -> Vec<(f64, f64)> {
         ok.iter().map(|v| (v.pressure_kpa, g(v))).collect()
     };
+    // Each video's bar: its frames' spread, or the confidence interval of their mean.
+    let errors = |std: fn(&VideoRecord) -> f64| -> Option<Vec<f64>> {
+        Some(
+            ok.iter()
+                .map(|v| bars.half_height(std(v), v.stats.frames_used))
+                .collect(),
+        )
+    };
+    let measured = format!("measured (mean ± {} per video)", bars.label());
     let mut per_file: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
     for f in frames {
         match per_file.last_mut() {
@@ -656,10 +678,10 @@ fn write_plots(
             "radius (mm)",
             vec![
                 Series {
-                    label: "measured (mean and std per video)",
+                    label: &measured,
                     points: points(|v| v.stats.radius_mm),
                     line: false,
-                    errors: Some(ok.iter().map(|v| v.stats.radius_mm_std).collect()),
+                    errors: errors(|v| v.stats.radius_mm_std),
                 },
                 Series {
                     label: "power-law fit",
@@ -675,10 +697,10 @@ fn write_plots(
             "curvature (1/m)",
             vec![
                 Series {
-                    label: "measured (mean and std per video)",
+                    label: &measured,
                     points: points(|v| v.stats.curvature_per_m),
                     line: false,
-                    errors: Some(ok.iter().map(|v| v.stats.curvature_per_m_std).collect()),
+                    errors: errors(|v| v.stats.curvature_per_m_std),
                 },
                 Series {
                     label: "power-law fit",
@@ -694,10 +716,10 @@ fn write_plots(
             "bending angle (deg)",
             vec![
                 Series {
-                    label: "measured (mean and std per video)",
+                    label: &measured,
                     points: points(|v| v.stats.bending_angle_deg),
                     line: false,
-                    errors: Some(ok.iter().map(|v| v.stats.bending_angle_deg_std).collect()),
+                    errors: errors(|v| v.stats.bending_angle_deg_std),
                 },
                 Series {
                     label: "power-law fit",
@@ -903,7 +925,7 @@ mod tests {
             .collect();
         let fits = fit_records(&rows, PressureUnit::Kpa);
         assert!(fits.bending_angle_deg_vs_kpa.is_some(), "{:?}", fits.notes);
-        write_plots(d.path(), &rows, &fits, &[]).unwrap();
+        write_plots(d.path(), &rows, &fits, &[], ErrorBars::Std).unwrap();
         let svg = std::fs::read_to_string(d.path().join("plots/angle_vs_pressure.svg")).unwrap();
         let hex = |i: usize| {
             let c = Palette99::pick(i).to_rgba().rgb();

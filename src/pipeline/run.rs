@@ -16,6 +16,8 @@ pub struct ProcessSettings {
     pub config: Option<PathBuf>,
     /// Redo videos whose cached results are current.
     pub force: bool,
+    /// What the plots' error bars show (else the session's `error_bars`, else std).
+    pub error_bars: Option<crate::report::ErrorBars>,
 }
 
 /// Where progress and warnings go (the CLI draws bars and prints lines on stderr).

@@ -170,11 +170,13 @@ pub fn page_start(title: &str) -> String {
 body{{font-family:sans-serif;margin:2em;color:#222}}table{{border-collapse:collapse;font-size:0.9em}}\
 td,th{{border:1px solid #ccc;padding:3px 8px;text-align:right}}td.l,th.l{{text-align:left}}\
 tr.bad td{{background:#fde8e8}}tr.partial td{{background:#fff6dd}}figure{{display:inline-block;margin:1em}}\
-figure img,figure svg{{max-width:900px;height:auto}}</style></head><body>\n<h1>{title}</h1>\n"
+figure img,figure svg{{max-width:900px;height:auto}}figure svg{{max-width:640px}}\
+td.thumb{{padding:1px;text-align:center}}td.thumb img{{display:block}}</style></head><body>\n<h1>{title}</h1>\n"
     )
 }
 
-/// The plot `stem` of `out` (`stem.svg` inlined, a link to `stem.png`) as a figure.
+/// The plot `stem` of `out` (`stem.svg` inlined, links to its PNG, PDF and SVG) as a
+/// figure.
 pub fn plot_figure(out: &Path, stem: &str) -> String {
     let svg = std::fs::read_to_string(out.join(format!("{stem}.svg"))).unwrap_or_default();
     // The SVG's own XML declaration is not allowed inside HTML.
@@ -183,7 +185,7 @@ pub fn plot_figure(out: &Path, stem: &str) -> String {
         .map(|i| &svg[i..])
         .unwrap_or("<p>(plot missing)</p>");
     format!(
-        "<figure data-plot=\"{s}.svg\">{body}<figcaption><a href=\"{s}.png\">{s}</a></figcaption></figure>",
+        "<figure data-plot=\"{s}.svg\">{body}<figcaption><a href=\"{s}.png\">{s}</a> (<a href=\"{s}.pdf\">PDF</a>, <a href=\"{s}.svg\">SVG</a>)</figcaption></figure>",
         s = escape(stem)
     )
 }
@@ -209,6 +211,35 @@ fn overlay_img(out: &Path, file: &str, rel: &str) -> Option<String> {
         rel_e = escape(&rel),
         b64 = base64::engine::general_purpose::STANDARD.encode(bytes)
     ))
+}
+
+/// Width of a row's overlay thumbnail, px: small enough that a page of
+/// [`MAX_THUMBNAILS`] stays a few MB, large enough to see the markers and the circle.
+pub const THUMBNAIL_WIDTH_PX: u32 = 160;
+
+/// Thumbnails in one per-video table at most (a session may list thousands of rows);
+/// rows after them link to their overlay by name only.
+pub const MAX_THUMBNAILS: usize = 100;
+
+/// A small PNG of the overlay at `rel` in `out` ([`THUMBNAIL_WIDTH_PX`] wide), as an
+/// `<img>` with a data URI, if the overlay can be read.
+fn thumbnail_img(out: &Path, file: &str, rel: &str) -> Option<String> {
+    let img = image::open(out.join(rel)).ok()?;
+    let w = THUMBNAIL_WIDTH_PX.min(img.width());
+    let h = ((img.height() as u64 * w as u64) / img.width().max(1) as u64).max(1) as u32;
+    let small = image::imageops::thumbnail(&img.to_rgb8(), w, h);
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    small.write_to(&mut bytes, image::ImageFormat::Png).ok()?;
+    Some(format!(
+        "<img class=\"thumb\" alt=\"overlay of {name}\" width=\"{w}\" height=\"{h}\" src=\"data:image/png;base64,{b64}\">",
+        name = escape(file),
+        b64 = base64::engine::general_purpose::STANDARD.encode(bytes.get_ref())
+    ))
+}
+
+/// Whether `rel` is a file in `out`.
+fn out_has(out: &Path, rel: &str) -> bool {
+    out.join(rel).is_file()
 }
 
 /// Renders the report's HTML.
@@ -253,8 +284,24 @@ pub fn session_report_html(r: &SessionReport) -> String {
             escape(&p.bendscope_version)
         );
     }
-    h.push_str("<h2>Per video</h2>\n<table><tr><th class=\"l\">file</th><th>pressure (kPa)</th><th>radius (mm)</th><th>median (mm)</th><th>std (mm)</th><th>curvature (1/m)</th><th>angle (deg)</th><th>frames used</th><th>rejected</th><th class=\"l\">status</th></tr>\n");
+    h.push_str("<h2>Per video</h2>\n<table><tr><th class=\"l\">file</th><th>pressure (kPa)</th><th>radius (mm)</th><th>median (mm)</th><th>std (mm)</th><th>curvature (1/m)</th><th>angle (deg)</th><th>frames used</th><th>rejected</th><th class=\"l\">status</th><th class=\"l\">overlay</th></tr>\n");
+    let mut thumbnails = 0usize;
+    let mut capped = false;
     for v in r.videos {
+        // Measured rows with an overlay, the first MAX_THUMBNAILS of them.
+        let thumb = if v.measured && !v.overlay.is_empty() && out_has(r.out, &v.overlay) {
+            if thumbnails < MAX_THUMBNAILS {
+                thumbnail_img(r.out, &v.file, &v.overlay).inspect(|_| thumbnails += 1)
+            } else {
+                capped = true;
+                None
+            }
+        } else {
+            None
+        };
+        let thumb = thumb
+            .map(|img| format!("<a href=\"#overlay-{}\">{img}</a>", escape(&v.file)))
+            .unwrap_or_default();
         let class = match v.state {
             RowState::Ok => "ok",
             RowState::Partial => "partial",
@@ -262,7 +309,7 @@ pub fn session_report_html(r: &SessionReport) -> String {
         };
         let _ = writeln!(
             h,
-            "<tr class=\"{class}\"><td class=\"l\"><a href=\"#overlay-{id}\">{name}</a></td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td></tr>",
+            "<tr class=\"{class}\"><td class=\"l\"><a href=\"#overlay-{id}\">{name}</a></td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"l\">{}</td><td class=\"thumb\">{thumb}</td></tr>",
             num(v.pressure_kpa, 2),
             num(v.radius_mm, 3),
             num(v.radius_mm_median, 3),
@@ -277,6 +324,12 @@ pub fn session_report_html(r: &SessionReport) -> String {
         );
     }
     h.push_str("</table>\n");
+    if capped {
+        let _ = writeln!(
+            h,
+            "<p class=\"capped\">Thumbnails for the first {MAX_THUMBNAILS} measured rows only; every overlay is under Overlays below.</p>"
+        );
+    }
     if !r.segments.is_empty() {
         segment_section(&mut h, r);
     }
@@ -401,6 +454,95 @@ pub fn write_session_report(path: &Path, r: &SessionReport) -> Result<(), Report
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn row(file: &str, measured: bool) -> VideoRow {
+        VideoRow {
+            file: file.into(),
+            overlay: format!("overlays/{file}.png"),
+            pressure_kpa: 20.0,
+            radius_mm: 100.0,
+            radius_mm_median: 100.0,
+            radius_mm_std: 0.1,
+            curvature_per_m: 10.0,
+            bending_angle_deg: 30.0,
+            frames_used: 3,
+            frames_rejected: 0,
+            status: "ok".into(),
+            state: if measured {
+                RowState::Ok
+            } else {
+                RowState::Bad
+            },
+            measured,
+            segments: vec![],
+        }
+    }
+
+    /// A thumbnail beside each measured row with an overlay, THUMBNAIL_WIDTH_PX wide at
+    /// the overlay's aspect ratio, linking to its figure; none for a row not measured or
+    /// without an overlay file; at most MAX_THUMBNAILS, and the page says so when capped.
+    #[test]
+    fn thumbnails_sit_beside_measured_rows_and_are_capped() {
+        let d = tempfile::tempdir().unwrap();
+        std::fs::create_dir(d.path().join("overlays")).unwrap();
+        let n = MAX_THUMBNAILS + 2;
+        let mut rows: Vec<VideoRow> = (0..n).map(|i| row(&format!("v{i}"), true)).collect();
+        let overlay = image::RgbImage::from_pixel(640, 480, image::Rgb([200, 10, 10]));
+        for r in &rows {
+            overlay.save(d.path().join(&r.overlay)).unwrap();
+        }
+        rows.insert(0, row("bad", false));
+        overlay.save(d.path().join("overlays/bad.png")).unwrap();
+        rows.insert(1, row("no-overlay", true));
+        let fits = Fits {
+            radius_mm_vs_kpa: None,
+            curvature_per_m_vs_kpa: None,
+            bending_angle_deg_vs_kpa: None,
+            notes: vec![],
+            segments: vec![],
+        };
+        let html = session_report_html(&SessionReport {
+            name: "s",
+            out: d.path(),
+            videos: &rows,
+            fits: &fits,
+            plots: &[],
+            setup: None,
+            segments: &[],
+            warnings: &[],
+            sections: &[],
+        });
+        let thumbs: Vec<&str> = html.split("<img class=\"thumb\"").skip(1).collect();
+        assert_eq!(thumbs.len(), MAX_THUMBNAILS);
+        // 640 x 480 -> 160 x 120.
+        assert!(thumbs[0].starts_with(" alt=\"overlay of v0\" width=\"160\" height=\"120\""));
+        let line = |file: &str| {
+            html.lines()
+                .find(|l| l.contains(&format!(">{file}</a></td>")))
+                .unwrap()
+                .to_string()
+        };
+        assert!(line("v0").contains("<td class=\"thumb\"><a href=\"#overlay-v0\"><img"));
+        for none in ["bad", "no-overlay", &format!("v{}", MAX_THUMBNAILS)] {
+            assert!(line(none).contains("<td class=\"thumb\"></td>"), "{none}");
+        }
+        assert!(html.contains(&format!(
+            "Thumbnails for the first {MAX_THUMBNAILS} measured rows only"
+        )));
+        rows.truncate(5);
+        let html = session_report_html(&SessionReport {
+            videos: &rows,
+            name: "s",
+            out: d.path(),
+            fits: &fits,
+            plots: &[],
+            setup: None,
+            segments: &[],
+            warnings: &[],
+            sections: &[],
+        });
+        assert!(!html.contains("Thumbnails for the first"), "not capped");
+    }
 
     #[test]
     fn escapes_markup() {

@@ -1,8 +1,18 @@
-//! Reports: plots (plotters, PNG and SVG rendered in memory), JSON, QA overlays and the
-//! session's HTML page ([`html`]). Every file is written atomically. Tables are written
-//! by [`crate::table`].
+//! Reports: plots (plotters, PNG and SVG rendered in memory, PDF from the SVG by
+//! [`pdf`]), JSON, QA overlays and the session's HTML page ([`html`]). Every file is
+//! written atomically. Tables are written by [`crate::table`].
+//!
+//! Plots are drawn for one column of a two-column paper: [`PLOT_SIZE`] is 3.5 x 2.6 in
+//! at 4 units per point, so at column width tick labels are 7.5 pt, axis labels 8.5 pt,
+//! the legend 8 pt and the title 9 pt (journals ask for 7 pt or more), lines 1.5 pt and
+//! error bars 1 pt; the PNG keeps the same 1008 x 748 pixels for screens (288 dpi at
+//! column width).
 
+pub mod error_bars;
 pub mod html;
+pub mod pdf;
+
+pub use error_bars::ErrorBars;
 
 use std::path::{Path, PathBuf};
 
@@ -82,15 +92,40 @@ impl Series<'_> {
     }
 }
 
-/// Width of an error bar's caps, px.
-const CAP_PX: i32 = 8;
+/// Plot size in plot units (px of the PNG, user units of the SVG; 4 to the point of the
+/// PDF): 3.5 x 2.6 in, one paper column ([`pdf::PDF_DPI`]).
+pub const PLOT_SIZE: (u32, u32) = (1008, 748);
 
-/// Plot size, px.
-pub const PLOT_SIZE: (u32, u32) = (900, 600);
+/// The font family of a plot's text (DejaVu Sans in the PDF, [`pdf::PLOT_FONT`]).
+const FONT: &str = "sans-serif";
+/// Font sizes, plot units (/4 for points at column width): title, axis labels, tick
+/// labels, legend.
+const TITLE_FONT: u32 = 36;
+const AXIS_LABEL_FONT: u32 = 34;
+const TICK_FONT: u32 = 30;
+const LEGEND_FONT: u32 = 32;
+/// Line widths, plot units: a series' line, an error bar, the axes.
+const LINE_WIDTH: u32 = 6;
+const BAR_WIDTH: u32 = 4;
+const AXIS_WIDTH: u32 = 3;
+/// Radius of a marker, plot units.
+const MARKER_RADIUS: i32 = 10;
+/// Width of an error bar's caps, plot units.
+const CAP_PX: i32 = 24;
+/// Length of a line's sample in the legend, plot units.
+const LEGEND_LINE: i32 = 48;
 
-/// Draws an x-y plot to `stem.png` and `stem.svg`, each rendered in memory and written
-/// atomically. Returns `false`, and removes an earlier plot of the same name, when no
-/// series has a finite point.
+/// The files of the plot `stem`: PNG, SVG and PDF.
+pub fn plot_files(stem: &Path) -> [PathBuf; 3] {
+    PLOT_EXTENSIONS.map(|e| stem.with_extension(e))
+}
+
+/// Extensions of the files of one plot.
+pub const PLOT_EXTENSIONS: [&str; 3] = ["png", "svg", "pdf"];
+
+/// Draws an x-y plot to `stem.png`, `stem.svg` and `stem.pdf`, each rendered in memory
+/// and written atomically. Returns `false`, and removes an earlier plot of the same
+/// name, when no series has a finite point.
 pub fn plot_xy(
     stem: &Path,
     title: &str,
@@ -98,11 +133,10 @@ pub fn plot_xy(
     y_label: &str,
     series: &[Series],
 ) -> Result<bool, ReportError> {
-    let png = stem.with_extension("png");
-    let svg = stem.with_extension("svg");
+    let [png, svg, pdf] = plot_files(stem);
     let finite: Vec<((f64, f64), f64)> = series.iter().flat_map(|s| s.finite_points()).collect();
     if finite.is_empty() {
-        for p in [&png, &svg] {
+        for p in [&png, &svg, &pdf] {
             match std::fs::remove_file(p) {
                 Err(e) if e.kind() != std::io::ErrorKind::NotFound => return Err(io(p)(e)),
                 _ => {}
@@ -154,6 +188,10 @@ pub fn plot_xy(
         path: svg.clone(),
         message,
     })?;
+    let pdf_bytes = pdf::pdf_from_svg(&text).map_err(|message| ReportError::Render {
+        path: pdf.clone(),
+        message,
+    })?;
     let image = RgbImage::from_raw(w, h, rgb).ok_or_else(|| ReportError::Render {
         path: png.clone(),
         message: "plot buffer size".into(),
@@ -167,6 +205,7 @@ pub fn plot_xy(
         })?;
     write_atomic(&png, bytes.get_ref()).map_err(io(&png))?;
     write_atomic(&svg, text.as_bytes()).map_err(io(&svg))?;
+    write_atomic(&pdf, &pdf_bytes).map_err(io(&pdf))?;
     Ok(true)
 }
 
@@ -180,16 +219,24 @@ fn draw_chart<DB: DrawingBackend>(
 ) -> Result<(), String> {
     root.fill(&WHITE).map_err(|e| e.to_string())?;
     let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 22))
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(60)
+        .caption(title, (FONT, TITLE_FONT))
+        .margin(24)
+        .x_label_area_size(100)
+        .y_label_area_size(150)
         .build_cartesian_2d(x0..x1, y0..y1)
         .map_err(|e| e.to_string())?;
     chart
         .configure_mesh()
         .x_desc(x_label)
         .y_desc(y_label)
+        .x_labels(6)
+        .y_labels(6)
+        .label_style((FONT, TICK_FONT))
+        .axis_desc_style((FONT, AXIS_LABEL_FONT))
+        .axis_style(BLACK.stroke_width(AXIS_WIDTH))
+        .bold_line_style(BLACK.mix(0.15).stroke_width(2))
+        .light_line_style(TRANSPARENT)
+        .set_all_tick_mark_size(12)
         .draw()
         .map_err(|e| e.to_string())?;
     for (i, s) in series.iter().enumerate() {
@@ -197,14 +244,14 @@ fn draw_chart<DB: DrawingBackend>(
         let bars: Vec<((f64, f64), f64)> = s.finite_points().filter(|(_, e)| *e > 0.0).collect();
         chart
             .draw_series(bars.iter().map(|&((x, y), e)| {
-                PathElement::new(vec![(x, y - e), (x, y + e)], color.stroke_width(1))
+                PathElement::new(vec![(x, y - e), (x, y + e)], color.stroke_width(BAR_WIDTH))
             }))
             .map_err(|e| e.to_string())?;
         let cap = |&((x, y), _): &((f64, f64), f64)| {
             EmptyElement::at((x, y))
                 + PathElement::new(
                     vec![(-CAP_PX / 2, 0), (CAP_PX / 2, 0)],
-                    color.stroke_width(1),
+                    color.stroke_width(BAR_WIDTH),
                 )
         };
         for sign in [-1.0, 1.0] {
@@ -215,20 +262,33 @@ fn draw_chart<DB: DrawingBackend>(
         let pts: Vec<(f64, f64)> = s.finite_points().map(|(p, _)| p).collect();
         if s.line {
             chart
-                .draw_series(LineSeries::new(pts, color.stroke_width(2)))
+                .draw_series(LineSeries::new(pts, color.stroke_width(LINE_WIDTH)))
                 .map_err(|e| e.to_string())?
                 .label(s.label)
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], color));
+                .legend(move |(x, y)| {
+                    PathElement::new(
+                        vec![(x, y), (x + LEGEND_LINE, y)],
+                        color.stroke_width(LINE_WIDTH),
+                    )
+                });
         } else {
             chart
-                .draw_series(pts.into_iter().map(|p| Circle::new(p, 4, color.filled())))
+                .draw_series(
+                    pts.into_iter()
+                        .map(|p| Circle::new(p, MARKER_RADIUS, color.filled())),
+                )
                 .map_err(|e| e.to_string())?
                 .label(s.label)
-                .legend(move |(x, y)| Circle::new((x + 8, y), 4, color.filled()));
+                .legend(move |(x, y)| {
+                    Circle::new((x + LEGEND_LINE / 2, y), MARKER_RADIUS, color.filled())
+                });
         }
     }
     chart
         .configure_series_labels()
+        .label_font((FONT, LEGEND_FONT))
+        .legend_area_size(LEGEND_LINE + 12)
+        .margin(16)
         .background_style(WHITE.mix(0.8))
         .border_style(BLACK)
         .draw()
@@ -334,12 +394,22 @@ mod tests {
             .contains("<svg"));
         assert_eq!(
             std::fs::read_dir(d.path()).unwrap().count(),
-            2,
-            "no temporaries left"
+            3,
+            "png, svg and pdf, no temporaries left"
         );
+        let pdf = std::fs::read(stem.with_extension("pdf")).unwrap();
+        let text = String::from_utf8_lossy(&pdf);
+        assert!(pdf.starts_with(b"%PDF-"), "a PDF");
+        // One paper column: 1008 x 748 units at 288 dpi = 252 x 187 pt (3.5 x 2.6 in).
+        assert!(text.contains("/MediaBox [0 0 252 187"), "page size");
+        // The text is text, in an embedded subset of the sans-serif font.
+        assert!(text.contains("/FontFile2"), "embedded font");
+        assert!(text.contains("DejaVuSans"), "DejaVu Sans for sans-serif");
         let none = vec![(f64::NAN, 1.0)];
         assert!(!plot_xy(&stem, "radius", "p", "r", &[series(none)]).unwrap());
-        assert!(!stem.with_extension("png").exists() && !stem.with_extension("svg").exists());
+        for f in plot_files(&stem) {
+            assert!(!f.exists(), "{} removed", f.display());
+        }
     }
 
     /// The value of attribute `name` in an SVG tag.

@@ -100,6 +100,10 @@ pub struct SessionConfig {
     /// Which frames of each video are measured.
     #[serde(skip_serializing_if = "VideoConfig::is_default")]
     pub video: VideoConfig,
+    /// What the plots' error bars show: `std` (one standard deviation of the frames) or
+    /// `ci95` (95 % confidence interval of the mean); `--error-bars` overrides it.
+    #[serde(skip_serializing_if = "crate::report::ErrorBars::is_default")]
+    pub error_bars: crate::report::ErrorBars,
 }
 
 impl Default for SessionConfig {
@@ -124,6 +128,7 @@ impl Default for SessionConfig {
             roi: None,
             detect: DetectSettings::default(),
             video: VideoConfig::default(),
+            error_bars: crate::report::ErrorBars::default(),
         }
     }
 }
@@ -289,6 +294,7 @@ fn key_example(key: &str) -> Option<&'static str> {
         "colour" => "red, green, blue, yellow or dark, e.g. colour = \"green\"",
         "clamp_side" => "left, right, top or bottom, e.g. clamp_side = \"right\"",
         "smooth_s" => "seconds, e.g. smooth_s = 0.2",
+        "error_bars" => "std or ci95, e.g. error_bars = \"ci95\"",
         "frames" => "\"all\", \"keyframes\" or \"every:N\", e.g. frames = \"keyframes\"",
         "spacing_mm" => "mm, one pitch or one per pair of markers, e.g. spacing_mm = 12.5",
         "offset_mm" => "mm, + in front of the marker plane, e.g. offset_mm = 3",

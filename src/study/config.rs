@@ -88,6 +88,8 @@ pub struct StudySpec {
     pub fem: Vec<PathBuf>,
     /// Where the spec was written (study.toml, or `--sample` for flags), for messages.
     pub origin: String,
+    /// What the plots' error bars show (`error_bars` in study.toml, `--error-bars`).
+    pub error_bars: crate::report::ErrorBars,
 }
 
 /// One path or several.
@@ -112,6 +114,8 @@ impl OneOrMany {
 struct StudyFile {
     #[serde(default)]
     fem: Option<OneOrMany>,
+    #[serde(default)]
+    error_bars: crate::report::ErrorBars,
     #[serde(default)]
     sample: Vec<SampleFile>,
 }
@@ -188,7 +192,7 @@ impl StudySpec {
         let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
         let parsed: StudyFile = toml::from_str(text).map_err(|e| {
             bad(format!(
-                "{}: a study lists [[sample]] tables with `name` and `sessions`, and optionally `fem` (see `bendscope study --help`)",
+                "{}: a study lists [[sample]] tables with `name` and `sessions`, and optionally `fem` and `error_bars` (std or ci95) (see `bendscope study --help`)",
                 toml_error_line(text, &e)
             ))
         })?;
@@ -218,6 +222,7 @@ impl StudySpec {
             samples,
             fem,
             origin: file,
+            error_bars: parsed.error_bars,
         };
         spec.check()?;
         Ok(spec)
@@ -250,6 +255,7 @@ impl StudySpec {
             samples: out,
             fem: fem.to_vec(),
             origin,
+            error_bars: crate::report::ErrorBars::default(),
         };
         spec.check()?;
         Ok(spec)

@@ -34,5 +34,5 @@ pub fn run_study(
 ) -> Result<StudyReport, StudyError> {
     let study = load_study(spec, progress)?;
     let analysis = analyse(&study);
-    write_study(&study, &analysis, out)
+    write_study(&study, &analysis, out, spec.error_bars)
 }

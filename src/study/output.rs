@@ -1,5 +1,5 @@
 //! A study's outputs: study.csv, repeatability.csv, fits.json, fem.csv (with
-//! simulations), plots/ (PNG + SVG) and report.html, each written atomically.
+//! simulations), plots/ (PNG + SVG + PDF) and report.html, each written atomically.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -7,7 +7,7 @@ use std::path::Path;
 use serde::Serialize;
 
 use crate::compare::GRID_POINTS;
-use crate::report::{plot_xy, write_json, Series};
+use crate::report::{plot_xy, write_json, ErrorBars, Series};
 use crate::table::{write_csv, Column};
 
 use super::analyse::{Analysis, FemResult, FitResult};
@@ -147,7 +147,13 @@ fn fem_points(curve: &crate::compare::Curve, (lo, hi): (f64, f64)) -> Vec<(f64, 
 
 /// Draws the plot of quantity `q`: each sample's means with std error bars, the pooled
 /// fit and each simulation.
-fn plot_quantity(out: &Path, study: &Study, a: &Analysis, q: usize) -> Result<bool, StudyError> {
+fn plot_quantity(
+    out: &Path,
+    study: &Study,
+    a: &Analysis,
+    q: usize,
+    bars: ErrorBars,
+) -> Result<bool, StudyError> {
     let (stem, title) = PLOT_STEMS[q];
     let (name, axis) = QUANTITIES[q];
     let range = a
@@ -159,7 +165,7 @@ fn plot_quantity(out: &Path, study: &Study, a: &Analysis, q: usize) -> Result<bo
     let labels: Vec<String> = study
         .samples
         .iter()
-        .map(|s| format!("sample {} (mean ± std)", s.name))
+        .map(|s| format!("sample {} (mean ± {})", s.name, bars.label()))
         .chain(study.fem.iter().map(|m| format!("FEM {}", m.name)))
         .collect();
     let mut series: Vec<Series> = Vec::new();
@@ -172,7 +178,11 @@ fn plot_quantity(out: &Path, study: &Study, a: &Analysis, q: usize) -> Result<bo
                 .map(|r| (r.pressure_kpa, r.stats[q].mean))
                 .collect(),
             line: false,
-            errors: Some(rows.iter().map(|r| r.stats[q].std).collect()),
+            errors: Some(
+                rows.iter()
+                    .map(|r| bars.half_height(r.stats[q].std, r.stats[q].n))
+                    .collect(),
+            ),
         });
     }
     let pooled = a
@@ -210,8 +220,14 @@ fn plot_quantity(out: &Path, study: &Study, a: &Analysis, q: usize) -> Result<bo
     .map_err(output)
 }
 
-/// Writes every output of the study into `out` (made if needed).
-pub fn write_study(study: &Study, a: &Analysis, out: &Path) -> Result<StudyReport, StudyError> {
+/// Writes every output of the study into `out` (made if needed); the plots' error bars
+/// show `bars` of the per-session values at each set point.
+pub fn write_study(
+    study: &Study,
+    a: &Analysis,
+    out: &Path,
+    bars: ErrorBars,
+) -> Result<StudyReport, StudyError> {
     std::fs::create_dir_all(out.join("plots")).map_err(|e| StudyError::Output {
         why: crate::io::with_path(&out.join("plots"), &e),
     })?;
@@ -245,7 +261,7 @@ pub fn write_study(study: &Study, a: &Analysis, out: &Path) -> Result<StudyRepor
     .map_err(output)?;
     let mut plots = Vec::new();
     for (q, (stem, _)) in PLOT_STEMS.iter().enumerate() {
-        if plot_quantity(out, study, a, q)? {
+        if plot_quantity(out, study, a, q, bars)? {
             plots.push(format!("plots/{stem}"));
         }
     }
