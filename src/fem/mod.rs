@@ -16,9 +16,9 @@
 //! read over its family's defaults and meshed by its shape; [`tube`]: the fibre-wound
 //! circular tube) -> [`simulate`] (the pressure ramp and the quantities read off each step),
 //! [`vtu`] (ParaView files), [`output`] (every result file of a run or a sweep) and
-//! [`inp`] (the model as an Abaqus/CalculiX deck). Not yet used by the solver: [`tet10`]
-//! (10-node tetrahedra, mixed u-P with one pressure per element) and [`pressure_tri6`]
-//! (follower pressure on their 6-node faces), verified on their own.
+//! [`inp`] (the model as an Abaqus/CalculiX deck). [`tet10`] (10-node tetrahedra, mixed
+//! u-P with a continuous linear pressure, Taylor-Hood) and [`pressure_tri6`] (follower
+//! pressure on their 6-node faces) beside the hexahedra.
 //!
 //! Verified (tests): Yeoh uniaxial and equibiaxial stress against method.md §5; stress,
 //! tangent, pressure force and load stiffness against finite differences; the uniaxial

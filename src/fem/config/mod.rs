@@ -458,8 +458,9 @@ pub enum SolidElement {
     /// The same with three incompatible modes condensed per element (Wilson-Taylor, as
     /// CalculiX's C3D8I): it bends through one element without shear locking.
     IncompatibleModes,
-    /// Each hexahedron cut into six 10-node tetrahedra, mixed u-P with one pressure per
-    /// element ([`crate::fem::tet10`], as C3D10H); solid parts only.
+    /// Each hexahedron cut into six 10-node tetrahedra, mixed u-P with a continuous
+    /// linear pressure (Taylor-Hood, [`crate::fem::tet10::taylor_hood`], as C3D10H);
+    /// solid parts only.
     Tet10,
 }
 

@@ -1,5 +1,6 @@
 //! Assembly: each element's force, tangent and condensed volume terms (Q1/P0, or with
-//! incompatible modes condensed per element), then sheets, fibres, plates, follower
+//! incompatible modes condensed per element), the tetrahedra's Taylor-Hood terms (their
+//! corner pressures unknowns of the system), then sheets, fibres, plates, follower
 //! pressure, contact and dead loads scattered into the condensed residual and the lower
 //! triangle of the tangent in the fixed [`super::pattern::Pattern`].
 
@@ -19,31 +20,15 @@ use crate::fem::membrane::{membrane_response, MembraneMatrix, MembraneVector};
 use crate::fem::plate::PLATE_NODES;
 use crate::fem::pressure::{face_volume, FaceMatrix, FaceVector};
 use crate::fem::pressure_tri6::{self, Tri6Matrix, Tri6Vector};
-use crate::fem::tet10::{self, Tet10Matrix, Tet10Vector};
+use crate::fem::tet10::taylor_hood::{self, ThMatrix, ThVector};
 use crate::fem::truss::{truss_response, TrussMatrix, TrussVector, TRUSS_DOFS};
 
 /// An element's force, tangent and condensed terms at the current state.
 pub(super) type ElementPart = (ElementVector, ElementMatrix, Condensed);
 
-/// A tetrahedron's force, tangent and condensed terms at the current state.
-pub(super) type TetPart = (Tet10Vector, Tet10Matrix, TetCondensed);
-
-/// A tetrahedron's terms of the three-field condensation, as [`Condensed`]'s of the
-/// Q1/P0 hexahedron: its dilatation θ and pressure p are the solver's state, so a Newton
-/// step sees the volume constraint linearized (the pressure recomputed from the
-/// displacement, U'(v / V), gave residuals growing with the square of the step times
-/// the bulk modulus: steps cut to nothing under gravity).
-#[derive(Clone)]
-pub(super) struct TetCondensed {
-    /// ∂v/∂u.
-    pub(super) g: Tet10Vector,
-    /// Volume residual v − V θ.
-    pub(super) r_volume: f64,
-    /// Constitutive residual V (U'(θ) − p).
-    pub(super) r_pressure: f64,
-    /// U''(θ).
-    pub(super) ddu: f64,
-}
+/// A tetrahedron's Taylor-Hood gradient and Hessian (30 displacements, then its 4
+/// corner pressures) at the current state.
+pub(super) type TetPart = (ThVector, ThMatrix);
 
 /// Tetrahedra evaluated at once before their terms are scattered: bounds the scratch
 /// memory of their 7 kB tangents whatever the mesh size.
@@ -89,8 +74,9 @@ pub(super) struct ModesCondensed {
     pub(super) volume_error: f64,
 }
 
-/// The linearized system at a state: condensed residual (free dofs), norms for the
-/// convergence test, the lower triangle of the condensed tangent, and the element terms.
+/// The linearized system at a state: condensed residual (free dofs, then the corner
+/// pressures' volume constraints), norms for the convergence test, the lower triangle of
+/// the condensed tangent, and the element terms.
 pub(super) struct Assembled {
     pub(super) residual: Vec<f64>,
     pub(super) equilibrium_norm: f64,
@@ -101,7 +87,6 @@ pub(super) struct Assembled {
     /// Values of the lower triangle in the fixed pattern of [`Pattern`].
     pub(super) values: Vec<f64>,
     pub(super) condensed: Vec<Condensed>,
-    pub(super) tet_condensed: Vec<TetCondensed>,
     /// Node pairs a contact term couples that the pattern lacks (a slave node meeting a
     /// master face for the first time): the pattern is then extended and the state
     /// assembled again.
@@ -259,17 +244,24 @@ impl<'m> Solver<'m> {
     /// A residual cannot be driven below it: with a sheet 10³-10⁴ times stiffer than the
     /// silicone (a 0.1 mm, 3 GPa layer) it is ~1e-10 N under gravity alone, where the
     /// external force is 3e-4 N and the absolute tolerance 1e-10 N.
-    pub(super) fn roundoff_norm(&self, values: &[f64], u: &[f64]) -> f64 {
-        let mut u_free = vec![0.0; self.n_eq];
+    ///
+    /// The corner pressures `corners` enter |u| beside the displacements; the norm is
+    /// that of the equilibrium rows.
+    pub(super) fn roundoff_norm(&self, values: &[f64], u: &[f64], corners: &[f64]) -> f64 {
+        let n = self.n_eq + self.n_p;
+        let mut u_free = vec![0.0; n];
         for (d, e) in self.eq.iter().enumerate() {
             if let Some(i) = e {
                 u_free[*i] = u[d].abs();
             }
         }
+        for (k, p) in corners.iter().enumerate() {
+            u_free[self.n_eq + k] = p.abs();
+        }
         let col_ptr = self.pattern.symbolic.col_ptr();
         let row_idx = self.pattern.symbolic.row_idx();
-        let mut y = vec![0.0; self.n_eq];
-        for c in 0..self.n_eq {
+        let mut y = vec![0.0; n];
+        for c in 0..n {
             for (r, v) in row_idx[col_ptr[c]..col_ptr[c + 1]]
                 .iter()
                 .zip(&values[col_ptr[c]..col_ptr[c + 1]])
@@ -280,88 +272,63 @@ impl<'m> Solver<'m> {
                 }
             }
         }
-        f64::EPSILON * norm(&y)
+        f64::EPSILON * norm(&y[..self.n_eq])
     }
 
-    /// Adds the tetrahedra's forces to `r`, their condensation's shift to `shift` and
-    /// their tangents to `values` (free dofs), a chunk at a time, at dilatations `theta`
-    /// and pressures `pressure` (one each per tetrahedron); their condensed terms, or
-    /// `None` when one is inverted.
+    /// Adds the tetrahedra's forces and volume constraints to `r` (the constraint of
+    /// corner pressure k at n_eq + k) and their Hessians to `values`, a chunk at a time,
+    /// at corner pressures `corners`; the largest constraint residual over its corner
+    /// volume (a volume strain), or `None` when one is inverted. Every tetrahedron is
+    /// evaluated, a clamped one too: its corners' pressures are unknowns.
     fn scatter_tets(
         &self,
         u: &[f64],
-        theta: &[f64],
-        pressure: &[f64],
+        corners: &[f64],
         r: &mut [f64],
-        shift: &mut [f64],
         values: &mut [f64],
-        volume_error: &mut f64,
-    ) -> Option<Vec<TetCondensed>> {
+    ) -> Option<f64> {
         let model = self.model;
         let tets = &model.tets.elements;
         let mut parts = self.tet_parts.lock().ok()?;
-        let mut condensed = Vec::with_capacity(tets.len());
+        let mut constraint = vec![0.0; self.n_p];
         for start in (0..tets.len()).step_by(TET_CHUNK) {
             let end = (start + TET_CHUNK).min(tets.len());
             parts.clear();
-            parts.par_extend(
-                (start..end)
-                    .into_par_iter()
-                    .map(|t| self.tet_part(t, u, theta[t], pressure[t])),
-            );
+            parts.par_extend((start..end).into_par_iter().map(|t| {
+                let p = self.tet_pressure[t].map(|k| corners[k]);
+                let el = gather(u, &tets[t]);
+                let th = taylor_hood::element_response(
+                    &self.tet_geom[t],
+                    model.material_of_tet(t),
+                    &el,
+                    &p,
+                )?;
+                Some((th.gradient, th.hessian))
+            }));
             for (t, part) in (start..end).zip(parts.iter()) {
-                let (f, k, c) = part.as_ref()?;
+                let (f, k) = part.as_ref()?;
                 let el = &tets[t];
-                let volume = self.tet_geom[t].volume;
-                let w = (c.ddu * c.r_volume + c.r_pressure) / volume;
                 for a in 0..30 {
                     if let Some(i) = self.eq[3 * el[a / 3] + a % 3] {
                         r[i] += f[a];
-                        shift[i] += c.g[a] * w;
                     }
+                }
+                for (i, kp) in self.tet_pressure[t].iter().enumerate() {
+                    constraint[*kp] += f[30 + i];
                 }
                 for (s, v) in self.pattern.tet_slots[t].iter().zip(k.as_slice()) {
                     if *s != SKIP {
                         values[*s as usize] += v;
                     }
                 }
-                *volume_error = max_or_nan(*volume_error, (c.r_volume / volume).abs());
-                condensed.push(c.clone());
             }
         }
-        Some(condensed)
-    }
-
-    /// Tetrahedron `t`'s force, tangent and condensed terms at dilatation `th` and
-    /// pressure `p` (zeros at rest when every node is fixed); `None` when inverted.
-    fn tet_part(&self, t: usize, u: &[f64], th: f64, p: f64) -> Option<TetPart> {
-        let model = self.model;
-        let material = model.material_of_tet(t);
-        if !self.pattern.tet_active[t] {
-            let c = TetCondensed {
-                g: Tet10Vector::zeros(),
-                r_volume: 0.0,
-                r_pressure: 0.0,
-                ddu: material.ddu(th),
-            };
-            return Some((Tet10Vector::zeros(), Tet10Matrix::zeros(), c));
+        let mut volume_error: f64 = 0.0;
+        for (k, (c, v)) in constraint.iter().zip(&self.corner_volume).enumerate() {
+            r[self.n_eq + k] = *c;
+            volume_error = max_or_nan(volume_error, (c / v).abs());
         }
-        if th.is_nan() || th <= 0.0 {
-            return None;
-        }
-        let geom = &self.tet_geom[t];
-        let k = tet10::kinematics(geom, material, &gather(u, &model.tets.elements[t]), None)?;
-        let volume = geom.volume;
-        let ddu = material.ddu(th);
-        let c = TetCondensed {
-            r_volume: k.v - volume * th,
-            r_pressure: volume * (material.du(th) - p),
-            ddu,
-            g: k.g,
-        };
-        let force = k.force_iso + k.g * p;
-        let tangent = k.k_iso + k.h * p + k.g * k.g.transpose() * (ddu / volume);
-        Some((force, tangent, c))
+        Some(volume_error)
     }
 
     pub(super) fn assemble(
@@ -424,7 +391,8 @@ impl<'m> Solver<'m> {
             .map(|t| truss_response(t, &model.nodes, u))
             .collect();
         let eq = &self.eq;
-        let mut r = vec![0.0; self.n_eq]; // equilibrium residual R_u
+        // Equilibrium residual R_u, then the corner pressures' volume constraints.
+        let mut r = vec![0.0; self.n_eq + self.n_p];
         let mut shift = vec![0.0; self.n_eq]; // G (U'' R_p + R_θ) / V
         let mut ext = vec![0.0; self.n_eq];
         let mut values = vec![0.0; self.pattern.symbolic.row_idx().len()];
@@ -458,16 +426,11 @@ impl<'m> Solver<'m> {
             }
             volume_error = max_or_nan(volume_error, (c.r_volume / g.volume).abs());
         }
-        let hex_states = points * model.elements.len();
-        let tet_condensed = self.scatter_tets(
-            u,
-            &theta[hex_states..],
-            &pressure[hex_states..],
-            &mut r,
-            &mut shift,
-            &mut values,
-            &mut volume_error,
-        )?;
+        let corners = &pressure[points * model.elements.len()..];
+        if !model.tets.elements.is_empty() {
+            let tet_volume_error = self.scatter_tets(u, corners, &mut r, &mut values)?;
+            volume_error = max_or_nan(volume_error, tet_volume_error);
+        }
         for ((m, (_, f, k)), slots) in model
             .membranes
             .iter()
@@ -583,8 +546,8 @@ impl<'m> Solver<'m> {
                 ext[*i] += f;
             }
         }
-        let equilibrium_norm = (norm(&r).powi(2) + modes_residual_sq).sqrt();
-        let roundoff_norm = self.roundoff_norm(&values, u);
+        let equilibrium_norm = (norm(&r[..self.n_eq]).powi(2) + modes_residual_sq).sqrt();
+        let roundoff_norm = self.roundoff_norm(&values, u, corners);
         for (ri, si) in r.iter_mut().zip(&shift) {
             *ri += si;
         }
@@ -596,7 +559,6 @@ impl<'m> Solver<'m> {
             volume_error,
             values,
             condensed: parts.iter().flatten().map(|(_, _, c)| c.clone()).collect(),
-            tet_condensed,
             missing,
         })
     }
@@ -609,10 +571,11 @@ mod tests {
     use crate::fem::config::SolidElement;
     use crate::fem::hex::element_response;
 
-    /// θ_e = v_e / V_e and p_e = U'(θ_e): the state the three-field iteration converges to.
+    /// θ_e = v_e / V_e and p_e = U'(θ_e) of the hexahedra: the state the three-field
+    /// iteration converges to.
     fn consistent(solver: &Solver, u: &[f64]) -> (Vec<f64>, Vec<f64>) {
         let model = solver.model;
-        let hexes = model
+        model
             .elements
             .iter()
             .zip(&solver.geom)
@@ -621,23 +584,14 @@ mod tests {
                 let m = model.material_of(e);
                 let th = element_kinematics(g, m, &gather(u, el)).unwrap().v / g.volume;
                 (th, m.du(th))
-            });
-        let tets = model
-            .tets
-            .elements
-            .iter()
-            .zip(&solver.tet_geom)
-            .enumerate()
-            .map(|(t, (el, g))| {
-                let m = model.material_of_tet(t);
-                let th = tet10::kinematics(g, m, &gather(u, el), None).unwrap().v / g.volume;
-                (th, m.du(th))
-            });
-        hexes.chain(tets).unzip()
+            })
+            .unzip()
     }
 
-    /// Potential energy Π(u) of the displacement-only form.
-    fn energy(solver: &Solver, u: &[f64], load: LoadState) -> f64 {
+    /// The potential energy Π(u) of the displacement-only form for the hexahedra, with
+    /// the tetrahedra's Taylor-Hood energy at corner pressures `corners` (a saddle
+    /// point in them).
+    fn energy(solver: &Solver, u: &[f64], corners: &[f64], load: LoadState) -> f64 {
         let m = solver.model;
         let mut e: f64 = m
             .elements
@@ -652,14 +606,10 @@ mod tests {
             .sum();
         e += m.plates.iter().map(|t| t.energy(u)).sum::<f64>();
         for (t, (el, g)) in m.tets.elements.iter().zip(&solver.tet_geom).enumerate() {
-            e += tet10::element_response(
-                g,
-                m.material_of_tet(t),
-                &gather(u, el),
-                tet10::Formulation::MixedP0,
-            )
-            .unwrap()
-            .0;
+            let p = solver.tet_pressure[t].map(|k| corners[k]);
+            e += taylor_hood::element_response(g, m.material_of_tet(t), &gather(u, el), &p)
+                .unwrap()
+                .energy;
         }
         for f in &m.tets.pressure_faces {
             let du = gather(u, f);
@@ -679,9 +629,11 @@ mod tests {
         e
     }
 
-    /// At a consistent state, the condensed residual is the gradient of the potential
-    /// energy and the condensed tangent (with the pressure's load stiffness) its Hessian,
-    /// on the actuator mesh, of hexahedra and of tetrahedra.
+    /// At a state consistent in the hexahedra's dilatations and pressures, the residual
+    /// is the gradient of the potential energy and the tangent (with the pressure's load
+    /// stiffness) its Hessian, on the actuator mesh, of hexahedra and of tetrahedra: for
+    /// the tetrahedra in the displacements and the corner pressures together (the
+    /// Taylor-Hood system, a saddle point: its pressure block negative definite).
     #[test]
     fn condensed_tangent_and_residual_are_derivatives_of_the_energy() {
         for element in [SolidElement::Q1p0, SolidElement::Tet10] {
@@ -709,16 +661,25 @@ mod tests {
                 }
             })
             .collect();
+        // Corner pressures of the order of the stresses (MPa), varying over the mesh.
+        let corners: Vec<f64> = (0..solver.n_p)
+            .map(|k| 0.02 * ((k as f64) * 0.61).cos())
+            .collect();
         let load = LoadState {
             dead: 1.0,
             pressure_mpa: 0.05,
         };
-        let at = |u: &[f64]| {
-            let (th, p) = consistent(&solver, u);
+        let at = |u: &[f64], corners: &[f64]| {
+            let (th, mut p) = consistent(&solver, u);
+            p.extend_from_slice(corners);
             solver.assemble(u, &th, &p, &[], load).unwrap()
         };
-        let a = at(&u);
-        assert!(a.volume_error < 1e-14);
+        let a = at(&u, &corners);
+        if element == SolidElement::Q1p0 {
+            assert!(a.volume_error < 1e-14);
+        } else {
+            assert!(solver.n_p > 0 && a.residual.len() == solver.n_eq + solver.n_p);
+        }
         // Entry (row, col) of the symmetric tangent from its lower triangle (0 off the
         // pattern).
         let entry = |row: usize, col: usize| match solver.pattern.slot(row.max(col), row.min(col)) {
@@ -729,20 +690,39 @@ mod tests {
         let h = 1e-6;
         let mut worst: f64 = 0.0;
         let scale = a.values.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
-        // About 25 columns spread over the mesh.
-        for (col, &d) in free.iter().enumerate().step_by(free.len() / 25 + 1) {
-            let mut up = u.clone();
-            let mut um = u.clone();
-            up[d] += h;
-            um[d] -= h;
-            let de = (energy(&solver, &up, load) - energy(&solver, &um, load)) / (2.0 * h);
+        // About 25 displacement columns spread over the mesh, and about 10 pressure ones.
+        let columns = free
+            .iter()
+            .enumerate()
+            .step_by(free.len() / 25 + 1)
+            .map(|(col, d)| (col, Some(*d)))
+            .chain(
+                (0..solver.n_p)
+                    .step_by(solver.n_p / 10 + 1)
+                    .map(|k| (solver.n_eq + k, None)),
+            );
+        for (col, dof) in columns {
+            let (mut up, mut um) = (u.clone(), u.clone());
+            let (mut pp, mut pm) = (corners.clone(), corners.clone());
+            match dof {
+                Some(d) => {
+                    up[d] += h;
+                    um[d] -= h;
+                }
+                None => {
+                    pp[col - solver.n_eq] += h;
+                    pm[col - solver.n_eq] -= h;
+                }
+            }
+            let de =
+                (energy(&solver, &up, &pp, load) - energy(&solver, &um, &pm, load)) / (2.0 * h);
             assert!(
                 (de - a.residual[col]).abs() < 1e-6 * scale,
-                "{element:?}: dE/du {de} vs r {}",
+                "{element:?}: dE/dx[{col}] {de} vs r {}",
                 a.residual[col]
             );
-            let (ap, am) = (at(&up), at(&um));
-            for row in 0..solver.n_eq {
+            let (ap, am) = (at(&up, &pp), at(&um, &pm));
+            for row in 0..a.residual.len() {
                 let fd = (ap.residual[row] - am.residual[row]) / (2.0 * h);
                 worst = worst.max((fd - entry(row, col)).abs());
             }

@@ -6,8 +6,12 @@
 //! ([`super::pressure`]). Newton iterates on the three-field form of the Q1/P0 element
 //! (u, element dilatation θ_e, element pressure p_e; see [`super::hex`]) with θ and p
 //! condensed per element: the condensed tangent K_iso + p_e H + U''(θ_e)/V_e G Gᵀ minus
-//! the pressure's load stiffness is symmetric (for a closed cavity), so faer's sparse
-//! LDLᵀ factorizes it (it may be indefinite away from equilibrium); its symbolic analysis is computed once and reused for every
+//! the pressure's load stiffness is symmetric (for a closed cavity). The 10-node
+//! tetrahedra's corner pressures (Taylor-Hood, [`super::tet10::taylor_hood`]) are
+//! unknowns of the system after the displacements, their block −∫ L_i L_j / U'' dV
+//! negative definite: the system is a saddle point, quasi-definite near the rest state.
+//! faer's sparse LDLᵀ (no pivoting) factorizes it (it may be indefinite away from
+//! equilibrium); its symbolic analysis is computed once and reused for every
 //! Newton iteration and load step; element and face terms are computed in parallel
 //! (rayon). A step that inverts an element is halved (a line search on validity only:
 //! the three-field system is a saddle point, not a minimum, so there is no energy to

@@ -51,9 +51,9 @@ pub struct Model {
     pub tets: Tetrahedra,
 }
 
-/// The 10-node tetrahedra of a model ([`crate::fem::tet10`], mixed u-P with one pressure
-/// per element, condensed exactly: they need no state of their own in the Newton
-/// iteration) and their 6-node cavity faces ([`crate::fem::pressure_tri6`]).
+/// The 10-node tetrahedra of a model ([`crate::fem::tet10::taylor_hood`], mixed u-P with
+/// a continuous linear pressure: the solver adds a pressure unknown at every corner
+/// node) and their 6-node cavity faces ([`crate::fem::pressure_tri6`]).
 #[derive(Debug, Clone, Default)]
 pub struct Tetrahedra {
     /// Elements: 10 node indices each (C3D10 order, [`crate::fem::tet10::EDGES`]).

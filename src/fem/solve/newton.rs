@@ -5,10 +5,8 @@
 use super::assembly::Assembled;
 use super::linear::factor_too_large;
 use super::model::{volume_points, LoadState, Model};
-use super::pattern::Pattern;
 use super::solver::{Solver, State};
 use crate::fem::hex::{ElementVector, Modes, ENHANCED_DOFS};
-use crate::fem::tet10::Tet10Vector;
 use crate::fem::FemError;
 
 /// Newton settings.
@@ -157,8 +155,7 @@ impl<'m> Solver<'m> {
                         // wild first iterates under gravity) would only densify the
                         // matrix from now on.
                         self.extra_couplings = saved_couplings;
-                        self.pattern =
-                            Pattern::new(self.model, &self.eq, self.n_eq, &self.extra_couplings)?;
+                        self.pattern = self.new_pattern()?;
                         self.symbolic = None;
                         self.scratch = None;
                     }
@@ -309,8 +306,7 @@ impl<'m> Solver<'m> {
                         self.extra_couplings.len()
                     );
                 }
-                self.pattern = Pattern::new(self.model, &self.eq, self.n_eq, &self.extra_couplings)
-                    .map_err(|_| NewtonFailure::Cut)?;
+                self.pattern = self.new_pattern().map_err(|_| NewtonFailure::Cut)?;
                 self.symbolic = None;
                 self.scratch = None;
                 cur = self
@@ -334,7 +330,7 @@ impl<'m> Solver<'m> {
             // Δa = −K_aa⁻¹ (r_a + K_au Δu), then Δθ = (Gᵀ Δu + R_p) / V (G over the nodes
             // and the modes, per Gauss point with the modes), Δp = U'' Δθ + R_θ / V.
             let points = volume_points(self.model);
-            let mut updates: Vec<ElementUpdate> = self
+            let updates: Vec<ElementUpdate> = self
                 .model
                 .elements
                 .iter()
@@ -372,21 +368,10 @@ impl<'m> Solver<'m> {
                     }
                 })
                 .collect();
-            // The tetrahedra's: Δθ = (Gᵀ Δu + R_θ) / V, Δp = U'' Δθ + R_p / V (a model
-            // with tetrahedra has one dilatation per hexahedron: no modes).
-            updates.extend(
-                self.model
-                    .tets
-                    .elements
-                    .iter()
-                    .zip(&cur.tet_condensed)
-                    .zip(&self.tet_geom)
-                    .map(|((el, c), g)| {
-                        let due = Tet10Vector::from_fn(|a, _| du_full[3 * el[a / 3] + a % 3]);
-                        let dth = (c.g.dot(&due) + c.r_volume) / g.volume;
-                        (vec![(dth, c.ddu * dth + c.r_pressure / g.volume)], None)
-                    }),
-            );
+            // The tetrahedra's corner pressures are unknowns of the system (after the
+            // displacements), as are the pressures of the hexahedra's state before them.
+            let hex_states = points * self.model.elements.len();
+            let dp_corners = &du[self.n_eq..];
             // Full step unless it inverts an element; then halve.
             let mut alpha = 1.0;
             let mut accepted = None;
@@ -397,10 +382,16 @@ impl<'m> Solver<'m> {
                     .zip(&updates)
                     .flat_map(|(a, b)| a.iter().zip(&b.0).map(|(x, d)| x + alpha * d.0))
                     .collect();
-                let tp: Vec<f64> = pressure
+                let tp: Vec<f64> = pressure[..hex_states]
                     .chunks(points)
                     .zip(&updates)
                     .flat_map(|(a, b)| a.iter().zip(&b.0).map(|(x, d)| x + alpha * d.1))
+                    .chain(
+                        pressure[hex_states..]
+                            .iter()
+                            .zip(dp_corners)
+                            .map(|(x, d)| x + alpha * d),
+                    )
                     .collect();
                 let tm: Vec<Modes> = modes
                     .iter()

@@ -1,11 +1,14 @@
 //! The sparsity pattern of the condensed tangent, computed once from the mesh (and
 //! extended when contact couples new node pairs), and where every element, face, sheet
-//! and fibre matrix entry goes in its value array.
+//! and fibre matrix entry goes in its value array. The tetrahedra's corner pressures
+//! (Taylor-Hood, [`crate::fem::tet10::taylor_hood`]) are unknowns of their own, numbered
+//! after the free displacements.
 
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
 
 use super::model::Model;
 use crate::fem::plate::PLATE_NODES;
+use crate::fem::tet10::taylor_hood::TH_DOFS;
 use crate::fem::truss::TRUSS_DOFS;
 use crate::fem::FemError;
 
@@ -35,20 +38,24 @@ pub(super) struct Pattern {
     pub(super) truss_slots: Vec<Box<[u32; TRUSS_DOFS * TRUSS_DOFS]>>,
     /// `plate_slots[t][a + 15 b]`: value index of entry (a, b) of bending term t, or SKIP.
     pub(super) plate_slots: Vec<[u32; 9 * PLATE_NODES * PLATE_NODES]>,
-    /// `tet_slots[t][a + 30 b]`: value index of entry (a, b) of tetrahedron t, or SKIP.
-    pub(super) tet_slots: Vec<Box<[u32; 900]>>,
-    /// Tetrahedra with a free dof.
-    pub(super) tet_active: Vec<bool>,
+    /// `tet_slots[t][a + 34 b]`: value index of entry (a, b) of tetrahedron t (30
+    /// displacements, then its 4 corner pressures), or SKIP.
+    pub(super) tet_slots: Vec<Box<[u32; TH_DOFS * TH_DOFS]>>,
     /// `tri6_slots[f][a + 18 b]`: value index of entry (a, b) of 6-node pressure face f,
     /// or SKIP.
     pub(super) tri6_slots: Vec<Box<[u32; 324]>>,
 }
 
 impl Pattern {
+    /// The pattern of `n_eq` free displacements (`eq`: each dof's equation) and the
+    /// pressures `tet_pressure` (each tetrahedron's 4 corner pressures, 0..n_p, their
+    /// equations n_eq + k), with the node pairs `extra` that contact couples.
     pub(super) fn new(
         model: &Model,
         eq: &[Option<usize>],
         n_eq: usize,
+        tet_pressure: &[[usize; 4]],
+        n_p: usize,
         extra: &[(usize, usize)],
     ) -> Result<Self, FemError> {
         let dofs = |nodes: &[usize]| -> Vec<Option<usize>> {
@@ -56,7 +63,13 @@ impl Pattern {
                 .map(|a| eq[3 * nodes[a / 3] + a % 3])
                 .collect()
         };
-        let mut columns: Vec<Vec<usize>> = vec![Vec::new(); n_eq];
+        let tet_dofs = |t: usize| -> Vec<Option<usize>> {
+            let mut d = dofs(&model.tets.elements[t]);
+            d.extend(tet_pressure[t].iter().map(|k| Some(n_eq + k)));
+            d
+        };
+        let n = n_eq + n_p;
+        let mut columns: Vec<Vec<usize>> = vec![Vec::new(); n];
         let mut add = |d: &[Option<usize>]| {
             for ra in d.iter().flatten() {
                 for cb in d.iter().flatten() {
@@ -81,8 +94,8 @@ impl Pattern {
         for t in &model.plates {
             add(&dofs(&t.nodes));
         }
-        for t in &model.tets.elements {
-            add(&dofs(t));
+        for t in 0..model.tets.elements.len() {
+            add(&tet_dofs(t));
         }
         for f in &model.tets.pressure_faces {
             add(&dofs(f));
@@ -97,7 +110,7 @@ impl Pattern {
                 }
             }
         }
-        let mut col_ptr = Vec::with_capacity(n_eq + 1);
+        let mut col_ptr = Vec::with_capacity(n + 1);
         let mut row_idx = Vec::new();
         col_ptr.push(0);
         for c in columns.iter_mut() {
@@ -179,21 +192,12 @@ impl Pattern {
                 s
             })
             .collect();
-        let tet_slots = model
-            .tets
-            .elements
-            .iter()
+        let tet_slots = (0..model.tets.elements.len())
             .map(|t| {
-                let mut s = Box::new([SKIP; 900]);
-                slots(&dofs(t), &mut s[..]);
+                let mut s = Box::new([SKIP; TH_DOFS * TH_DOFS]);
+                slots(&tet_dofs(t), &mut s[..]);
                 s
             })
-            .collect();
-        let tet_active = model
-            .tets
-            .elements
-            .iter()
-            .map(|t| dofs(t).iter().any(Option::is_some))
             .collect();
         let tri6_slots = model
             .tets
@@ -205,7 +209,7 @@ impl Pattern {
                 s
             })
             .collect();
-        let symbolic = SymbolicSparseColMat::new_checked(n_eq, n_eq, col_ptr, None, row_idx);
+        let symbolic = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
         Ok(Self {
             symbolic,
             element_slots,
@@ -215,7 +219,6 @@ impl Pattern {
             truss_slots,
             plate_slots,
             tet_slots,
-            tet_active,
             tri6_slots,
         })
     }

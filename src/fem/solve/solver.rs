@@ -1,6 +1,7 @@
 //! The incremental solver: the state it holds (displacement, element dilatations and
-//! pressures, the modes' amplitudes, the load), its set-up from a [`Model`], and what it
-//! reports of a state (positions, cavity volume, stresses, reactions, warm-start state).
+//! pressures, the tetrahedra's corner pressures, the modes' amplitudes, the load), its
+//! set-up from a [`Model`], and what it reports of a state (positions, cavity volume,
+//! stresses, reactions, warm-start state).
 
 use std::sync::Mutex;
 
@@ -17,7 +18,8 @@ use crate::fem::hex::{element_cauchy_stress, element_response, HexGeometry, Mode
 use crate::fem::membrane::{membrane_response, MembraneGeometry};
 use crate::fem::pressure::face_volume;
 use crate::fem::pressure_tri6;
-use crate::fem::tet10::{self, Tet10Geometry};
+use crate::fem::tet10::taylor_hood;
+use crate::fem::tet10::Tet10Geometry;
 use crate::fem::truss::{truss_response, TRUSS_DOFS};
 use crate::fem::FemError;
 
@@ -38,7 +40,16 @@ pub struct Solver<'m> {
     pub(super) tet_geom: Vec<Tet10Geometry>,
     pub(super) membrane_geom: Vec<MembraneGeometry>,
     pub(super) eq: Vec<Option<usize>>,
+    /// Free displacements (equations 0..n_eq).
     pub(super) n_eq: usize,
+    /// Each tetrahedron's 4 corner pressures: indices into the corner pressures (the
+    /// tail of [`Self::pressure`]; equations n_eq + k). A node of hexahedra only has none.
+    pub(super) tet_pressure: Vec<[usize; 4]>,
+    /// Corner pressures (Taylor-Hood unknowns), n_p.
+    pub(super) n_p: usize,
+    /// ∫ L_k dV over the tetrahedra at each corner pressure k: its volume constraint's
+    /// residual over it is a volume strain (the convergence test's volume error).
+    pub(super) corner_volume: Vec<f64>,
     pub(super) pattern: Pattern,
     /// Node pairs added to the pattern during the solve: slave nodes and the nodes of the
     /// master faces they have met. Coupling every wall node to the facing wall from the
@@ -60,7 +71,8 @@ pub struct Solver<'m> {
     pub(super) u: Vec<f64>,
     /// Element dilatations θ_e.
     pub(super) theta: Vec<f64>,
-    /// Element pressures p_e, MPa.
+    /// Element pressures p_e of the hexahedra, then the tetrahedra's corner pressures,
+    /// MPa.
     pub(super) pressure: Vec<f64>,
     /// Amplitudes of each element's incompatible modes (empty for the plain element).
     pub(super) modes: Vec<Modes>,
@@ -69,7 +81,8 @@ pub struct Solver<'m> {
     pub(super) previous: Option<(State, LoadState)>,
 }
 
-/// A state of the three-field iteration: u, θ_e, p_e and the modes' amplitudes.
+/// A state of the iteration: u, θ_e, p_e (with the corner pressures) and the modes'
+/// amplitudes.
 pub(super) type State = (Vec<f64>, Vec<f64>, Vec<f64>, Vec<Modes>);
 
 impl<'m> Solver<'m> {
@@ -174,7 +187,29 @@ impl<'m> Solver<'m> {
                 n_eq += 1;
             }
         }
-        let pattern = Pattern::new(model, &eq, n_eq, &[])?;
+        // The corner pressures, numbered as the tetrahedra first meet them.
+        let mut corner = vec![None; n];
+        let mut n_p = 0;
+        let tet_pressure: Vec<[usize; 4]> = model
+            .tets
+            .elements
+            .iter()
+            .map(|t| {
+                std::array::from_fn(|i| {
+                    *corner[t[i]].get_or_insert_with(|| {
+                        n_p += 1;
+                        n_p - 1
+                    })
+                })
+            })
+            .collect();
+        let mut corner_volume = vec![0.0; n_p];
+        for (ks, g) in tet_pressure.iter().zip(&tet_geom) {
+            for (k, v) in ks.iter().zip(taylor_hood::corner_volumes(g)) {
+                corner_volume[*k] += v;
+            }
+        }
+        let pattern = Pattern::new(model, &eq, n_eq, &tet_pressure, n_p, &[])?;
         let points = volume_points(model);
         Ok(Self {
             model,
@@ -183,6 +218,9 @@ impl<'m> Solver<'m> {
             membrane_geom,
             eq,
             n_eq,
+            tet_pressure,
+            n_p,
+            corner_volume,
             pattern,
             extra_couplings: Vec::new(),
             symbolic: None,
@@ -191,8 +229,8 @@ impl<'m> Solver<'m> {
             parts: Mutex::new(Vec::new()),
             tet_parts: Mutex::new(Vec::new()),
             u: vec![0.0; 3 * n],
-            theta: vec![1.0; points * model.elements.len() + model.tets.elements.len()],
-            pressure: vec![0.0; points * model.elements.len() + model.tets.elements.len()],
+            theta: vec![1.0; points * model.elements.len()],
+            pressure: vec![0.0; points * model.elements.len() + n_p],
             modes: if model.incompatible_modes {
                 vec![[0.0; MODE_DOFS]; model.elements.len()]
             } else {
@@ -201,6 +239,18 @@ impl<'m> Solver<'m> {
             load: LoadState::default(),
             previous: None,
         })
+    }
+
+    /// The pattern of this model's tangent with the contact couplings found so far.
+    pub(super) fn new_pattern(&self) -> Result<Pattern, FemError> {
+        Pattern::new(
+            self.model,
+            &self.eq,
+            self.n_eq,
+            &self.tet_pressure,
+            self.n_p,
+            &self.extra_couplings,
+        )
     }
 
     /// Nodal displacements, mm (3 per node).
@@ -249,8 +299,14 @@ impl<'m> Solver<'m> {
         quads + triangles
     }
 
-    /// Cauchy stress of every tetrahedron, MPa: the isochoric part averaged over the
-    /// element plus its condensed pressure.
+    /// The corner pressures of tetrahedron `t`, MPa.
+    pub(super) fn corner_pressures(&self, pressure: &[f64], t: usize) -> [f64; 4] {
+        let nodal = &pressure[pressure.len() - self.n_p..];
+        self.tet_pressure[t].map(|k| nodal[k])
+    }
+
+    /// Cauchy stress of every tetrahedron, MPa: the isochoric part and the interpolated
+    /// pressure averaged over the element.
     fn tet_stresses(&self) -> Vec<Matrix3<f64>> {
         let model = self.model;
         model
@@ -262,7 +318,8 @@ impl<'m> Solver<'m> {
             .map(|(t, (el, g))| {
                 let material = model.material_of_tet(t);
                 let u = gather(&self.u, el);
-                tet10::element_cauchy_stress(g, material, &u)
+                let p = self.corner_pressures(&self.pressure, t);
+                taylor_hood::element_cauchy_stress(g, material, &u, &p)
                     .unwrap_or_else(|| Matrix3::from_element(f64::NAN))
             })
             .collect()
@@ -318,14 +375,15 @@ impl<'m> Solver<'m> {
             .zip(&self.tet_geom)
             .enumerate()
         {
-            if let Some((_, ft, _)) = tet10::element_response(
+            let p = self.corner_pressures(&self.pressure, t);
+            if let Some(r) = taylor_hood::element_response(
                 g,
                 self.model.material_of_tet(t),
                 &gather(&self.u, el),
-                tet10::Formulation::MixedP0,
+                &p,
             ) {
                 for a in 0..30 {
-                    f[3 * el[a / 3] + a % 3] += ft[a];
+                    f[3 * el[a / 3] + a % 3] += r.gradient[a];
                 }
             }
         }
@@ -393,6 +451,7 @@ impl<'m> Solver<'m> {
     pub fn set_state(&mut self, state: &SolverState) -> Result<(), FemError> {
         if state.u.len() != self.u.len()
             || state.theta.len() != self.theta.len()
+            || state.pressure.len() != self.pressure.len()
             || state.modes.len() != self.modes.len()
         {
             return Err(FemError::Model {

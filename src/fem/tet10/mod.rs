@@ -33,6 +33,10 @@
 //! conformal fields 2 (a·x) x − |x|² a, whose strain is a pure dilatation of zero mean;
 //! neighbours and supports remove them (the trace-free Korn inequality of the continuum).
 //!
+//! [`taylor_hood`] is the element with a continuous linear pressure (P2/P1), the one the
+//! solver uses: P0 leaves the dilatation free to jump between elements, and a wall one
+//! element thick bends too easily (`verify`'s cantilever wall).
+//!
 //! [`Formulation::Displacement`] is the plain element (U(J) at every Gauss point), kept
 //! to show the locking the mixed one avoids (tests in `verify`).
 
@@ -350,6 +354,8 @@ pub fn element_response(
         }
     }
 }
+
+pub mod taylor_hood;
 
 #[cfg(test)]
 mod verify;
