@@ -277,7 +277,10 @@ fn table(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
 /// `cavity.b` farther) with the factors `a`, `b`, clamped at x = 0, five markers on the
 /// side face, 3 mm, no gravity.
 fn two_cavities(dir: &Path, name: &str, a: f64, b: f64) -> String {
-    let file = concat!(env!("CARGO_MANIFEST_DIR"), "/fixtures/mesh/two-cavities.geo");
+    let file = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/fixtures/mesh/two-cavities.geo"
+    );
     let text = format!("[geometry]\nfamily = \"mesh\"\nfile = \"{file}\"\nclamp = \"x-min\"\n[geometry.markers]\nfrom = [6.0, 0.0, 1.5]\nto = [30.0, 0.0, 1.5]\ncount = 5\n[mesh]\nsize_mm = 3.0\n[load]\ngravity = false\n[cavities]\na = {a:?}\nb = {b:?}\n");
     let toml = format!("{name}.toml");
     std::fs::write(dir.join(&toml), text).unwrap();
@@ -322,7 +325,10 @@ fn cavities_pressurised_apart_add_up_at_small_pressure() {
             assert_eq!(row[c("pressure_a_kpa")], a * ramp, "{name}");
             assert_eq!(row[c("pressure_b_kpa")], b * ramp, "{name}");
             let sum = row[c("cavity_volume_a_mm3")] + row[c("cavity_volume_b_mm3")];
-            assert!((sum - row[c("cavity_volume_mm3")]).abs() < 2e-4, "{name}: {row:?}");
+            assert!(
+                (sum - row[c("cavity_volume_mm3")]).abs() < 2e-4,
+                "{name}: {row:?}"
+            );
         }
         // Drawn: 10 x 6 x 3.5 mm each.
         assert!((rows[0][c("cavity_volume_a_mm3")] - 210.0).abs() < 1e-3);
@@ -346,18 +352,29 @@ fn cavities_pressurised_apart_add_up_at_small_pressure() {
             "{pk} kPa: a {a:?} b {b:?} ab {ab:?}: defect {defect:.5} mm of {size:.5} mm ({:.2}%)",
             100.0 * defect / size
         );
-        assert!(size > 0.02 && a[1] < 0.0 && b[1] < 0.0, "{pk} kPa: {a:?} {b:?}");
+        assert!(
+            size > 0.02 && a[1] < 0.0 && b[1] < 0.0,
+            "{pk} kPa: {a:?} {b:?}"
+        );
         defects.push((defect, size));
     }
     let ((d5, s5), (d10, _)) = (defects[0], defects[1]);
     assert!(d5 < 0.035 * s5, "5 kPa: defect {d5} of {s5} mm");
-    assert!((3.0..5.0).contains(&(d10 / d5)), "defect {d5} then {d10} mm");
+    assert!(
+        (3.0..5.0).contains(&(d10 / d5)),
+        "defect {d5} then {d10} mm"
+    );
     // The deck: each step loads cavity a's faces alone, at the step's pressure.
     let deck = std::fs::read_to_string(dir.path().join("a.inp")).unwrap();
     let faces = |cavity: &str| -> usize {
         let head = format!("** cavity {cavity}: ");
         let line = deck.lines().find(|l| l.starts_with(&head)).unwrap();
-        line[head.len()..].split(' ').next().unwrap().parse().unwrap()
+        line[head.len()..]
+            .split(' ')
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap()
     };
     assert!(deck.contains("** cavity b: ") && deck.contains(" faces at 0 x the ramp's pressure"));
     let step = deck.split("** cavity pressure 5 kPa").nth(1).unwrap();
@@ -369,7 +386,10 @@ fn cavities_pressurised_apart_add_up_at_small_pressure() {
         .take_while(|l| !l.starts_with('*'))
         .collect();
     assert_eq!(loads.len(), faces("a"), "{}", faces("b"));
-    assert!(loads.iter().all(|l| l.ends_with(", 5.000000000e-3")), "{loads:?}");
+    assert!(
+        loads.iter().all(|l| l.ends_with(", 5.000000000e-3")),
+        "{loads:?}"
+    );
 }
 
 /// `[cavities]` that cannot be taken is refused in one line naming the key and what to
@@ -399,7 +419,16 @@ fn cavity_factors_are_refused_by_key_and_the_fingers_read_back() {
         std::fs::write(dir.path().join("bad.toml"), text).unwrap();
         let r = Run::new(
             dir.path(),
-            &["simulate", "--config", "bad.toml", "--no-vtu", "-o", "out", "--export-inp", "deck.inp"],
+            &[
+                "simulate",
+                "--config",
+                "bad.toml",
+                "--no-vtu",
+                "-o",
+                "out",
+                "--export-inp",
+                "deck.inp",
+            ],
         );
         r.assert_bad_input(needles);
         assert!(
@@ -413,7 +442,9 @@ fn cavity_factors_are_refused_by_key_and_the_fingers_read_back() {
     );
     assert_eq!(printed.code, 0, "{printed}");
     assert!(
-        printed.stdout.contains("[cavities]\nmcp = 1.0\npip_dip = 1.0\n"),
+        printed
+            .stdout
+            .contains("[cavities]\nmcp = 1.0\npip_dip = 1.0\n"),
         "{printed}"
     );
     std::fs::write(dir.path().join("finger.toml"), &printed.stdout).unwrap();
@@ -439,7 +470,16 @@ fn a_finger_with_its_pip_dip_channel_off_bends_at_mcp_alone() {
     .unwrap();
     let r = Run::new(
         dir.path(),
-        &["simulate", "--config", "finger.toml", "--pressures", "0,30", "--no-vtu", "-o", "out"],
+        &[
+            "simulate",
+            "--config",
+            "finger.toml",
+            "--pressures",
+            "0,30",
+            "--no-vtu",
+            "-o",
+            "out",
+        ],
     );
     assert_eq!(r.code, 0, "{r}");
     let (header, steps) = table(&dir.path().join("out/steps.csv"));
@@ -459,7 +499,11 @@ fn a_finger_with_its_pip_dip_channel_off_bends_at_mcp_alone() {
     // The line's direction by total least squares; each marker's distance from it.
     let n = line.len() as f64;
     let c = [0, 1].map(|i| line.iter().map(|p| p[i]).sum::<f64>() / n);
-    let s = |i: usize, j: usize| line.iter().map(|p| (p[i] - c[i]) * (p[j] - c[j])).sum::<f64>();
+    let s = |i: usize, j: usize| {
+        line.iter()
+            .map(|p| (p[i] - c[i]) * (p[j] - c[j]))
+            .sum::<f64>()
+    };
     let theta = 0.5 * (2.0 * s(0, 1)).atan2(s(0, 0) - s(1, 1));
     let normal = [-theta.sin(), theta.cos()];
     let off = line
@@ -469,5 +513,9 @@ fn a_finger_with_its_pip_dip_channel_off_bends_at_mcp_alone() {
     let rest = [at(&rows[0], beyond[0]), at(&rows[0], 13)];
     let turned = (rest[1][1] - rest[0][1]).atan2(rest[1][0] - rest[0][0]) - theta;
     assert!(off < 0.01, "off the line by {off} mm");
-    assert!(turned.to_degrees().abs() > 1.0, "turned {} deg", turned.to_degrees());
+    assert!(
+        turned.to_degrees().abs() > 1.0,
+        "turned {} deg",
+        turned.to_degrees()
+    );
 }
