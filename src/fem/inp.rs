@@ -228,7 +228,7 @@ pub fn inp_from_mesh(
     for c in caveats(cfg) {
         let _ = writeln!(s, "{}", comment_line(&format!("note: {c}")));
     }
-    for c in m.tets.cavities.iter() {
+    for c in &m.tets.cavities {
         if let Some(name) = &c.name {
             let _ = writeln!(
                 s,

@@ -115,4 +115,34 @@ mod tests {
         assert_eq!(factor_of(&fine, Some("other")), 1.0);
         assert_eq!(factor_of(&fine, None), 1.0);
     }
+
+    /// The one setter of sweeps and fits sets a factor by its dotted or bare name, on the
+    /// finger (whose channels are in its config) and on a config without `[cavities]`;
+    /// a NaN is refused by its key.
+    #[test]
+    fn the_setter_sets_a_cavity_factor_by_name() {
+        use crate::fem::config::{ActuatorConfig, Family};
+        let finger = ActuatorConfig::for_family(Family::SegmentedFinger);
+        assert_eq!(finger.cavities.len(), 2);
+        let off = finger.with_parameter("cavities.pip_dip", 0.0).unwrap();
+        assert_eq!(off.cavities["pip_dip"], 0.0);
+        assert_eq!(off.cavities["mcp"], 1.0);
+        let half = finger.with_parameter("mcp", 0.5).unwrap();
+        assert_eq!(half.cavities["mcp"], 0.5);
+        let mesh = ActuatorConfig::for_family(Family::Mesh);
+        assert!(mesh.cavities.is_empty());
+        let set = mesh.with_parameter("cavities.a", 2.0).unwrap();
+        assert_eq!(set.cavities, CavityFactors::from([("a".into(), 2.0)]));
+        let e = finger
+            .with_parameter("cavities.mcp", f64::NAN)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("[cavities] mcp = nan: not a finite number"),
+            "{e}"
+        );
+        // Printed and read back.
+        let back: ActuatorConfig = toml::from_str(&off.to_toml().unwrap()).unwrap();
+        assert_eq!(back, off);
+    }
 }
