@@ -4,7 +4,8 @@
 // width W = 20 mm with the bellow's top a half cylinder across the whole width (radius
 // W / 2; straight side walls below it when H > W / 2), gaps of 1.5 mm between bellows,
 // the first bellow's end wall in the clamp plane x = 0, the foot as long as the finger,
-// no channel (every cavity takes the same pressure), one silicone.
+// no channel, one silicone. The cavities are the study's two channels: `cavity.mcp`,
+// the first NMCP bellows (the MCP segment), and `cavity.pip_dip`, the others.
 SetFactory("OpenCASCADE");
 DefineConstant[
   H = {10, Name "Parameters/H bellow height (mm)"},
@@ -13,7 +14,8 @@ DefineConstant[
   TOF = {1.25, Name "Parameters/TOF foot thickness (mm)"},
   L = {130, Name "Parameters/L length (mm)"},
   W = {20, Name "Parameters/W width (mm)"},
-  gap = {1.5, Name "Parameters/gap between bellows (mm)"}
+  gap = {1.5, Name "Parameters/gap between bellows (mm)"},
+  NMCP = {4, Name "Parameters/NMCP bellows of the MCP segment"}
 ];
 R = W / 2;
 Ri = R - TSB;
@@ -61,11 +63,17 @@ Point{marks()} In Surface{bottom(0)};
 Physical Volume("silicone") = solid();
 Physical Surface("symmetry.y") = Surface In BoundingBox{-e, -e, -e, L + e, e, TOF + H + e};
 Physical Surface("clamp") = Surface In BoundingBox{-e, -e, -e, e, R + e, TOF + H + e};
-cav() = {};
+mcp() = {};
+pd() = {};
 For k In {0 : N - 1}
   x0 = k * p;
-  cav() += Surface In BoundingBox{x0 + TSB - e, -e, TOF - e, x0 + tb - TSB + e, Ri + e, TOF + H - TSB + e};
+  If (k < NMCP)
+    mcp() += Surface In BoundingBox{x0 + TSB - e, -e, TOF - e, x0 + tb - TSB + e, Ri + e, TOF + H - TSB + e};
+  Else
+    pd() += Surface In BoundingBox{x0 + TSB - e, -e, TOF - e, x0 + tb - TSB + e, Ri + e, TOF + H - TSB + e};
+  EndIf
 EndFor
-Physical Surface("cavity") = cav();
+Physical Surface("cavity.mcp") = mcp();
+Physical Surface("cavity.pip_dip") = pd();
 Physical Point("markers") = marks();
 Physical Point("tip") = Point In BoundingBox{L - e, -e, -e, L + e, e, e};

@@ -26,7 +26,8 @@ actuator), summary.json; with --blocked force.csv; with --sweep sweep.csv.
 Config sections: [geometry] chambers b i f m p r c g d e l n top_wall roof (mm, method.md §4 names); \
 [material] preset c1 c2 c3 bulk_modulus_mpa density_g_cm3 tensile_strength_mpa scale; [mesh] size_mm element (q1p0 or incompatible-modes); \
 [load] pressures_kpa gravity gravity_direction; [solver] max_iterations tolerance; [layer] (or several [[layer]]) name thickness_mm \
-youngs_modulus_mpa poisson_ratio height_mm element (membrane, plate or solid) width_mm strips spacing_mm tensile_strength_mpa; [contact]. \
+youngs_modulus_mpa poisson_ratio height_mm element (membrane, plate or solid) width_mm strips spacing_mm tensile_strength_mpa; [contact]; \
+[cavities] NAME = factor (a named cavity's pressure over the ramp's: the segmented finger's mcp and pip_dip, a mesh's cavity.NAME groups). \
 [geometry] family = pneunets, glove, strap, fibre-reinforced or segmented-finger picks the published design whose values fill what the file leaves out \
 ([tube] for fibre-reinforced, [finger] height_mm bellows wall_mm foot_mm length_mm width_mm gap_mm for segmented-finger); family = mesh reads [geometry] file \
 (.msh, or .geo/.step/.stp/.iges/.igs/.brep meshed by gmsh) with parameters (a .geo's numbers), clamp (x-min .. z-max) and [geometry.markers] from to count. \

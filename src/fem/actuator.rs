@@ -184,7 +184,24 @@ impl ActuatorConfig {
                 format!("{t}: use a relative tolerance in (0, 1e-3]"),
             ));
         }
-        Ok(())
+        // Last: an imported mesh is meshed for its cavities' names.
+        self.validate_cavities()
+    }
+
+    /// Checks `[cavities]`: its factors, and that each names a cavity of the model (an
+    /// imported mesh is read for its names: meshed once, [`super::shapes`] keeps it).
+    fn validate_cavities(&self) -> Result<(), FemError> {
+        if self.cavities.is_empty() {
+            return Ok(());
+        }
+        let top = self.pressures_kpa()?.last().copied().unwrap_or(0.0);
+        super::config::cavities::validate(&self.cavities, top)?;
+        let shape = self.shape();
+        super::config::cavities::check_names(
+            &self.cavities,
+            &shape.cavity_names(self)?,
+            &shape.one_cavity(self),
+        )
     }
 
     /// Refuses `[geometry]`'s keys of a geometry file for a shape that reads none.

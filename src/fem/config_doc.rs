@@ -49,6 +49,8 @@ fn key_text(path: &[Step]) -> String {
 fn finite_hint(section: &str, key: &str) -> &'static str {
     if key == "gravity_direction" {
         "give a direction, e.g. [0, 0, -1]"
+    } else if section == "cavities" {
+        "give the cavity's pressure as a factor of the ramp's (1: the ramp's, 0: not pressurised)"
     } else if key.ends_with("_mm") || section == "geometry" {
         "give a size in mm"
     } else if key.ends_with("_mpa") || ["c1", "c2", "c3"].contains(&key) {

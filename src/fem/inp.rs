@@ -24,7 +24,8 @@
 //! bendscope pairs the walls both ways with half a node's area in each); gravity along the config's
 //! direction as `*DLOAD GRAV` in a first step of its own when on, then one
 //! `*STEP, NLGEOM` per ramp pressure with the cavity pressure as element-face loads
-//! `P1..P6` and the displacements of the markers (`MARKERS`, from the clamp towards the
+//! `P1..P6` (each named cavity's the ramp's times its `[cavities]` factor, none at 0)
+//! and the displacements of the markers (`MARKERS`, from the clamp towards the
 //! tip), the tip (`TIP`) and the tip face's twist pair (`TWIST`: on the axis plane, the
 //! lower node first; the twist is the angle of the line between them about the axis)
 //! printed once at its end. Units: mm, N, MPa, t/mm³, s.
@@ -226,6 +227,16 @@ pub fn inp_from_mesh(
     // What CalculiX will not do with the deck travels with it, not only on stderr.
     for c in caveats(cfg) {
         let _ = writeln!(s, "{}", comment_line(&format!("note: {c}")));
+    }
+    for c in &m.tets.cavities {
+        if let Some(name) = &c.name {
+            let _ = writeln!(
+                s,
+                "** cavity {name}: {} faces at {} x the ramp's pressure",
+                c.faces.len(),
+                c.factor
+            );
+        }
     }
     let _ = writeln!(
         s,
@@ -502,10 +513,19 @@ pub fn inp_from_mesh(
         );
         steps += 1;
     }
+    // Each face at its cavity's pressure: the ramp's times the cavity's factor (the
+    // hexahedra's one cavity at 1); a cavity at 0 carries no load.
+    let factor = |k: usize| {
+        k.checked_sub(m.pressure_faces.len())
+            .map_or(1.0, |j| m.tets.pressure_factor(j))
+    };
     for p in &pressures_kpa {
         let _ = write!(s, "** cavity pressure {p} kPa\n{step_head}*DLOAD\n");
-        for (e, face) in &loads {
-            let _ = writeln!(s, "{}, P{face}, {:.9e}", e + 1, p * 1e-3);
+        for (k, (e, face)) in loads.iter().enumerate() {
+            let f = factor(k);
+            if f != 0.0 {
+                let _ = writeln!(s, "{}, P{face}, {:.9e}", e + 1, p * 1e-3 * f);
+            }
         }
         // FREQUENCY beyond any increment count: printed at the step's end only.
         let every = MAX_INCREMENTS + 1;

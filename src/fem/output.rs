@@ -235,12 +235,7 @@ fn part_columns(steps: &[StepResult]) -> Vec<Column> {
     };
     let mut cols = Vec::new();
     for (k, part) in first.parts.iter().enumerate().skip(1) {
-        let name: String = part
-            .name
-            .to_ascii_lowercase()
-            .chars()
-            .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
-            .collect();
+        let name = snake(&part.name);
         let get = |f: fn(&super::simulate::PartStress) -> f64| {
             steps
                 .iter()
@@ -258,6 +253,42 @@ fn part_columns(steps: &[StepResult]) -> Vec<Column> {
         ));
     }
     cols
+}
+
+/// `pressure_<name>_kpa` and `cavity_volume_<name>_mm3` for every named cavity, the
+/// name in snake case.
+fn cavity_columns(steps: &[StepResult]) -> Vec<Column> {
+    let Some(first) = steps.first() else {
+        return Vec::new();
+    };
+    let mut cols = Vec::new();
+    for (k, cavity) in first.cavities.iter().enumerate() {
+        let name = snake(&cavity.name);
+        let get = |f: fn(&super::simulate::CavityStep) -> f64| {
+            steps
+                .iter()
+                .map(move |s| s.cavities.get(k).map_or(f64::NAN, f))
+        };
+        cols.push(Column::num(
+            format!("pressure_{name}_kpa"),
+            4,
+            get(|c| c.pressure_kpa),
+        ));
+        cols.push(Column::num(
+            format!("cavity_volume_{name}_mm3"),
+            4,
+            get(|c| c.volume_mm3),
+        ));
+    }
+    cols
+}
+
+/// `name` in lower case, every other character than a letter or digit an underscore.
+fn snake(name: &str) -> String {
+    name.to_ascii_lowercase()
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+        .collect()
 }
 
 /// Writes `steps.csv` and `markers.csv`.
@@ -290,6 +321,7 @@ pub fn write_steps(out: &Path, steps: &[StepResult]) -> Result<(), FemError> {
         ]
         .into_iter()
         .chain(part_columns(steps))
+        .chain(cavity_columns(steps))
         .collect::<Vec<_>>(),
     )
     .map_err(output)?;

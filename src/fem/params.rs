@@ -6,7 +6,7 @@
 //! (`tube.outer_material.c1`), an entry of a list of tables by its `name` or its number
 //! from 1 (`layer.paper.thickness_mm`, `layer.2.youngs_modulus_mpa`), or a bare field
 //! found in exactly one section (`f`, `size_mm`, `c2`); a bare field in several sections
-//! is refused (write its section).
+//! is refused (write its section). A cavity's pressure factor is `cavities.NAME`.
 //!
 //! Values: a count (an integer field) takes a whole number >= 0 and stays an integer; a
 //! number field takes any number, an integer included (the config's own checks then
@@ -74,9 +74,15 @@ impl FieldPath {
     }
 }
 
-/// The config as a TOML document (what the setter edits).
+/// The config as a TOML document (what the setter edits), with a `[cavities]` table
+/// even when the config gives none (empty, it reads back as none), so that
+/// `cavities.NAME` can be set on any config.
 pub fn config_document(cfg: &ActuatorConfig) -> Result<toml::Table, ParamError> {
-    toml::Table::try_from(cfg).map_err(|e| refuse("config", format!("config: {e}")))
+    let mut doc =
+        toml::Table::try_from(cfg).map_err(|e| refuse("config", format!("config: {e}")))?;
+    doc.entry("cavities")
+        .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+    Ok(doc)
 }
 
 /// Resolves `name` in `doc`: a dotted name as written (its tables are found when the
@@ -165,7 +171,7 @@ pub fn config_table_at<'a>(
             }
             _ => {
                 return Err(format!(
-                    "no section '{here}' (sections: geometry, material, mesh, load, solver, layer, contact)"
+                    "no section '{here}' (sections: geometry, material, mesh, load, solver, layer, contact, cavities)"
                 ))
             }
         };

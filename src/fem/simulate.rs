@@ -54,6 +54,9 @@ pub struct StepResult {
     pub parts: Vec<PartStress>,
     /// Volume of the cavities (chambers + channel), mm³.
     pub cavity_volume_mm3: f64,
+    /// Each named cavity's pressure and volume (an imported mesh's `cavity.NAME`
+    /// groups, the segmented finger's channels; empty without them).
+    pub cavities: Vec<CavityStep>,
     /// Smallest signed gap between the facing walls of neighbouring chambers, mm
     /// (negative: the walls interpenetrate; NaN when no wall node faces the other wall).
     pub min_wall_gap_mm: f64,
@@ -63,6 +66,17 @@ pub struct StepResult {
     pub blocked_force_n: Option<f64>,
     /// Marker positions (x, z), mm, from the clamp to the tip.
     pub markers_mm: Vec<(f64, f64)>,
+}
+
+/// A named cavity at a step ([`crate::fem::solve::Cavity`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CavityStep {
+    /// NAME of its `cavity.NAME` group.
+    pub name: String,
+    /// Its pressure, kPa: the ramp's times its factor.
+    pub pressure_kpa: f64,
+    /// Its volume, mm³ (the whole actuator's, as `cavity_volume_mm3`).
+    pub volume_mm3: f64,
 }
 
 /// The stress of one part of the model at a step.
@@ -380,6 +394,20 @@ fn step_result(
         bottom_inflation_mm,
         parts,
         cavity_volume_mm3: whole * solver.cavity_volume(),
+        cavities: mesh
+            .model
+            .tets
+            .cavities
+            .iter()
+            .zip(solver.cavity_volumes())
+            .filter_map(|(c, v)| {
+                Some(CavityStep {
+                    name: c.name.clone()?,
+                    pressure_kpa: pressure_kpa * c.factor,
+                    volume_mm3: whole * v,
+                })
+            })
+            .collect(),
         min_wall_gap_mm: min_gap_mm(&mesh.wall_pairs, &|a| solver.position(a)).unwrap_or(f64::NAN),
         newton_iterations,
         blocked_force_n,
@@ -871,6 +899,7 @@ mod warning_tests {
             bottom_inflation_mm: 0.0,
             parts: Vec::new(),
             cavity_volume_mm3: 0.0,
+            cavities: Vec::new(),
             min_wall_gap_mm: 1.0 - p / 250.0,
             newton_iterations: 3,
             blocked_force_n: None,

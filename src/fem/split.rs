@@ -125,6 +125,7 @@ pub fn into_tetrahedra(cfg: &ActuatorConfig, mesh: ActuatorMesh) -> Result<Actua
         elements,
         material,
         pressure_faces,
+        cavities: Vec::new(),
     };
     let loads = gravity_loads_tets(cfg, &nodes, &tets, &mesh.densities_g_cm3)?;
     let mut out = mesh;

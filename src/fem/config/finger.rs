@@ -53,7 +53,8 @@ fn bad(name: &str, why: String) -> FemError {
 }
 
 impl FingerConfig {
-    /// The .geo's numbers (`examples/geo/segmented_finger.geo`'s DefineConstants).
+    /// The .geo's numbers (`examples/geo/segmented_finger.geo`'s DefineConstants; NMCP
+    /// the MCP segment's bellows, the first channel's).
     pub fn geo_numbers(&self) -> Vec<(String, f64)> {
         [
             ("H", self.height_mm),
@@ -63,6 +64,7 @@ impl FingerConfig {
             ("L", self.length_mm),
             ("W", self.width_mm),
             ("gap", self.gap_mm),
+            ("NMCP", self.segments()[0] as f64),
         ]
         .into_iter()
         .map(|(k, v)| (k.to_string(), v))

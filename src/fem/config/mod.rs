@@ -1,11 +1,12 @@
 //! The actuator's configuration types: what a config file's sections hold
 //! (`[geometry]`, `[material]`, `[mesh]`, `[load]`, `[solver]`, `[[layer]]`, `[contact]`,
-//! `[tube]`), their defaults and the checks each section makes on its own.
+//! `[tube]`, `[finger]`, `[cavities]`), their defaults and the checks each section makes on its own.
 //!
 //! A level below everything that builds or reads a model: this module imports no builder;
 //! reading a document over a family's defaults and the checks across sections are
 //! [`super::actuator`]'s.
 
+pub mod cavities;
 pub mod finger;
 pub mod source;
 pub mod tube;
@@ -554,6 +555,10 @@ pub struct ActuatorConfig {
     /// The segmented finger's bellows and foot (its family only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub finger: Option<finger::FingerConfig>,
+    /// Each named cavity's pressure as a factor of the ramp's (`[cavities] mcp = 1.0`;
+    /// [`cavities`]): 1 for a cavity left out, 0 not pressurised.
+    #[serde(skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub cavities: cavities::CavityFactors,
 }
 
 impl Serialize for ActuatorConfig {

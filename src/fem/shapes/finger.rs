@@ -2,8 +2,10 @@
 //! N semicircular bellows of height H and wall TSB on a foot TOF thick, 130 mm long,
 //! drawn by the project's parametric gmsh script (`examples/geo/segmented_finger.geo`,
 //! built into the program) from `[finger]` ([`crate::fem::config::finger`]) and meshed
-//! in 10-node tetrahedra as an imported geometry ([`super::imported`]). Every cavity
-//! takes the one pressure (the study's 90 kPa on MCP, PIP and DIP).
+//! in 10-node tetrahedra as an imported geometry ([`super::imported`]). Its cavities are
+//! the study's two channels, `mcp` (the MCP segment's bellows) and `pip_dip` (the PIP
+//! and DIP segments' bellows, [`FingerConfig::segments`]), both at the ramp's pressure
+//! by default (the study's 90 kPa on every segment); `[cavities]` sets them apart.
 
 use std::path::PathBuf;
 
@@ -26,6 +28,10 @@ impl Family {
 
 /// The segmented finger.
 pub struct Finger;
+
+/// The finger's cavities, the study's channels (the .geo's `cavity.NAME` groups): the
+/// MCP segment's bellows, and the PIP and DIP segments' together.
+pub const CHANNELS: [&str; 2] = ["mcp", "pip_dip"];
 
 /// The finger's gmsh script.
 const GEO: &str = include_str!("../../../examples/geo/segmented_finger.geo");
@@ -93,6 +99,7 @@ impl Shape for Finger {
                 ..LoadConfig::default()
             },
             finger: Some(FingerConfig::default()),
+            cavities: CHANNELS.iter().map(|c| (c.to_string(), 1.0)).collect(),
             ..reference
         }
     }
@@ -106,6 +113,10 @@ impl Shape for Finger {
 
     fn validate(&self, cfg: &ActuatorConfig) -> Result<(), FemError> {
         finger(cfg)?.validate()
+    }
+
+    fn cavity_names(&self, _cfg: &ActuatorConfig) -> Result<Vec<String>, FemError> {
+        Ok(CHANNELS.map(str::to_string).to_vec())
     }
 
     /// Tetrahedra of gmsh's mesh at size h: the solid's volume over a regular

@@ -2,9 +2,10 @@
 //! a gmsh mesh read by [`crate::fem::import`], or a CAD or .geo file gmsh meshes first at
 //! `[mesh] size_mm` (second order). Its physical groups name the parts: volumes the
 //! silicone (every volume takes `[material]`; a volume named `clamp` is a clamped
-//! block), `cavity` surfaces (one pressure on all of them), `clamp` surfaces,
+//! block), `cavity` surfaces (at the ramp's pressure), `clamp` surfaces,
 //! `symmetry.x|y|z` planes, `markers` points (read from the clamp outward), and
-//! optionally a `tip` point (else the last marker). A file may leave its cavity (then
+//! optionally a `tip` point (else the last marker); `cavity.NAME` surfaces are cavities
+//! pressurised apart (`[cavities] NAME = factor`). A file may leave its cavity (then
 //! its closed inner surfaces), its clamp (`[geometry] clamp = "x-min"`) and its markers
 //! (`[geometry.markers]`) unnamed ([`crate::fem::import::Completion`]); a .geo takes
 //! `[geometry.parameters]` as gmsh numbers. As the built-in families, the
@@ -12,7 +13,7 @@
 //! to the markers' x and z.
 //!
 //! Not yet taken: `layer.NAME` surfaces and `thread.NAME` curves (refused), several
-//! materials, cavities pressurised separately.
+//! materials.
 
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
@@ -23,7 +24,7 @@ use crate::fem::config::{ActuatorConfig, Family, Geometry};
 use crate::fem::import::{gmsh, msh, Completion, ImportedMesh};
 use crate::fem::mesh::{gravity_loads_tets, ActuatorMesh, Part};
 use crate::fem::pressure::CLOSED;
-use crate::fem::solve::{Model, Tetrahedra};
+use crate::fem::solve::{Cavity, Model, Tetrahedra};
 use crate::fem::FemError;
 
 #[allow(non_upper_case_globals)]
@@ -240,6 +241,19 @@ impl Shape for Imported {
         source(cfg).map(|_| ())
     }
 
+    fn cavity_names(&self, cfg: &ActuatorConfig) -> Result<Vec<String>, FemError> {
+        Ok(named_cavities(&read(cfg)?.mesh))
+    }
+
+    fn one_cavity(&self, cfg: &ActuatorConfig) -> String {
+        let file = cfg
+            .geometry
+            .file
+            .as_deref()
+            .map_or_else(String::new, |f| format!("{}: ", f.display()));
+        one_cavity(&file)
+    }
+
     /// The file decides: the reader bounds what it allocates itself.
     fn element_estimate(&self, _cfg: &ActuatorConfig, _h: f64) -> f64 {
         0.0
@@ -260,6 +274,21 @@ impl Shape for Imported {
     fn analytic_refusal(&self) -> Option<&'static str> {
         Some("an imported mesh has no chamber model: use --model fem")
     }
+}
+
+/// The NAMEs of a mesh's `cavity.NAME` groups, in its order.
+fn named_cavities(m: &ImportedMesh) -> Vec<String> {
+    m.cavities
+        .iter()
+        .filter_map(|(g, _)| g.strip_prefix("cavity.").map(str::to_string))
+        .collect()
+}
+
+/// What a mesh naming no cavity is (`file` its "path: " prefix), refusing `[cavities]`.
+fn one_cavity(file: &str) -> String {
+    format!(
+        "{file}the mesh has one unnamed cavity (`cavity`, or its voids): name its surfaces `cavity.NAME` in the file (a group per cavity) to pressurise them apart"
+    )
 }
 
 /// The solver's model of an imported mesh: its tetrahedra, cavities, clamp, symmetry
@@ -299,10 +328,25 @@ pub fn from_imported(cfg: &ActuatorConfig, m: ImportedMesh) -> Result<ActuatorMe
             fixed[3 * a + axis] = true;
         }
     }
+    let names = named_cavities(&m);
+    crate::fem::config::cavities::check_names(&cfg.cavities, &names, &one_cavity(&name))?;
+    let mut pressure_faces = Vec::new();
+    let mut cavities = Vec::new();
+    for (group, faces) in m.cavities {
+        let name = group.strip_prefix("cavity.").map(str::to_string);
+        let start = pressure_faces.len();
+        pressure_faces.extend(faces);
+        cavities.push(Cavity {
+            factor: crate::fem::config::cavities::factor_of(&cfg.cavities, name.as_deref()),
+            name,
+            faces: start..pressure_faces.len(),
+        });
+    }
     let tets = Tetrahedra {
         elements: m.tets,
         material: Vec::new(),
-        pressure_faces: m.cavities.into_iter().flat_map(|(_, f)| f).collect(),
+        pressure_faces,
+        cavities,
     };
     let densities_g_cm3 = vec![cfg.material.density_g_cm3];
     let loads = gravity_loads_tets(cfg, &m.nodes, &tets, &densities_g_cm3)?;

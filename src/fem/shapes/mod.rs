@@ -60,6 +60,20 @@ pub trait Shape: Sync {
     /// Checks the shape's own sections and what it needs of the others.
     fn validate(&self, cfg: &ActuatorConfig) -> Result<(), FemError>;
 
+    /// The model's named cavities (its `cavity.NAME` surfaces, NAME alone), whose
+    /// pressures `[cavities]` sets apart; none: one cavity at the ramp's pressure.
+    fn cavity_names(&self, _cfg: &ActuatorConfig) -> Result<Vec<String>, FemError> {
+        Ok(Vec::new())
+    }
+
+    /// What the model is when it names no cavity, for the message refusing `[cavities]`.
+    fn one_cavity(&self, cfg: &ActuatorConfig) -> String {
+        format!(
+            "the {} family has one cavity, at the ramp's pressure (separate pressures: the segmented finger's channels, or an imported mesh's `cavity.NAME` surfaces)",
+            cfg.geometry.family
+        )
+    }
+
     /// Valid but suspect values: keys the shape ignores, set to other than the default.
     fn warnings(&self, _cfg: &ActuatorConfig) -> Vec<String> {
         Vec::new()

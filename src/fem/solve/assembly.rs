@@ -480,9 +480,9 @@ impl<'m> Solver<'m> {
                 }
             }
         }
-        let p = load.pressure_mpa;
-        if p != 0.0 {
-            let mut add = |nodes: &[usize], g: &[f64], h: &[f64], slots: &[u32]| {
+        if load.pressure_mpa != 0.0 {
+            // Each face at its cavity's pressure (p times the cavity's factor).
+            let mut add = |p: f64, nodes: &[usize], g: &[f64], h: &[f64], slots: &[u32]| {
                 for (a, ga) in g.iter().enumerate() {
                     if let Some(i) = eq[3 * nodes[a / 3] + a % 3] {
                         ext[i] += p * ga;
@@ -501,16 +501,18 @@ impl<'m> Solver<'m> {
                 .zip(&faces)
                 .zip(&self.pattern.face_slots)
             {
-                add(face, g.as_slice(), h.as_slice(), slots);
+                add(load.pressure_mpa, face, g.as_slice(), h.as_slice(), slots);
             }
-            for ((face, (_, g, h)), slots) in model
+            for (k, ((face, (_, g, h)), slots)) in model
                 .tets
                 .pressure_faces
                 .iter()
                 .zip(&tri6_faces)
                 .zip(&self.pattern.tri6_slots)
+                .enumerate()
             {
-                add(face, g.as_slice(), h.as_slice(), &slots[..]);
+                let p = load.pressure_mpa * model.tets.pressure_factor(k);
+                add(p, face, g.as_slice(), h.as_slice(), &slots[..]);
             }
         }
         let mut missing = Vec::new();
@@ -611,10 +613,11 @@ mod tests {
                 .unwrap()
                 .energy;
         }
-        for f in &m.tets.pressure_faces {
+        for (j, f) in m.tets.pressure_faces.iter().enumerate() {
             let du = gather(u, f);
             let x: [Vector3<f64>; 6] = std::array::from_fn(|k| m.nodes[f[k]] + du[k]);
-            e -= load.pressure_mpa * pressure_tri6::face_volume(&x, &m.volume_weights).0;
+            let p = load.pressure_mpa * m.tets.pressure_factor(j);
+            e -= p * pressure_tri6::face_volume(&x, &m.volume_weights).0;
         }
         for f in &m.pressure_faces {
             let du = gather(u, f);

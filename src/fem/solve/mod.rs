@@ -40,6 +40,6 @@ mod solver;
 #[cfg(test)]
 pub(crate) mod tests;
 
-pub use model::{LoadState, Model, Tetrahedra};
+pub use model::{Cavity, LoadState, Model, Tetrahedra};
 pub use newton::{solve_static, NewtonResult, NewtonSettings, StepReport};
 pub use solver::{Solver, SolverState};

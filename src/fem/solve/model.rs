@@ -64,6 +64,31 @@ pub struct Tetrahedra {
     /// Cavity faces carrying the follower pressure: 6 node indices, the normal out of the
     /// cavity ([`crate::fem::pressure_tri6`]'s order).
     pub pressure_faces: Vec<[usize; 6]>,
+    /// The cavities the faces make, each a run of them (an imported mesh's `cavity` and
+    /// `cavity.NAME` groups); empty: one cavity, at the ramp's pressure.
+    pub cavities: Vec<Cavity>,
+}
+
+/// One cavity of [`Tetrahedra`]: its faces and its pressure as a factor of the ramp's
+/// (`[cavities]`, [`crate::fem::config::cavities`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Cavity {
+    /// NAME of its `cavity.NAME` group (None: the unnamed `cavity`).
+    pub name: Option<String>,
+    /// Its faces, indices into [`Tetrahedra::pressure_faces`].
+    pub faces: std::ops::Range<usize>,
+    /// Its pressure over the ramp's (1: the ramp's, 0: not pressurised).
+    pub factor: f64,
+}
+
+impl Tetrahedra {
+    /// The pressure factor of face `face`: its cavity's, 1 outside every cavity.
+    pub fn pressure_factor(&self, face: usize) -> f64 {
+        self.cavities
+            .iter()
+            .find(|c| c.faces.contains(&face))
+            .map_or(1.0, |c| c.factor)
+    }
 }
 
 impl Model {

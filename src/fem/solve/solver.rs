@@ -299,6 +299,29 @@ impl<'m> Solver<'m> {
         quads + triangles
     }
 
+    /// Current volume of each cavity of [`super::Tetrahedra::cavities`], mm³ (with the
+    /// symmetry planes, as [`Self::cavity_volume`]).
+    pub fn cavity_volumes(&self) -> Vec<f64> {
+        let w = &self.model.volume_weights;
+        let faces = &self.model.tets.pressure_faces;
+        self.model
+            .tets
+            .cavities
+            .iter()
+            .map(|c| {
+                faces
+                    .get(c.faces.clone())
+                    .unwrap_or_default()
+                    .iter()
+                    .map(|f| {
+                        let x: [Vector3<f64>; 6] = std::array::from_fn(|k| self.position(f[k]));
+                        pressure_tri6::face_volume(&x, w).0
+                    })
+                    .sum()
+            })
+            .collect()
+    }
+
     /// The corner pressures of tetrahedron `t`, MPa.
     pub(super) fn corner_pressures(&self, pressure: &[f64], t: usize) -> [f64; 4] {
         let nodal = &pressure[pressure.len() - self.n_p..];
@@ -413,11 +436,12 @@ impl<'m> Solver<'m> {
                 f[3 * face[a / 3] + a % 3] -= p * g[a];
             }
         }
-        for face in &self.model.tets.pressure_faces {
+        for (j, face) in self.model.tets.pressure_faces.iter().enumerate() {
             let x: [Vector3<f64>; 6] = std::array::from_fn(|k| self.position(face[k]));
             let (_, g, _) = pressure_tri6::face_volume(&x, &self.model.volume_weights);
+            let pf = p * self.model.tets.pressure_factor(j);
             for a in 0..18 {
-                f[3 * face[a / 3] + a % 3] -= p * g[a];
+                f[3 * face[a / 3] + a % 3] -= pf * g[a];
             }
         }
         if let Some(contact) = &self.model.contact {
