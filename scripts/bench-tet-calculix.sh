@@ -24,7 +24,7 @@ else
   bin=$(realpath "$BIN")
 fi
 out=$(realpath -m "${OUT:-target/bench/tet-calculix}")
-cases=${CASES-"3:10 3:20 3:100 2:10 2:100"}
+cases=${CASES-"3:10 3:20 3:100 2:10 2:100 1.5:10"}
 threads=${CCX_THREADS:-2}
 mu0=0.21488
 compare=$PWD/scripts/calculix/deck_vs_steps.py
