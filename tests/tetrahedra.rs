@@ -80,7 +80,7 @@ fn the_reference_meshed_by_gmsh_lands_on_the_converged_hexahedra() {
 /// of 5 x 11 x 12 mm and the 42.5 x 7 x 2 mm channel: 3235 mm³) to 1e-9; CalculiX's marker
 /// radius and tip deflection within 3% of bendscope's. Measured +1.87% and -2.41%
 /// (CalculiX stiffer: C3D10 converges from the stiff side, +1.14% and -1.37% at 1.5 mm;
-/// docs/src/validation.md, "Quadratic tetrahedra"); ccx 15 s.
+/// docs/src/validation.md, "Quadratic tetrahedra").
 #[test]
 fn calculix_agrees_with_the_tetrahedra_on_their_exported_deck() {
     let dir = tempfile::tempdir().unwrap();
