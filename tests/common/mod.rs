@@ -1,6 +1,7 @@
 //! Shared helpers for integration tests: run the real binary, read its outputs.
 #![allow(dead_code)]
 
+pub mod calculix;
 pub mod cvscene;
 
 use std::path::{Path, PathBuf};
