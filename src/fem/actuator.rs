@@ -165,6 +165,7 @@ impl ActuatorConfig {
         if !self.shape().reads_file() {
             self.refuse_file_keys()?;
         }
+        self.refuse_foreign_sections()?;
         self.shape().validate(self)?;
         if let Some(contact) = &self.contact {
             contact.validate()?;

@@ -25,6 +25,10 @@ impl Family {
 pub struct FibreTube;
 
 impl Shape for FibreTube {
+    fn own_section(&self) -> Option<&'static str> {
+        Some("tube")
+    }
+
     fn families(&self) -> &'static [Family] {
         &[Family::FibreReinforced]
     }

@@ -66,6 +66,10 @@ fn finger(cfg: &ActuatorConfig) -> Result<&FingerConfig, FemError> {
 }
 
 impl Shape for Finger {
+    fn own_section(&self) -> Option<&'static str> {
+        Some("finger")
+    }
+
     fn families(&self) -> &'static [Family] {
         &[Family::SegmentedFinger]
     }

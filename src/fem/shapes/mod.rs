@@ -117,6 +117,12 @@ pub trait Shape: Sync {
     fn deck_caveats(&self, _cfg: &ActuatorConfig) -> Vec<String> {
         Vec::new()
     }
+
+    /// The config section only this shape reads (`tube`, `finger`), if any: the others
+    /// refuse it rather than ignore it.
+    fn own_section(&self) -> Option<&'static str> {
+        None
+    }
 }
 
 impl Family {
@@ -144,6 +150,29 @@ impl ActuatorConfig {
     /// The shape of this config's family.
     pub fn shape(&self) -> &'static dyn Shape {
         self.geometry.family.shape()
+    }
+
+    /// Refuses a shape's own section ([`Shape::own_section`]) on another family's
+    /// config, where nothing would read it.
+    pub fn refuse_foreign_sections(&self) -> Result<(), FemError> {
+        let family = self.geometry.family;
+        for (section, given) in [
+            ("tube", self.tube.is_some()),
+            ("finger", self.finger.is_some()),
+        ] {
+            if !given || self.shape().own_section() == Some(section) {
+                continue;
+            }
+            let owner = REGISTRY
+                .iter()
+                .find(|s| s.own_section() == Some(section))
+                .map_or("another", |s| s.families()[0].name());
+            return Err(super::config::bad(
+                section,
+                format!("[{section}] describes the {owner} family, and this config is family = \"{family}\": remove [{section}] or set family = \"{owner}\""),
+            ));
+        }
+        Ok(())
     }
 
     /// The actuator's height, mm ([`Shape::height_mm`]).
@@ -221,6 +250,35 @@ impl<'de> Deserialize<'de> for Family {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `[tube]` and `[finger]` on a family that does not read them are refused naming
+    /// the section and the family that does; on their own family they pass.
+    #[test]
+    fn a_section_of_another_family_is_refused() {
+        let tube = Family::FibreReinforced;
+        let finger = Family::SegmentedFinger;
+        for (family, donor, section, owner) in [
+            (Family::default(), finger, "finger", "segmented-finger"),
+            (tube, finger, "finger", "segmented-finger"),
+            (finger, tube, "tube", "fibre-reinforced"),
+            (Family::default(), tube, "tube", "fibre-reinforced"),
+        ] {
+            let mut cfg = ActuatorConfig::for_family(family);
+            let given = ActuatorConfig::for_family(donor);
+            cfg.tube = cfg.tube.or(given.tube);
+            cfg.finger = cfg.finger.or(given.finger);
+            let e = cfg.refuse_foreign_sections().unwrap_err().to_string();
+            assert!(
+                e.contains(&format!("[{section}]")) && e.contains(&format!("family = \"{owner}\"")),
+                "{family}: {e}"
+            );
+        }
+        for family in [tube, finger] {
+            ActuatorConfig::for_family(family)
+                .refuse_foreign_sections()
+                .unwrap();
+        }
+    }
 
     /// Every family belongs to exactly one shape, names are distinct, and the default
     /// family is the reference PneuNets.

@@ -200,13 +200,6 @@ impl Shape for PneuNets {
     }
 
     fn validate(&self, cfg: &ActuatorConfig) -> Result<(), FemError> {
-        if cfg.tube.is_some() {
-            let f = cfg.geometry.family;
-            return Err(bad(
-                "tube",
-                format!("[tube] describes the fibre-reinforced family, and this config is family = \"{f}\": remove [tube] or set family = \"fibre-reinforced\""),
-            ));
-        }
         if matches!(cfg.geometry.family, Family::Glove | Family::Strap) && cfg.layer.is_empty() {
             return Err(bad(
                 "layer",
