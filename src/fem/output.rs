@@ -230,55 +230,58 @@ fn col(name: &str, decimals: usize, steps: &[StepResult], f: fn(&StepResult) -> 
 /// `stress_mpa_<part>` and `safety_factor_<part>` for every part beside the main
 /// silicone (layers, fibres, a second silicone), the part's name in snake case.
 fn part_columns(steps: &[StepResult]) -> Vec<Column> {
-    let Some(first) = steps.first() else {
-        return Vec::new();
-    };
-    let mut cols = Vec::new();
-    for (k, part) in first.parts.iter().enumerate().skip(1) {
-        let name = snake(&part.name);
-        let get = |f: fn(&super::simulate::PartStress) -> f64| {
-            steps
-                .iter()
-                .map(move |s| s.parts.get(k).map_or(f64::NAN, f))
-        };
-        cols.push(Column::num(
-            format!("stress_mpa_{name}"),
-            4,
-            get(|p| p.max_principal_stress_mpa),
-        ));
-        cols.push(Column::num(
-            format!("safety_factor_{name}"),
-            4,
-            get(|p| p.safety_factor),
-        ));
-    }
-    cols
+    named_columns(
+        steps,
+        |s| &s.parts[..],
+        1,
+        |p| p.name.as_str(),
+        &[
+            ("stress_mpa_{}", |p| p.max_principal_stress_mpa),
+            ("safety_factor_{}", |p| p.safety_factor),
+        ],
+    )
 }
 
 /// `pressure_<name>_kpa` and `cavity_volume_<name>_mm3` for every named cavity, the
 /// name in snake case.
 fn cavity_columns(steps: &[StepResult]) -> Vec<Column> {
+    named_columns(
+        steps,
+        |s| &s.cavities[..],
+        0,
+        |c| c.name.as_str(),
+        &[
+            ("pressure_{}_kpa", |c| c.pressure_kpa),
+            ("cavity_volume_{}_mm3", |c| c.volume_mm3),
+        ],
+    )
+}
+
+/// One column per field of every item the first step has (after the first `skip`),
+/// named by the field's pattern with `{}` the item's name in snake case; NaN where a
+/// later step lacks the item.
+fn named_columns<T>(
+    steps: &[StepResult],
+    items: fn(&StepResult) -> &[T],
+    skip: usize,
+    name: fn(&T) -> &str,
+    fields: &[(&str, fn(&T) -> f64)],
+) -> Vec<Column> {
     let Some(first) = steps.first() else {
         return Vec::new();
     };
     let mut cols = Vec::new();
-    for (k, cavity) in first.cavities.iter().enumerate() {
-        let name = snake(&cavity.name);
-        let get = |f: fn(&super::simulate::CavityStep) -> f64| {
-            steps
-                .iter()
-                .map(move |s| s.cavities.get(k).map_or(f64::NAN, f))
-        };
-        cols.push(Column::num(
-            format!("pressure_{name}_kpa"),
-            4,
-            get(|c| c.pressure_kpa),
-        ));
-        cols.push(Column::num(
-            format!("cavity_volume_{name}_mm3"),
-            4,
-            get(|c| c.volume_mm3),
-        ));
+    for (k, item) in items(first).iter().enumerate().skip(skip) {
+        let snake_name = snake(name(item));
+        for (pattern, value) in fields {
+            cols.push(Column::num(
+                pattern.replace("{}", &snake_name),
+                4,
+                steps
+                    .iter()
+                    .map(|s| items(s).get(k).map_or(f64::NAN, value)),
+            ));
+        }
     }
     cols
 }

@@ -19,23 +19,27 @@ pub fn read_csv_numbers(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
     (header, rows)
 }
 
+/// The data lines of a deck's first keyword block whose line starts with `head`, up to
+/// the next keyword.
+fn deck_block<'a>(deck: &'a str, head: &str) -> Vec<&'a str> {
+    let lines: Vec<&str> = deck.lines().collect();
+    let at = lines
+        .iter()
+        .position(|l| l.starts_with(head))
+        .unwrap_or_else(|| panic!("deck lacks {head}"));
+    lines[at + 1..]
+        .iter()
+        .take_while(|l| !l.starts_with('*'))
+        .copied()
+        .collect()
+}
+
 /// A deck's node coordinates by 1-based id and the ids of one `*NSET`.
 pub fn deck_nodes_and_set(
     deck: &str,
     set: &str,
 ) -> (std::collections::HashMap<usize, [f64; 3]>, Vec<usize>) {
-    let lines: Vec<&str> = deck.lines().collect();
-    let block = |head: &str| -> Vec<&str> {
-        let at = lines
-            .iter()
-            .position(|l| l.starts_with(head))
-            .unwrap_or_else(|| panic!("deck lacks {head}"));
-        lines[at + 1..]
-            .iter()
-            .take_while(|l| !l.starts_with('*'))
-            .copied()
-            .collect()
-    };
+    let block = |head: &str| deck_block(deck, head);
     let nodes = block("*NODE,")
         .iter()
         .map(|l| {
@@ -264,16 +268,10 @@ pub fn assert_radius_and_tip_agree(
 pub fn loaded_volume_mm3(deck: &str) -> f64 {
     const FACES: [[usize; 3]; 4] = [[0, 1, 2], [0, 3, 1], [1, 3, 2], [2, 3, 0]];
     let (nodes, _) = deck_nodes_and_set(deck, "MARKERS");
-    let lines: Vec<&str> = deck.lines().collect();
-    let block = |head: &str| -> Vec<Vec<String>> {
-        let at = lines
-            .iter()
-            .position(|l| l.starts_with(head))
-            .unwrap_or_else(|| panic!("deck lacks {head}"));
-        lines[at + 1..]
-            .iter()
-            .take_while(|l| !l.starts_with('*'))
-            .map(|l| l.split(',').map(|t| t.trim().to_string()).collect())
+    let block = |head: &str| -> Vec<Vec<&str>> {
+        deck_block(deck, head)
+            .into_iter()
+            .map(|l| l.split(',').map(str::trim).collect())
             .collect()
     };
     let elements: std::collections::HashMap<usize, Vec<usize>> = block("*ELEMENT, TYPE=C3D10")
