@@ -17,7 +17,8 @@ use serde::Serialize;
 
 use super::actuator::{build_mesh, ActuatorConfig, ActuatorMesh};
 use super::simulate::{
-    mesh_notes, ramp_warnings, run_ramp, Ramp, RampSettings, SideFaceFile, StepResult,
+    mesh_notes, ramp_warnings, run_ramp, CavityStep, PartStress, Ramp, RampSettings, SideFaceFile,
+    StepResult,
 };
 use super::vtu::{write_pvd, write_vtu};
 use super::FemError;
@@ -236,7 +237,7 @@ fn part_columns(steps: &[StepResult]) -> Vec<Column> {
         1,
         |p| p.name.as_str(),
         &[
-            ("stress_mpa_{}", |p| p.max_principal_stress_mpa),
+            ("stress_mpa_{}", |p: &PartStress| p.max_principal_stress_mpa),
             ("safety_factor_{}", |p| p.safety_factor),
         ],
     )
@@ -251,7 +252,7 @@ fn cavity_columns(steps: &[StepResult]) -> Vec<Column> {
         0,
         |c| c.name.as_str(),
         &[
-            ("pressure_{}_kpa", |c| c.pressure_kpa),
+            ("pressure_{}_kpa", |c: &CavityStep| c.pressure_kpa),
             ("cavity_volume_{}_mm3", |c| c.volume_mm3),
         ],
     )
