@@ -324,6 +324,12 @@ pub struct MaterialConfig {
     /// Factor on every coefficient (C1, C2, C3 and the bulk modulus): the whole strain
     /// energy scaled, the stiffness fitted by `bendscope fit-model` (`material.scale`).
     pub scale: f64,
+    /// The materials of an imported mesh's named volumes (`[material.NAME]`, each a table
+    /// as this one over the defaults, not over `[material]`); a volume without its own
+    /// table takes this one. Read and written beside the derive, by
+    /// [`super::actuator`] and [`ActuatorConfig`]'s `Serialize`.
+    #[serde(skip)]
+    pub named: std::collections::BTreeMap<String, MaterialConfig>,
 }
 
 impl Default for MaterialConfig {
@@ -337,6 +343,7 @@ impl Default for MaterialConfig {
             density_g_cm3: 1.08,
             tensile_strength_mpa: 3.447,
             scale: 1.0,
+            named: std::collections::BTreeMap::new(),
         }
     }
 }
@@ -563,7 +570,24 @@ pub struct ActuatorConfig {
 
 impl Serialize for ActuatorConfig {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        ActuatorConfig::serialize(self, s)
+        use serde::ser::Error;
+        if self.material.named.is_empty() {
+            return ActuatorConfig::serialize(self, s);
+        }
+        // `[material.NAME]` tables go inside `[material]`, where they are read.
+        let mut doc = ActuatorConfig::serialize(self, serde_json::value::Serializer)
+            .map_err(S::Error::custom)?;
+        if let Some(serde_json::Value::Object(m)) = doc.get_mut("material") {
+            for (name, table) in &self.material.named {
+                m.insert(
+                    name.clone(),
+                    serde_json::to_value(table).map_err(S::Error::custom)?,
+                );
+            }
+        }
+        // An absent option is a JSON null, which TOML cannot write: leave it out.
+        super::config_doc::strip_nulls(&mut doc);
+        doc.serialize(s)
     }
 }
 

@@ -57,6 +57,12 @@ pub trait Shape: Sync {
         false
     }
 
+    /// Whether the shape's mesh has named volumes, each of which may take its own
+    /// material (`[material.NAME]`); the others refuse those tables.
+    fn named_volumes(&self) -> bool {
+        false
+    }
+
     /// Checks the shape's own sections and what it needs of the others.
     fn validate(&self, cfg: &ActuatorConfig) -> Result<(), FemError>;
 
