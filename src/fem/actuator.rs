@@ -159,6 +159,7 @@ impl ActuatorConfig {
         self.geometry.validate()?;
         self.material.yeoh()?;
         self.validate_named_materials()?;
+        self.validate_threads()?;
         self.pressures_kpa()?;
         self.validate_layers()?;
         let d = self.load.gravity_direction;
@@ -201,7 +202,7 @@ impl ActuatorConfig {
         let Some(name) = self.material.named.keys().next() else {
             return Ok(());
         };
-        if !self.shape().named_volumes() {
+        if !self.shape().named_groups() {
             return Err(bad(
                 &format!("[material.{name}]"),
                 format!(
@@ -243,6 +244,24 @@ impl ActuatorConfig {
             })?;
         }
         Ok(())
+    }
+
+    /// Checks each `[threads.NAME]` section, and that this shape's mesh has named groups
+    /// for it (whether it has a `thread.NAME` curve is the mesh's to say).
+    fn validate_threads(&self) -> Result<(), FemError> {
+        let Some(name) = self.threads.keys().next() else {
+            return Ok(());
+        };
+        if !self.shape().named_groups() {
+            return Err(bad(
+                &format!("[threads.{name}]"),
+                format!(
+                    "a thread's section is for an imported mesh's `thread.NAME` curves (family = \"mesh\"), and the {} family's mesh has none: remove the table",
+                    self.geometry.family
+                ),
+            ));
+        }
+        super::config::threads::validate(&self.threads)
     }
 
     /// Checks `[cavities]`: its factors, and that each names a cavity of the model (an

@@ -1,6 +1,6 @@
 //! The actuator's configuration types: what a config file's sections hold
 //! (`[geometry]`, `[material]`, `[mesh]`, `[load]`, `[solver]`, `[[layer]]`, `[contact]`,
-//! `[tube]`, `[finger]`, `[cavities]`), their defaults and the checks each section makes on its own.
+//! `[tube]`, `[finger]`, `[cavities]`, `[threads]`), their defaults and the checks each section makes on its own.
 //!
 //! A level below everything that builds or reads a model: this module imports no builder;
 //! reading a document over a family's defaults and the checks across sections are
@@ -9,6 +9,7 @@
 pub mod cavities;
 pub mod finger;
 pub mod source;
+pub mod threads;
 pub mod tube;
 
 use serde::{Deserialize, Serialize};
@@ -566,6 +567,10 @@ pub struct ActuatorConfig {
     /// [`cavities`]): 1 for a cavity left out, 0 not pressurised.
     #[serde(skip_serializing_if = "std::collections::BTreeMap::is_empty")]
     pub cavities: cavities::CavityFactors,
+    /// The section of each of an imported mesh's `thread.NAME` curves
+    /// (`[threads.NAME]`; [`threads`]).
+    #[serde(skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub threads: threads::Threads,
 }
 
 impl Serialize for ActuatorConfig {

@@ -70,7 +70,7 @@ impl Shape for Finger {
         Some("finger")
     }
 
-    fn named_volumes(&self) -> bool {
+    fn named_groups(&self) -> bool {
         true
     }
 

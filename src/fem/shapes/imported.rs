@@ -12,7 +12,8 @@
 //! actuator lies along +x from its clamp and bends in the x-z plane: the radius is fitted
 //! to the markers' x and z.
 //!
-//! Not yet taken: `layer.NAME` surfaces and `thread.NAME` curves (refused).
+//! `thread.NAME` curves are threads bonded along the tetrahedra's edges, their section
+//! from `[threads.NAME]`. Not yet taken: `layer.NAME` surfaces (refused).
 
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
@@ -25,6 +26,7 @@ use crate::fem::material::Yeoh;
 use crate::fem::mesh::{gravity_loads_tets, ActuatorMesh, Part};
 use crate::fem::pressure::CLOSED;
 use crate::fem::solve::{Cavity, Model, Tetrahedra};
+use crate::fem::truss::{EmbeddedPoint, TrussElement};
 use crate::fem::FemError;
 
 #[allow(non_upper_case_globals)]
@@ -223,7 +225,7 @@ impl Shape for Imported {
         true
     }
 
-    fn named_volumes(&self) -> bool {
+    fn named_groups(&self) -> bool {
         true
     }
 
@@ -311,11 +313,6 @@ pub fn from_imported(cfg: &ActuatorConfig, m: ImportedMesh) -> Result<ActuatorMe
             "layer `{layer}`: layers of an imported mesh are not simulated yet: remove the group"
         )));
     }
-    if let Some((thread, _)) = m.threads.first() {
-        return Err(refuse(format!(
-            "thread `{thread}`: threads of an imported mesh are not simulated yet: remove the group"
-        )));
-    }
     if m.markers.len() < 3 {
         return Err(refuse(format!(
             "{} `markers` point(s): the radius is fitted to at least 3 (Physical Point(\"markers\") = {{...}}, or a line of them: [geometry.markers] from = [x, y, z], to = [x, y, z], count = 8)",
@@ -335,6 +332,8 @@ pub fn from_imported(cfg: &ActuatorConfig, m: ImportedMesh) -> Result<ActuatorMe
     let names = named_cavities(&m);
     crate::fem::config::cavities::check_names(&cfg.cavities, &names, &one_cavity(&name))?;
     let materials = volume_materials(cfg, &m, &refuse)?;
+    let mut parts = materials.parts;
+    let trusses = threads_of(cfg, &m, &mut parts, &refuse)?;
     let mut pressure_faces = Vec::new();
     let mut cavities = Vec::new();
     for (group, faces) in m.cavities {
@@ -373,6 +372,7 @@ pub fn from_imported(cfg: &ActuatorConfig, m: ImportedMesh) -> Result<ActuatorMe
     model.volume_weights = weights;
     model.tets = tets;
     model.extra_materials = materials.extra;
+    model.trusses = trusses;
     Ok(ActuatorMesh {
         model,
         markers: m.markers,
@@ -382,7 +382,7 @@ pub fn from_imported(cfg: &ActuatorConfig, m: ImportedMesh) -> Result<ActuatorMe
         side_face: Vec::new(),
         clamp_mm: 0.0,
         wall_pairs: Vec::new(),
-        parts: materials.parts,
+        parts,
         twist_pair: (tip, tip),
         half_model: !m.symmetry.is_empty(),
         densities_g_cm3,
@@ -459,4 +459,59 @@ fn volume_materials(
         parts,
         densities_g_cm3,
     })
+}
+
+/// The trusses of the mesh's `thread.NAME` curves, each line cut at its mid-node into two
+/// bars on the tetrahedra's nodes, with the section of `[threads.NAME]`; a part per thread
+/// joins `parts`. A curve without its section, a section without its curve and a thread
+/// named as a material are refused.
+fn threads_of(
+    cfg: &ActuatorConfig,
+    m: &ImportedMesh,
+    parts: &mut Vec<Part>,
+    refuse: &dyn Fn(String) -> FemError,
+) -> Result<Vec<TrussElement>, FemError> {
+    let names: Vec<&str> = m.threads.iter().map(|(n, _)| n.as_str()).collect();
+    if let Some(n) = cfg.threads.keys().find(|n| !names.contains(&n.as_str())) {
+        let have = if names.is_empty() {
+            "none".to_string()
+        } else {
+            names.join(", ")
+        };
+        return Err(refuse(format!(
+            "[threads.{n}]: the mesh has no curve `thread.{n}` (its threads: {have}): name the table after one"
+        )));
+    }
+    let mut trusses = Vec::new();
+    for (name, lines) in &m.threads {
+        let t = cfg.threads.get(name).ok_or_else(|| {
+            refuse(format!(
+                "thread `{name}` has no section: give it, e.g. [threads.{name}] diameter_mm = 0.3, youngs_modulus_mpa = 70000 (Kevlar)"
+            ))
+        })?;
+        if parts.iter().any(|p| p.name == *name) {
+            return Err(refuse(format!(
+                "thread `{name}` is named as a material: rename one of the groups"
+            )));
+        }
+        let section = t.section();
+        let start = trusses.len();
+        for &[a, b, mid] in lines {
+            for (p, q) in [(a, mid), (mid, b)] {
+                trusses.push(TrussElement {
+                    ends: [EmbeddedPoint::at_node(p), EmbeddedPoint::at_node(q)],
+                    section,
+                });
+            }
+        }
+        parts.push(Part {
+            name: name.clone(),
+            tensile_strength_mpa: t.strength_mpa,
+            solid_material: None,
+            membranes: Vec::new(),
+            plate: None,
+            trusses: (start..trusses.len()).collect(),
+        });
+    }
+    Ok(trusses)
 }

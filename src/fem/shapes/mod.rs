@@ -57,9 +57,10 @@ pub trait Shape: Sync {
         false
     }
 
-    /// Whether the shape's mesh has named volumes, each of which may take its own
-    /// material (`[material.NAME]`); the others refuse those tables.
-    fn named_volumes(&self) -> bool {
+    /// Whether the shape's mesh has named groups: volumes, each of which may take its own
+    /// material (`[material.NAME]`), and `thread.NAME` curves (`[threads.NAME]`); the
+    /// others refuse those tables.
+    fn named_groups(&self) -> bool {
         false
     }
 
