@@ -137,24 +137,26 @@ fn bad_imported_geometry_is_refused_in_one_line() {
     ];
     for (line, needles) in cases {
         let config = format!("[geometry]\nfamily = \"mesh\"\n{line}");
-        std::fs::write(dir.path().join("model.toml"), &config).unwrap();
-        let run = Run::new(
-            dir.path(),
-            &[
-                "simulate",
-                "--config",
-                "model.toml",
-                "-o",
-                "out",
-                "--no-vtu",
-            ],
-        );
-        run.assert_bad_input(needles);
-        assert!(
-            !dir.path().join("out/steps.csv").exists(),
-            "{config}: {run}"
-        );
+        assert_refused(dir.path(), &config, &[], needles);
     }
+}
+
+/// `simulate --config model.toml ARGS` with `config` in `dir` is refused in one line
+/// holding `needles` (exit 2) and writes no results.
+fn assert_refused(dir: &Path, config: &str, args: &[&str], needles: &[&str]) {
+    std::fs::write(dir.join("model.toml"), config).unwrap();
+    let mut all = vec![
+        "simulate",
+        "--config",
+        "model.toml",
+        "-o",
+        "out",
+        "--no-vtu",
+    ];
+    all.extend_from_slice(args);
+    let run = Run::new(dir, &all);
+    run.assert_bad_input(needles);
+    assert!(!dir.join("out/steps.csv").exists(), "{config}: {run}");
 }
 
 /// Column `name` of a CSV file's rows.
@@ -724,25 +726,7 @@ fn named_materials_and_threads_are_refused_by_key_and_read_back() {
         ),
     ];
     for (config, needles) in &cases {
-        std::fs::write(dir.path().join("model.toml"), config).unwrap();
-        let run = Run::new(
-            dir.path(),
-            &[
-                "simulate",
-                "--config",
-                "model.toml",
-                "-o",
-                "out",
-                "--no-vtu",
-                "--pressures",
-                "5",
-            ],
-        );
-        run.assert_bad_input(needles);
-        assert!(
-            !dir.path().join("out/steps.csv").exists(),
-            "{config}: {run}"
-        );
+        assert_refused(dir.path(), config, &["--pressures", "5"], needles);
     }
     let good = format!("{mesh}[load]\ngravity = false\n[material.stiff]\nscale = 3.0\n");
     std::fs::write(dir.path().join("model.toml"), good).unwrap();

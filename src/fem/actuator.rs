@@ -202,15 +202,10 @@ impl ActuatorConfig {
         let Some(name) = self.material.named.keys().next() else {
             return Ok(());
         };
-        if !self.shape().named_groups() {
-            return Err(bad(
-                &format!("[material.{name}]"),
-                format!(
-                    "a named volume's material is for imported meshes (family = \"mesh\"), and the {} family's mesh has no named volumes: remove the table",
-                    self.geometry.family
-                ),
-            ));
-        }
+        self.refuse_without_named_groups(
+            &format!("[material.{name}]"),
+            "a named volume's material",
+        )?;
         if self.material.named.len() > usize::from(u8::MAX) {
             return Err(bad(
                 "material",
@@ -252,16 +247,22 @@ impl ActuatorConfig {
         let Some(name) = self.threads.keys().next() else {
             return Ok(());
         };
-        if !self.shape().named_groups() {
-            return Err(bad(
-                &format!("[threads.{name}]"),
-                format!(
-                    "a thread's section is for an imported mesh's `thread.NAME` curves (family = \"mesh\"), and the {} family's mesh has none: remove the table",
-                    self.geometry.family
-                ),
-            ));
-        }
+        self.refuse_without_named_groups(&format!("[threads.{name}]"), "a thread's section")?;
         super::config::threads::validate(&self.threads)
+    }
+
+    /// Refuses `table` (what it holds: `what`) on a shape whose mesh has no named groups.
+    fn refuse_without_named_groups(&self, table: &str, what: &str) -> Result<(), FemError> {
+        if self.shape().named_groups() {
+            return Ok(());
+        }
+        Err(bad(
+            table,
+            format!(
+                "{what} is for an imported mesh's named groups (family = \"mesh\"), and the {} family's mesh has none: remove the table",
+                self.geometry.family
+            ),
+        ))
     }
 
     /// Checks `[cavities]`: its factors, and that each names a cavity of the model (an
