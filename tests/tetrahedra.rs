@@ -617,45 +617,10 @@ fn named_volumes_take_their_own_materials_as_calculix_does() {
     assert!(deck.contains("*DENSITY\n1.500000000e-9"));
     let s = &steps[0];
     assert!(col(&h, "stress_mpa_stiff") > 0 && s.row[col(&h, "safety_factor_stiff")] > 1.0);
-    // Marker k's displacement (x, z) in bendscope's steps... and CalculiX's.
-    let moved = |row: &[f64], hdr: &[String]| -> Vec<[f64; 2]> {
-        (0..rest.len())
-            .map(|k| {
-                let x = row[col(hdr, &format!("m{}_x_mm", k + 1))];
-                let z = row[col(hdr, &format!("m{}_z_mm", k + 1))];
-                [x - rest[k][0], z - rest[k][2]]
-            })
-            .collect()
-    };
     let dir = tempfile::tempdir().unwrap();
-    let markers_of = |text: &str| -> Vec<[f64; 2]> {
-        std::fs::write(dir.path().join("m.toml"), text).unwrap();
-        let r = Run::new(
-            dir.path(),
-            &[
-                "simulate",
-                "--config",
-                "m.toml",
-                "--no-vtu",
-                "-o",
-                "out",
-                "--pressures",
-                "20",
-                "--no-gravity",
-            ],
-        );
-        assert_eq!(r.code, 0, "{r}");
-        let (hm, rows) = table(&dir.path().join("out/markers.csv"));
-        moved(&rows[0], &hm)
-    };
-    let ours = markers_of(&two);
-    let theirs: Vec<[f64; 2]> = s
-        .markers
-        .iter()
-        .zip(&rest)
-        .map(|(p, r)| [p[0] - r[0], p[2] - r[2]])
-        .collect();
-    let soft = markers_of(&config(""));
+    let ours = markers_moved(dir.path(), &two, &args, &rest);
+    let theirs = calculix_moved(s, &rest);
+    let soft = markers_moved(dir.path(), &config(""), &args, &rest);
     let (against_ccx, against_soft) = (
         relative_difference(&ours, &theirs),
         relative_difference(&ours, &soft),
@@ -784,37 +749,20 @@ fn threads_of_an_imported_mesh_bend_it_as_calculix_does() {
     assert!(s.row[col(&h, "stress_mpa_kevlar")] > 0.0);
     assert!(s.row[col(&h, "safety_factor_kevlar")] > 1.0);
     let dir = tempfile::tempdir().unwrap();
-    let moved = |text: &str| -> Vec<[f64; 2]> {
-        std::fs::write(dir.path().join("m.toml"), text).unwrap();
-        let mut all = vec!["simulate", "--config", "m.toml", "--no-vtu", "-o", "out"];
-        all.extend_from_slice(&args);
-        let r = Run::new(dir.path(), &all);
-        assert_eq!(r.code, 0, "{r}");
-        let (hm, rows) = table(&dir.path().join("out/markers.csv"));
-        (0..rest.len())
-            .map(|k| {
-                let x = rows[0][col(&hm, &format!("m{}_x_mm", k + 1))];
-                let z = rows[0][col(&hm, &format!("m{}_z_mm", k + 1))];
-                [x - rest[k][0], z - rest[k][2]]
-            })
-            .collect()
-    };
-    let ours = moved(&kevlar);
-    let theirs: Vec<[f64; 2]> = s
-        .markers
-        .iter()
-        .zip(&rest)
-        .map(|(p, r)| [p[0] - r[0], p[2] - r[2]])
-        .collect();
+    let ours = markers_moved(dir.path(), &kevlar, &args, &rest);
+    let theirs = calculix_moved(s, &rest);
     let off = relative_difference(&ours, &theirs);
     eprintln!(
         "markers: CalculiX differs by {:.2}% of their displacement",
         100.0 * off
     );
     assert!(off < 0.03, "{ours:?} vs CalculiX {theirs:?}");
-    let bare = moved(&config(
-        "[threads.kevlar]\ndiameter_mm = 0.3\nyoungs_modulus_mpa = 1e-6\n",
-    ));
+    let bare = markers_moved(
+        dir.path(),
+        &config("[threads.kevlar]\ndiameter_mm = 0.3\nyoungs_modulus_mpa = 1e-6\n"),
+        &args,
+        &rest,
+    );
     let (tip, bare_tip) = (ours[ours.len() - 1][1], bare[bare.len() - 1][1]);
     eprintln!("tip moves {tip:.4} mm down with the thread, {bare_tip:.4} mm without");
     assert!(tip < 3.0 * bare_tip.min(0.0) - 0.01, "{tip} vs {bare_tip}");
@@ -827,4 +775,31 @@ fn relative_difference(a: &[[f64; 2]], b: &[[f64; 2]]) -> f64 {
     };
     norm(&mut a.iter().zip(b).map(|(p, q)| [p[0] - q[0], p[1] - q[1]]))
         / norm(&mut a.iter().copied())
+}
+
+/// The markers' displacements (x, z) from `rest` in `simulate --config` of `config` with
+/// `args` (its first pressure), run in `dir`.
+fn markers_moved(dir: &Path, config: &str, args: &[&str], rest: &[[f64; 3]]) -> Vec<[f64; 2]> {
+    std::fs::write(dir.join("m.toml"), config).unwrap();
+    let mut all = vec!["simulate", "--config", "m.toml", "--no-vtu", "-o", "out"];
+    all.extend_from_slice(args);
+    let r = Run::new(dir, &all);
+    assert_eq!(r.code, 0, "{r}");
+    let (h, rows) = table(&dir.join("out/markers.csv"));
+    (0..rest.len())
+        .map(|k| {
+            let x = rows[0][col(&h, &format!("m{}_x_mm", k + 1))];
+            let z = rows[0][col(&h, &format!("m{}_z_mm", k + 1))];
+            [x - rest[k][0], z - rest[k][2]]
+        })
+        .collect()
+}
+
+/// CalculiX's marker displacements (x, z) from `rest`.
+fn calculix_moved(s: &common::calculix::BothSolvers, rest: &[[f64; 3]]) -> Vec<[f64; 2]> {
+    s.markers
+        .iter()
+        .zip(rest)
+        .map(|(p, r)| [p[0] - r[0], p[2] - r[2]])
+        .collect()
 }
