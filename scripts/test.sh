@@ -17,7 +17,9 @@ cargo test --locked --all-targets "$@"
 # The tests that mount a tmpfs (a full disk, a read-only output folder) need root: they are
 # #[ignore]d for other users, and run here when the runner is root (CI is).
 if [ "$(id -u)" = 0 ]; then
-    cargo test --locked --test outputs --test reliability --test simulate -- --ignored
+    # (by name: the other ignored tests are the slow checks of scripts/bench-calculix-slow.sh)
+    cargo test --locked --test outputs --test reliability --test simulate -- --ignored \
+        read_only full_disk
 else
     echo "note: not root: the tmpfs tests (cargo test ... -- --ignored) were not run" >&2
 fi

@@ -731,14 +731,15 @@ fn ctrl_c_into_an_earlier_output_never_leaves_the_new_config_beside_old_results(
     assert_eq!(assert_results_match_the_config(&out), Some(2));
     let old_config = std::fs::read_to_string(out.join("config.toml")).unwrap();
     // Another actuator (its own pressures and mesh), stopped with Ctrl-C once it has
-    // written its config.
+    // written its config: 46 steps, so that the stop comes before its end on a loaded
+    // machine too (10 steps ran to their end once).
     let mut child = std::process::Command::new(common::exe())
         .args([
             "simulate",
             "--mesh-size",
             "3.5",
             "--pressures",
-            "10:100:10",
+            "10:100:2",
             "-o",
             "fem",
         ])
@@ -763,7 +764,7 @@ fn ctrl_c_into_an_earlier_output_never_leaves_the_new_config_beside_old_results(
     let status = child.wait().unwrap();
     assert!(!status.success(), "the run was stopped before its end");
     // The new config with none of the old results: at most the new run's own.
-    assert_eq!(config_pressures(&out).len(), 10);
+    assert_eq!(config_pressures(&out).len(), 46);
     assert_eq!(assert_results_match_the_config(&out), None);
     assert!(!out.join("summary.json").exists(), "{status}");
     // Run to its end, the folder holds that run, whole.
@@ -883,10 +884,18 @@ fn calculix_agrees_on_a_strap_with_sheet_and_strips() {
 /// 350-860 mm over 30 mm: ill-conditioned), so its twist, extension and markers are
 /// compared. Measured (the mesh rule of 2026-12-05): twist 1.864 vs 1.869 and 4.154 vs
 /// 4.198 deg (1.0%), extension 0.592 vs 0.621% and 1.875 vs 1.933% (one way), 0.695 vs
-/// 0.722% and 2.119 vs 2.172% (both ways), tips 0.01 mm apart; ccx 51 + 21 s.
+/// 0.722% and 2.119 vs 2.172% (both ways), tips 0.01 mm apart; ccx 51 + 21 s. The tube
+/// wound both ways (2 minutes more) is run by `scripts/bench-calculix-slow.sh`.
 #[test]
 fn calculix_agrees_on_the_tubes_twist_and_extension_with_threads_as_springs() {
-    tube_against_calculix("line", "5,10");
+    tube_against_calculix("line", "5,10", &["one-way"]);
+}
+
+/// The tube of the test above wound both ways (it extends, no twist), threads as springs.
+#[test]
+#[ignore = "2 minutes beside the one-way tube's check: scripts/bench-calculix-slow.sh runs it"]
+fn calculix_agrees_on_the_tube_wound_both_ways_with_threads_as_springs() {
+    tube_against_calculix("line", "5,10", &["both"]);
 }
 
 /// Smeared threads (`fibre_model = "smeared"`, the default) go out as M3D4 membranes of
@@ -898,13 +907,15 @@ fn calculix_agrees_on_the_tubes_twist_and_extension_with_threads_as_springs() {
 /// their points: 0.934 and 0.717%, twist 2.044 deg).
 #[test]
 fn calculix_agrees_on_the_tubes_twist_and_extension_with_smeared_threads() {
-    tube_against_calculix("smeared", "5");
+    tube_against_calculix("smeared", "5", &["one-way", "both"]);
 }
 
-/// The 40 mm tube wound one way and both ways with its threads as `fibre_model`, at
-/// `pressures` (kPa), against CalculiX on its deck (see the two tests above).
-fn tube_against_calculix(fibre_model: &str, pressures: &str) {
-    for (winding, twists) in [("one-way", true), ("both", false)] {
+/// The 40 mm tube wound as `windings` ("one-way" twists, "both" does not) with its threads
+/// as `fibre_model`, at `pressures` (kPa), against CalculiX on its deck (see the tests
+/// above).
+fn tube_against_calculix(fibre_model: &str, pressures: &str, windings: &[&str]) {
+    for &winding in windings {
+        let twists = winding == "one-way";
         let config = format!(
             "[geometry]\nfamily = \"fibre-reinforced\"\n[material]\nbulk_modulus_mpa = 6.33\n\
              [tube]\nlength_mm = 40.0\nwinding = \"{winding}\"\nfibre_model = \"{fibre_model}\"\n\
@@ -992,8 +1003,11 @@ fn calculix_agrees_on_the_bending_tube_with_its_strip_as_shells() {
 /// bendscope with CalculiX's element (incompatible modes, C3D8I): measured -0.33% at 3
 /// and -0.04% at 6 kPa, tips 0.0x mm apart, held to 0.5% and 0.3 mm. bendscope's default
 /// Q1/P0 element is stiffer at this mesh (CalculiX +2.46% / +4.96%: docs/src/howto/fem.md);
-/// that pair is checked on the reference deck above, not solved again here.
+/// that pair is checked on the reference deck above, not solved again here. Nine minutes
+/// on the 2-core machine, the slowest test by far; what it guards beside the others (S4
+/// shells, contact, ccx_peer) the bending tube's and the contact check's decks hold too.
 #[test]
+#[ignore = "9 minutes: scripts/bench-calculix-slow.sh runs it"]
 fn calculix_agrees_on_the_glove_as_published_with_its_paper_as_shells() {
     let config = "[geometry]\nfamily = \"glove\"\n[material]\nbulk_modulus_mpa = 2.54\n\
         [mesh]\nelement = \"incompatible-modes\"\n";

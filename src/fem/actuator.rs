@@ -13,7 +13,8 @@ use serde::Deserialize;
 use super::config::Family;
 use super::config::{bad, number_text};
 use super::config_doc::{
-    check_layer_tables, merge_over, strip_nulls, type_error, UserValue, RESERVED_PART_NAMES,
+    check_layer_tables, merge_over, strip_nulls, take_named_materials, type_error, UserValue,
+    RESERVED_PART_NAMES,
 };
 use super::FemError;
 
@@ -61,10 +62,14 @@ impl<'de> Deserialize<'de> for ActuatorConfig {
                 *one = serde_json::Value::Array(vec![one.take()]);
             }
         }
+        let named = take_named_materials(&mut doc).map_err(D::Error::custom)?;
         let mut track = serde_path_to_error::Track::new();
         let checked =
             ActuatorConfig::deserialize(serde_path_to_error::Deserializer::new(&doc, &mut track));
-        checked.map_err(|e| D::Error::custom(type_error(&track.path(), &e, &doc, &defaults)))
+        let mut cfg = checked
+            .map_err(|e| D::Error::custom(type_error(&track.path(), &e, &doc, &defaults)))?;
+        cfg.material.named = named;
+        Ok(cfg)
     }
 }
 
@@ -153,6 +158,8 @@ impl ActuatorConfig {
     pub fn validate(&self) -> Result<(), FemError> {
         self.geometry.validate()?;
         self.material.yeoh()?;
+        self.validate_named_materials()?;
+        self.validate_threads()?;
         self.pressures_kpa()?;
         self.validate_layers()?;
         let d = self.load.gravity_direction;
@@ -187,6 +194,75 @@ impl ActuatorConfig {
         }
         // Last: an imported mesh is meshed for its cavities' names.
         self.validate_cavities()
+    }
+
+    /// Checks each `[material.NAME]` table, and that this shape's mesh has named volumes
+    /// for it (whether it has one of that name is the mesh's to say, when it is built).
+    fn validate_named_materials(&self) -> Result<(), FemError> {
+        let Some(name) = self.material.named.keys().next() else {
+            return Ok(());
+        };
+        self.refuse_without_named_groups(
+            &format!("[material.{name}]"),
+            "a named volume's material",
+        )?;
+        if self.material.named.len() > usize::from(u8::MAX) {
+            return Err(bad(
+                "material",
+                format!(
+                    "{} named materials: at most {} are taken",
+                    self.material.named.len(),
+                    u8::MAX
+                ),
+            ));
+        }
+        for (name, m) in &self.material.named {
+            let key = format!("[material.{name}]");
+            if name == "silicone" || name == "clamp" {
+                return Err(bad(
+                    &key,
+                    format!("the `{name}` volume takes [material] itself: put these keys there"),
+                ));
+            }
+            if !m.named.is_empty() {
+                return Err(bad(
+                    &key,
+                    "a named material holds no tables of its own".into(),
+                ));
+            }
+            m.yeoh().map_err(|e| match e {
+                FemError::Parameter { name, why } => FemError::Parameter {
+                    name: format!("{key} {name}"),
+                    why,
+                },
+                other => other,
+            })?;
+        }
+        Ok(())
+    }
+
+    /// Checks each `[threads.NAME]` section, and that this shape's mesh has named groups
+    /// for it (whether it has a `thread.NAME` curve is the mesh's to say).
+    fn validate_threads(&self) -> Result<(), FemError> {
+        let Some(name) = self.threads.keys().next() else {
+            return Ok(());
+        };
+        self.refuse_without_named_groups(&format!("[threads.{name}]"), "a thread's section")?;
+        super::config::threads::validate(&self.threads)
+    }
+
+    /// Refuses `table` (what it holds: `what`) on a shape whose mesh has no named groups.
+    fn refuse_without_named_groups(&self, table: &str, what: &str) -> Result<(), FemError> {
+        if self.shape().named_groups() {
+            return Ok(());
+        }
+        Err(bad(
+            table,
+            format!(
+                "{what} is for an imported mesh's named groups (family = \"mesh\"), and the {} family's mesh has none: remove the table",
+                self.geometry.family
+            ),
+        ))
     }
 
     /// Checks `[cavities]`: its factors, and that each names a cavity of the model (an

@@ -3,7 +3,11 @@
 //! medium, has no NaN and would make it null, "not given"), the `[layer]` rules checked,
 //! the two merged, and serde's type errors put in a config file's words.
 
-use super::config::Family;
+use std::collections::BTreeMap;
+
+use serde::Deserialize;
+
+use super::config::{Family, MaterialConfig};
 
 /// One step of a key's path in a config document: a table's key or a list's entry.
 #[derive(Debug, Clone, PartialEq)]
@@ -322,5 +326,47 @@ pub(super) fn strip_nulls(v: &mut serde_json::Value) {
         }
         serde_json::Value::Array(a) => a.iter_mut().for_each(strip_nulls),
         _ => {}
+    }
+}
+
+/// Takes the `[material.NAME]` tables (a volume's own material, [`MaterialConfig::named`])
+/// out of the document and reads each over the material defaults, an error naming its key
+/// (`[material.outer] c1`).
+pub(super) fn take_named_materials(
+    doc: &mut serde_json::Value,
+) -> Result<BTreeMap<String, MaterialConfig>, String> {
+    use serde_json::{Map, Value};
+    let Some(Value::Object(material)) = doc.get_mut("material") else {
+        return Ok(BTreeMap::new());
+    };
+    let fields = match serde_json::to_value(MaterialConfig::default()) {
+        Ok(Value::Object(m)) => m,
+        _ => Map::new(),
+    };
+    let names: Vec<String> = material
+        .iter()
+        .filter(|(k, v)| v.is_object() && !fields.contains_key(*k))
+        .map(|(k, _)| k.clone())
+        .collect();
+    if names.is_empty() {
+        return Ok(BTreeMap::new());
+    }
+    let mut tables = Map::new();
+    let mut defaults = Map::new();
+    for name in names {
+        if let Some(v) = material.remove(&name) {
+            defaults.insert(name.clone(), Value::Object(fields.clone()));
+            tables.insert(name, v);
+        }
+    }
+    let wrapped = serde_json::json!({ "material": tables });
+    let defaults = serde_json::json!({ "material": defaults });
+    let mut track = serde_path_to_error::Track::new();
+    let read = BTreeMap::<String, BTreeMap<String, MaterialConfig>>::deserialize(
+        serde_path_to_error::Deserializer::new(&wrapped, &mut track),
+    );
+    match read {
+        Ok(mut m) => Ok(m.remove("material").unwrap_or_default()),
+        Err(e) => Err(type_error(&track.path(), &e, &wrapped, &defaults)),
     }
 }

@@ -1,6 +1,6 @@
 //! The actuator's configuration types: what a config file's sections hold
 //! (`[geometry]`, `[material]`, `[mesh]`, `[load]`, `[solver]`, `[[layer]]`, `[contact]`,
-//! `[tube]`, `[finger]`, `[cavities]`), their defaults and the checks each section makes on its own.
+//! `[tube]`, `[finger]`, `[cavities]`, `[threads]`), their defaults and the checks each section makes on its own.
 //!
 //! A level below everything that builds or reads a model: this module imports no builder;
 //! reading a document over a family's defaults and the checks across sections are
@@ -9,6 +9,7 @@
 pub mod cavities;
 pub mod finger;
 pub mod source;
+pub mod threads;
 pub mod tube;
 
 use serde::{Deserialize, Serialize};
@@ -324,6 +325,12 @@ pub struct MaterialConfig {
     /// Factor on every coefficient (C1, C2, C3 and the bulk modulus): the whole strain
     /// energy scaled, the stiffness fitted by `bendscope fit-model` (`material.scale`).
     pub scale: f64,
+    /// The materials of an imported mesh's named volumes (`[material.NAME]`, each a table
+    /// as this one over the defaults, not over `[material]`); a volume without its own
+    /// table takes this one. Read and written beside the derive, by
+    /// [`super::actuator`] and [`ActuatorConfig`]'s `Serialize`.
+    #[serde(skip)]
+    pub named: std::collections::BTreeMap<String, MaterialConfig>,
 }
 
 impl Default for MaterialConfig {
@@ -337,6 +344,7 @@ impl Default for MaterialConfig {
             density_g_cm3: 1.08,
             tensile_strength_mpa: 3.447,
             scale: 1.0,
+            named: std::collections::BTreeMap::new(),
         }
     }
 }
@@ -559,11 +567,32 @@ pub struct ActuatorConfig {
     /// [`cavities`]): 1 for a cavity left out, 0 not pressurised.
     #[serde(skip_serializing_if = "std::collections::BTreeMap::is_empty")]
     pub cavities: cavities::CavityFactors,
+    /// The section of each of an imported mesh's `thread.NAME` curves
+    /// (`[threads.NAME]`; [`threads`]).
+    #[serde(skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub threads: threads::Threads,
 }
 
 impl Serialize for ActuatorConfig {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        ActuatorConfig::serialize(self, s)
+        use serde::ser::Error;
+        if self.material.named.is_empty() {
+            return ActuatorConfig::serialize(self, s);
+        }
+        // `[material.NAME]` tables go inside `[material]`, where they are read.
+        let mut doc = ActuatorConfig::serialize(self, serde_json::value::Serializer)
+            .map_err(S::Error::custom)?;
+        if let Some(serde_json::Value::Object(m)) = doc.get_mut("material") {
+            for (name, table) in &self.material.named {
+                m.insert(
+                    name.clone(),
+                    serde_json::to_value(table).map_err(S::Error::custom)?,
+                );
+            }
+        }
+        // An absent option is a JSON null, which TOML cannot write: leave it out.
+        super::config_doc::strip_nulls(&mut doc);
+        doc.serialize(s)
     }
 }
 

@@ -70,6 +70,10 @@ impl Shape for Finger {
         Some("finger")
     }
 
+    fn named_groups(&self) -> bool {
+        true
+    }
+
     fn families(&self) -> &'static [Family] {
         &[Family::SegmentedFinger]
     }

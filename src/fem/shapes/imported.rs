@@ -1,8 +1,8 @@
 //! An actuator of the user's own geometry (`[geometry] family = "mesh"`, `file = ...`):
 //! a gmsh mesh read by [`crate::fem::import`], or a CAD or .geo file gmsh meshes first at
 //! `[mesh] size_mm` (second order). Its physical groups name the parts: volumes the
-//! silicone (every volume takes `[material]`; a volume named `clamp` is a clamped
-//! block), `cavity` surfaces (at the ramp's pressure), `clamp` surfaces,
+//! materials (a volume takes `[material.NAME]` where the config has a table of its name,
+//! else `[material]`; a volume named `clamp` is a clamped block), `cavity` surfaces (at the ramp's pressure), `clamp` surfaces,
 //! `symmetry.x|y|z` planes, `markers` points (read from the clamp outward), and
 //! optionally a `tip` point (else the last marker); `cavity.NAME` surfaces are cavities
 //! pressurised apart (`[cavities] NAME = factor`). A file may leave its cavity (then
@@ -12,19 +12,21 @@
 //! actuator lies along +x from its clamp and bends in the x-z plane: the radius is fitted
 //! to the markers' x and z.
 //!
-//! Not yet taken: `layer.NAME` surfaces and `thread.NAME` curves (refused), several
-//! materials.
+//! `thread.NAME` curves are threads bonded along the tetrahedra's edges, their section
+//! from `[threads.NAME]`. Not yet taken: `layer.NAME` surfaces (refused).
 
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use std::time::SystemTime;
 
 use super::Shape;
-use crate::fem::config::{ActuatorConfig, Family, Geometry};
+use crate::fem::config::{ActuatorConfig, Family, Geometry, MaterialConfig};
 use crate::fem::import::{gmsh, msh, Completion, ImportedMesh};
+use crate::fem::material::Yeoh;
 use crate::fem::mesh::{gravity_loads_tets, ActuatorMesh, Part};
 use crate::fem::pressure::CLOSED;
 use crate::fem::solve::{Cavity, Model, Tetrahedra};
+use crate::fem::truss::{EmbeddedPoint, TrussElement};
 use crate::fem::FemError;
 
 #[allow(non_upper_case_globals)]
@@ -223,6 +225,10 @@ impl Shape for Imported {
         true
     }
 
+    fn named_groups(&self) -> bool {
+        true
+    }
+
     fn defaults(&self, family: Family) -> ActuatorConfig {
         ActuatorConfig {
             geometry: Geometry {
@@ -307,11 +313,6 @@ pub fn from_imported(cfg: &ActuatorConfig, m: ImportedMesh) -> Result<ActuatorMe
             "layer `{layer}`: layers of an imported mesh are not simulated yet: remove the group"
         )));
     }
-    if let Some((thread, _)) = m.threads.first() {
-        return Err(refuse(format!(
-            "thread `{thread}`: threads of an imported mesh are not simulated yet: remove the group"
-        )));
-    }
     if m.markers.len() < 3 {
         return Err(refuse(format!(
             "{} `markers` point(s): the radius is fitted to at least 3 (Physical Point(\"markers\") = {{...}}, or a line of them: [geometry.markers] from = [x, y, z], to = [x, y, z], count = 8)",
@@ -330,6 +331,9 @@ pub fn from_imported(cfg: &ActuatorConfig, m: ImportedMesh) -> Result<ActuatorMe
     }
     let names = named_cavities(&m);
     crate::fem::config::cavities::check_names(&cfg.cavities, &names, &one_cavity(&name))?;
+    let materials = volume_materials(cfg, &m, &refuse)?;
+    let mut parts = materials.parts;
+    let trusses = threads_of(cfg, &m, &mut parts, &refuse)?;
     let mut pressure_faces = Vec::new();
     let mut cavities = Vec::new();
     for (group, faces) in m.cavities {
@@ -344,11 +348,11 @@ pub fn from_imported(cfg: &ActuatorConfig, m: ImportedMesh) -> Result<ActuatorMe
     }
     let tets = Tetrahedra {
         elements: m.tets,
-        material: Vec::new(),
+        material: materials.of_tet,
         pressure_faces,
         cavities,
     };
-    let densities_g_cm3 = vec![cfg.material.density_g_cm3];
+    let densities_g_cm3 = materials.densities_g_cm3;
     let loads = gravity_loads_tets(cfg, &m.nodes, &tets, &densities_g_cm3)?;
     // The cavity volume's field W x with no component across a symmetry plane: a cavity
     // the plane closes, wherever the plane lies.
@@ -367,6 +371,8 @@ pub fn from_imported(cfg: &ActuatorConfig, m: ImportedMesh) -> Result<ActuatorMe
     let mut model = Model::solid(m.nodes, Vec::new(), cfg.material.yeoh()?, fixed, loads);
     model.volume_weights = weights;
     model.tets = tets;
+    model.extra_materials = materials.extra;
+    model.trusses = trusses;
     Ok(ActuatorMesh {
         model,
         markers: m.markers,
@@ -376,15 +382,136 @@ pub fn from_imported(cfg: &ActuatorConfig, m: ImportedMesh) -> Result<ActuatorMe
         side_face: Vec::new(),
         clamp_mm: 0.0,
         wall_pairs: Vec::new(),
-        parts: vec![Part::solid(
-            "silicone",
-            cfg.material.tensile_strength_mpa,
-            0,
-        )],
+        parts,
         twist_pair: (tip, tip),
         half_model: !m.symmetry.is_empty(),
         densities_g_cm3,
         bottom_wall: None,
         made_mesh: None,
     })
+}
+
+/// The materials of an imported mesh's volumes ([`volume_materials`]).
+struct VolumeMaterials {
+    /// Each tetrahedron's material id (empty: all `[material]`).
+    of_tet: Vec<u8>,
+    /// The `[material.NAME]` tables' materials, ids 1, 2, ...
+    extra: Vec<Yeoh>,
+    /// A solid part per material used.
+    parts: Vec<Part>,
+    /// Density per material id, g/cm³.
+    densities_g_cm3: Vec<f64>,
+}
+
+/// Each volume's material: id 0 (`[material]`, the part `silicone`) for a volume without
+/// a table of its own, id k for the k-th `[material.NAME]` (the part NAME); a table
+/// naming no volume of the mesh is refused.
+fn volume_materials(
+    cfg: &ActuatorConfig,
+    m: &ImportedMesh,
+    refuse: &dyn Fn(String) -> FemError,
+) -> Result<VolumeMaterials, FemError> {
+    let named: Vec<(&String, &MaterialConfig)> = cfg.material.named.iter().collect();
+    if let Some((n, _)) = named.iter().find(|(n, _)| !m.materials.contains(n)) {
+        return Err(refuse(format!(
+            "[material.{n}]: the mesh has no volume `{n}` (its physical volumes: {}): name the table after one",
+            m.materials.join(", ")
+        )));
+    }
+    let mut id_of = Vec::with_capacity(m.materials.len());
+    for volume in &m.materials {
+        let id = match named.iter().position(|(n, _)| *n == volume) {
+            Some(k) => u8::try_from(k + 1).map_err(|_| {
+                refuse(format!(
+                    "[material.{volume}]: at most {} named materials",
+                    u8::MAX
+                ))
+            })?,
+            None => 0,
+        };
+        id_of.push(id);
+    }
+    let of_tet: Vec<u8> = if named.is_empty() {
+        Vec::new()
+    } else {
+        m.tet_material.iter().map(|&v| id_of[v]).collect()
+    };
+    let mut parts = Vec::new();
+    if of_tet.is_empty() || of_tet.contains(&0) {
+        parts.push(Part::solid(
+            "silicone",
+            cfg.material.tensile_strength_mpa,
+            0,
+        ));
+    }
+    let mut extra = Vec::with_capacity(named.len());
+    let mut densities_g_cm3 = vec![cfg.material.density_g_cm3];
+    for (k, (n, c)) in named.iter().enumerate() {
+        extra.push(c.yeoh()?);
+        densities_g_cm3.push(c.density_g_cm3);
+        // k + 1 fits: every table names a volume, and each volume took an id above.
+        let id = u8::try_from(k + 1).unwrap_or(u8::MAX);
+        parts.push(Part::solid(n, c.tensile_strength_mpa, id));
+    }
+    Ok(VolumeMaterials {
+        of_tet,
+        extra,
+        parts,
+        densities_g_cm3,
+    })
+}
+
+/// The trusses of the mesh's `thread.NAME` curves, each line cut at its mid-node into two
+/// bars on the tetrahedra's nodes, with the section of `[threads.NAME]`; a part per thread
+/// joins `parts`. A curve without its section, a section without its curve and a thread
+/// named as a material are refused.
+fn threads_of(
+    cfg: &ActuatorConfig,
+    m: &ImportedMesh,
+    parts: &mut Vec<Part>,
+    refuse: &dyn Fn(String) -> FemError,
+) -> Result<Vec<TrussElement>, FemError> {
+    let names: Vec<&str> = m.threads.iter().map(|(n, _)| n.as_str()).collect();
+    if let Some(n) = cfg.threads.keys().find(|n| !names.contains(&n.as_str())) {
+        let have = if names.is_empty() {
+            "none".to_string()
+        } else {
+            names.join(", ")
+        };
+        return Err(refuse(format!(
+            "[threads.{n}]: the mesh has no curve `thread.{n}` (its threads: {have}): name the table after one"
+        )));
+    }
+    let mut trusses = Vec::new();
+    for (name, lines) in &m.threads {
+        let t = cfg.threads.get(name).ok_or_else(|| {
+            refuse(format!(
+                "thread `{name}` has no section: give it, e.g. [threads.{name}] diameter_mm = 0.3, youngs_modulus_mpa = 70000 (Kevlar)"
+            ))
+        })?;
+        if parts.iter().any(|p| p.name == *name) {
+            return Err(refuse(format!(
+                "thread `{name}` is named as a material: rename one of the groups"
+            )));
+        }
+        let section = t.section();
+        let start = trusses.len();
+        for &[a, b, mid] in lines {
+            for (p, q) in [(a, mid), (mid, b)] {
+                trusses.push(TrussElement {
+                    ends: [EmbeddedPoint::at_node(p), EmbeddedPoint::at_node(q)],
+                    section,
+                });
+            }
+        }
+        parts.push(Part {
+            name: name.clone(),
+            tensile_strength_mpa: t.strength_mpa,
+            solid_material: None,
+            membranes: Vec::new(),
+            plate: None,
+            trusses: (start..trusses.len()).collect(),
+        });
+    }
+    Ok(trusses)
 }

@@ -57,6 +57,13 @@ pub trait Shape: Sync {
         false
     }
 
+    /// Whether the shape's mesh has named groups: volumes, each of which may take its own
+    /// material (`[material.NAME]`), and `thread.NAME` curves (`[threads.NAME]`); the
+    /// others refuse those tables.
+    fn named_groups(&self) -> bool {
+        false
+    }
+
     /// Checks the shape's own sections and what it needs of the others.
     fn validate(&self, cfg: &ActuatorConfig) -> Result<(), FemError>;
 
