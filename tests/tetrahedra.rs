@@ -803,3 +803,39 @@ fn calculix_moved(s: &common::calculix::BothSolvers, rest: &[[f64; 3]]) -> Vec<[
         .map(|(p, r)| [p[0] - r[0], p[2] - r[2]])
         .collect()
 }
+
+/// `simulate --sweep` over a cavity's factor: sweep.csv has each named cavity's pressure
+/// and volume per design, as steps.csv has them per step.
+#[test]
+fn a_sweep_over_a_cavity_factor_writes_each_cavitys_pressure() {
+    let dir = tempfile::tempdir().unwrap();
+    let toml = two_cavities(dir.path(), "ab", 1.0, 1.0);
+    let r = Run::new(
+        dir.path(),
+        &[
+            "simulate",
+            "--config",
+            &toml,
+            "--pressures",
+            "4",
+            "--no-vtu",
+            "--sweep",
+            "cavities.b=0:1:1",
+            "-o",
+            "out",
+        ],
+    );
+    assert_eq!(r.code, 0, "{r}");
+    let (header, rows) = table(&dir.path().join("out/sweep.csv"));
+    let c = |n: &str| col(&header, n);
+    assert_eq!(rows.len(), 2);
+    for (row, b) in rows.iter().zip([0.0, 1.0]) {
+        assert_eq!(row[c("cavities.b")], b);
+        assert_eq!(row[c("pressure_a_kpa")], 4.0);
+        assert_eq!(row[c("pressure_b_kpa")], 4.0 * b);
+        let sum = row[c("cavity_volume_a_mm3")] + row[c("cavity_volume_b_mm3")];
+        assert!((sum - row[c("cavity_volume_mm3")]).abs() < 2e-3, "{row:?}");
+    }
+    // b pressurised: its volume grows.
+    assert!(rows[1][c("cavity_volume_b_mm3")] > rows[0][c("cavity_volume_b_mm3")] + 0.1);
+}

@@ -230,7 +230,7 @@ fn col(name: &str, decimals: usize, steps: &[StepResult], f: fn(&StepResult) -> 
 
 /// `stress_mpa_<part>` and `safety_factor_<part>` for every part beside the main
 /// silicone (layers, fibres, a second silicone), the part's name in snake case.
-fn part_columns(steps: &[StepResult]) -> Vec<Column> {
+fn part_columns(steps: &[Option<&StepResult>]) -> Vec<Column> {
     named_columns(
         steps,
         |s| &s.parts[..],
@@ -245,7 +245,7 @@ fn part_columns(steps: &[StepResult]) -> Vec<Column> {
 
 /// `pressure_<name>_kpa` and `cavity_volume_<name>_mm3` for every named cavity, the
 /// name in snake case.
-fn cavity_columns(steps: &[StepResult]) -> Vec<Column> {
+fn cavity_columns(steps: &[Option<&StepResult>]) -> Vec<Column> {
     named_columns(
         steps,
         |s| &s.cavities[..],
@@ -258,17 +258,17 @@ fn cavity_columns(steps: &[StepResult]) -> Vec<Column> {
     )
 }
 
-/// One column per field of every item the first step has (after the first `skip`),
-/// named by the field's pattern with `{}` the item's name in snake case; NaN where a
-/// later step lacks the item.
+/// One column per field of every item the first step given has (after the first
+/// `skip`), named by the field's pattern with `{}` the item's name in snake case; NaN
+/// where a step lacks the item or is not given (a sweep's failed design).
 fn named_columns<T>(
-    steps: &[StepResult],
+    steps: &[Option<&StepResult>],
     items: fn(&StepResult) -> &[T],
     skip: usize,
     name: fn(&T) -> &str,
     fields: &[(&str, fn(&T) -> f64)],
 ) -> Vec<Column> {
-    let Some(first) = steps.first() else {
+    let Some(first) = steps.iter().flatten().next() else {
         return Vec::new();
     };
     let mut cols = Vec::new();
@@ -280,7 +280,7 @@ fn named_columns<T>(
                 4,
                 steps
                     .iter()
-                    .map(|s| items(s).get(k).map_or(f64::NAN, value)),
+                    .map(|s| s.and_then(|s| items(s).get(k)).map_or(f64::NAN, value)),
             ));
         }
     }
@@ -297,6 +297,7 @@ fn snake(name: &str) -> String {
 
 /// Writes `steps.csv` and `markers.csv`.
 pub fn write_steps(out: &Path, steps: &[StepResult]) -> Result<(), FemError> {
+    let given: Vec<Option<&StepResult>> = steps.iter().map(Some).collect();
     write_csv(
         &out.join("steps.csv"),
         &[
@@ -324,8 +325,8 @@ pub fn write_steps(out: &Path, steps: &[StepResult]) -> Result<(), FemError> {
             ),
         ]
         .into_iter()
-        .chain(part_columns(steps))
-        .chain(cavity_columns(steps))
+        .chain(part_columns(&given))
+        .chain(cavity_columns(&given))
         .collect::<Vec<_>>(),
     )
     .map_err(output)?;
@@ -667,8 +668,18 @@ pub fn sweep_to(
         num("safety_factor", g(|s| s.safety_factor)),
         num("bottom_elongation_pct", g(|s| s.bottom_elongation_pct)),
         num("cavity_volume_mm3", g(|s| s.cavity_volume_mm3)),
-        Column::text("status", rows.iter().map(|r| r.status.clone())),
     ];
+    // Each part's stress and each named cavity's pressure and volume, as in steps.csv.
+    let lasts: Vec<Option<&StepResult>> = rows.iter().map(|r| r.last.as_ref()).collect();
+    let cols: Vec<Column> = cols
+        .into_iter()
+        .chain(part_columns(&lasts))
+        .chain(cavity_columns(&lasts))
+        .chain([Column::text(
+            "status",
+            rows.iter().map(|r| r.status.clone()),
+        )])
+        .collect();
     write_csv(&out.join("sweep.csv"), &cols).map_err(output)?;
     let pts = |f: fn(&StepResult) -> f64| -> Vec<(f64, f64)> {
         values.iter().copied().zip(g(f)).collect()
