@@ -157,6 +157,7 @@ fn assert_refused(dir: &Path, config: &str, args: &[&str], needles: &[&str]) {
     let run = Run::new(dir, &all);
     run.assert_bad_input(needles);
     assert!(!dir.join("out/steps.csv").exists(), "{config}: {run}");
+    assert!(!dir.join("out/config.toml").exists(), "{config}: {run}");
 }
 
 /// Column `name` of a CSV file's rows.

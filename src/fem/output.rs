@@ -495,11 +495,13 @@ pub fn simulate_to(
 ) -> Result<Simulation, FemError> {
     prepare_output_folder(out)?;
     let text = cfg.to_toml()?;
-    remove_earlier_outputs(out)?;
-    write_atomic(&out.join("config.toml"), text.as_bytes()).map_err(output)?;
     let pressures = cfg.pressures_kpa()?;
     let notes = mesh_notes(cfg);
+    // The mesh before anything is written: what its build refuses (an imported mesh's
+    // groups, a table naming none) leaves an earlier run's results and config as they were.
     let mesh = build_mesh(cfg)?;
+    remove_earlier_outputs(out)?;
+    write_atomic(&out.join("config.toml"), text.as_bytes()).map_err(output)?;
     if let Some(msh) = &mesh.made_mesh {
         write_atomic(&out.join("mesh.msh"), msh).map_err(output)?;
     }
