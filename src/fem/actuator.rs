@@ -11,9 +11,9 @@
 use serde::Deserialize;
 
 use super::config::Family;
-use super::config::{bad, number_text};
+use super::config::{bad, number_text, strip_nulls};
 use super::config_doc::{
-    check_layer_tables, merge_over, strip_nulls, take_named_materials, type_error, UserValue,
+    check_layer_tables, merge_over, take_named_materials, type_error, UserValue,
     RESERVED_PART_NAMES,
 };
 use super::FemError;

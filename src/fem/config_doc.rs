@@ -317,18 +317,6 @@ pub(super) fn merge_over(base: &mut serde_json::Value, user: serde_json::Value) 
     }
 }
 
-/// Removes null members (JSON's "not given", e.g. an unset `c1`).
-pub(super) fn strip_nulls(v: &mut serde_json::Value) {
-    match v {
-        serde_json::Value::Object(m) => {
-            m.retain(|_, x| !x.is_null());
-            m.values_mut().for_each(strip_nulls);
-        }
-        serde_json::Value::Array(a) => a.iter_mut().for_each(strip_nulls),
-        _ => {}
-    }
-}
-
 /// Takes the `[material.NAME]` tables (a volume's own material, [`MaterialConfig::named`])
 /// out of the document and reads each over the material defaults, an error naming its key
 /// (`[material.outer] c1`).

@@ -591,7 +591,7 @@ impl Serialize for ActuatorConfig {
             }
         }
         // An absent option is a JSON null, which TOML cannot write: leave it out.
-        super::config_doc::strip_nulls(&mut doc);
+        strip_nulls(&mut doc);
         doc.serialize(s)
     }
 }
@@ -644,6 +644,18 @@ impl Default for LoadConfig {
             gravity: true,
             gravity_direction: [0.0, 0.0, -1.0],
         }
+    }
+}
+
+/// Removes null members (JSON's "not given", e.g. an unset `c1`).
+pub(crate) fn strip_nulls(v: &mut serde_json::Value) {
+    match v {
+        serde_json::Value::Object(m) => {
+            m.retain(|_, x| !x.is_null());
+            m.values_mut().for_each(strip_nulls);
+        }
+        serde_json::Value::Array(a) => a.iter_mut().for_each(strip_nulls),
+        _ => {}
     }
 }
 
