@@ -731,9 +731,18 @@ fn ctrl_c_into_an_earlier_output_never_leaves_the_new_config_beside_old_results(
     assert_eq!(assert_results_match_the_config(&out), Some(2));
     let old_config = std::fs::read_to_string(out.join("config.toml")).unwrap();
     // Another actuator (its own pressures and mesh), stopped with Ctrl-C once it has
-    // written its config: 46 steps, so that the stop comes before its end on a loaded
-    // machine too (10 steps ran to their end once).
-    let mut child = std::process::Command::new(common::exe())
+    // written its config (after its mesh: the ramp's 46 steps are the window to stop it).
+    let mut command = std::process::Command::new(common::exe());
+    // Ctrl-C's default action in the child: a test run in the background of a script
+    // (`cmd &`) inherits SIGINT ignored, which the child would keep and run to its end.
+    // SAFETY: signal() is async-signal-safe, as pre_exec requires.
+    unsafe {
+        std::os::unix::process::CommandExt::pre_exec(&mut command, || {
+            libc::signal(libc::SIGINT, libc::SIG_DFL);
+            Ok(())
+        });
+    }
+    let mut child = command
         .args([
             "simulate",
             "--mesh-size",
