@@ -224,12 +224,6 @@ impl ActuatorConfig {
                     format!("the `{name}` volume takes [material] itself: put these keys there"),
                 ));
             }
-            if !m.named.is_empty() {
-                return Err(bad(
-                    &key,
-                    "a named material holds no tables of its own".into(),
-                ));
-            }
             m.yeoh().map_err(|e| match e {
                 FemError::Parameter { name, why } => FemError::Parameter {
                     name: format!("{key} {name}"),

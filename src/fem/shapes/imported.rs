@@ -418,19 +418,21 @@ fn volume_materials(
             m.materials.join(", ")
         )));
     }
-    let mut id_of = Vec::with_capacity(m.materials.len());
-    for volume in &m.materials {
-        let id = match named.iter().position(|(n, _)| *n == volume) {
-            Some(k) => u8::try_from(k + 1).map_err(|_| {
-                refuse(format!(
-                    "[material.{volume}]: at most {} named materials",
-                    u8::MAX
-                ))
-            })?,
-            None => 0,
-        };
-        id_of.push(id);
-    }
+    // The k-th table's material id, k + 1.
+    let ids = (1..=named.len())
+        .map(u8::try_from)
+        .collect::<Result<Vec<u8>, _>>()
+        .map_err(|_| refuse(format!("at most {} named materials", u8::MAX)))?;
+    let id_of: Vec<u8> = m
+        .materials
+        .iter()
+        .map(|volume| {
+            named
+                .iter()
+                .position(|(n, _)| *n == volume)
+                .map_or(0, |k| ids[k])
+        })
+        .collect();
     let of_tet: Vec<u8> = if named.is_empty() {
         Vec::new()
     } else {
@@ -446,11 +448,9 @@ fn volume_materials(
     }
     let mut extra = Vec::with_capacity(named.len());
     let mut densities_g_cm3 = vec![cfg.material.density_g_cm3];
-    for (k, (n, c)) in named.iter().enumerate() {
+    for ((n, c), &id) in named.iter().zip(&ids) {
         extra.push(c.yeoh()?);
         densities_g_cm3.push(c.density_g_cm3);
-        // k + 1 fits: every table names a volume, and each volume took an id above.
-        let id = u8::try_from(k + 1).unwrap_or(u8::MAX);
         parts.push(Part::solid(n, c.tensile_strength_mpa, id));
     }
     Ok(VolumeMaterials {
