@@ -646,6 +646,7 @@ mod tests {
             element_material: Vec::new(),
             extra_materials: Vec::new(),
             membranes: Vec::new(),
+            tri_membranes: Vec::new(),
             trusses: Vec::new(),
             plates: Vec::new(),
             incompatible_modes: false,

@@ -621,6 +621,7 @@ fn mesh_tube(cfg: &ActuatorConfig, half: bool) -> Result<ActuatorMesh, FemError>
             membranes: fibre_membranes,
             plate: None,
             trusses: (0..trusses.len()).collect(),
+            tri_membranes: Vec::new(),
         },
     ];
     for (layer, membranes) in strips.iter().zip(strip_parts) {
@@ -631,6 +632,7 @@ fn mesh_tube(cfg: &ActuatorConfig, half: bool) -> Result<ActuatorMesh, FemError>
             membranes,
             plate: None,
             trusses: Vec::new(),
+            tri_membranes: Vec::new(),
         });
     }
     let mirrors: &[Mirror] = if half {
@@ -647,6 +649,7 @@ fn mesh_tube(cfg: &ActuatorConfig, half: bool) -> Result<ActuatorMesh, FemError>
     );
     Ok(compact(ActuatorMesh {
         model: Model {
+            tri_membranes: Vec::new(),
             nodes,
             elements,
             material: inner,

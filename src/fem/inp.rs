@@ -8,7 +8,8 @@
 //! elements and plain C3D8 locks on nearly incompressible silicone), an element set,
 //! Yeoh material (`*HYPERELASTIC, YEOH`: C10 C20 C30 = c1 c2 c3, D1 = 2/K, D2 = D3 = 0;
 //! a solid layer as Yeoh with C20 = C30 = 0) and density per solid material; thin layers
-//! as `M3D4` membranes on the same nodes (`*ELASTIC` E ν, `*MEMBRANE SECTION` thickness),
+//! as `M3D4` membranes on the same nodes (an imported mesh's sheets as `M3D6`; `*ELASTIC`
+//! E ν, `*MEMBRANE SECTION` thickness),
 //! plate layers as `S4` shells there (`*SHELL SECTION` thickness: CalculiX expands them
 //! into C3D8I through the thickness, the mid-plane tied to the silicone's nodes, and on a
 //! half model holds their rotations 4 and 6 on y = 0, `SYMMETRY_SHELL`);
@@ -72,6 +73,8 @@ pub struct InpSummary {
     pub tets: usize,
     /// M3D4 membranes (thin layers).
     pub membranes: usize,
+    /// M3D6 membranes (an imported mesh's layers, on its 6-node triangles).
+    pub membrane_triangles: usize,
     /// S4 shells (thin layers with their bending stiffness: plate layers).
     pub shells: usize,
     /// SPRINGA thread segments.
@@ -97,6 +100,9 @@ impl std::fmt::Display for InpSummary {
         }
         if self.membranes > 0 {
             write!(f, ", {} M3D4", self.membranes)?;
+        }
+        if self.membrane_triangles > 0 {
+            write!(f, ", {} M3D6", self.membrane_triangles)?;
         }
         if self.shells > 0 {
             write!(f, ", {} S4", self.shells)?;
@@ -207,6 +213,7 @@ pub fn inp_from_mesh(
     let names = part_names(mesh);
     let in_parts = |of: fn(&Part) -> usize| mesh.parts.iter().map(of).sum::<usize>();
     if in_parts(|p| p.membranes.len()) != m.membranes.len()
+        || in_parts(|p| p.tri_membranes.len()) != m.tri_membranes.len()
         || in_parts(|p| p.trusses.len()) != m.trusses.len()
     {
         return Err(FemError::Model {
@@ -320,8 +327,25 @@ pub fn inp_from_mesh(
     // C3D8I through the thickness, tied to the silicone's nodes at their mid-plane).
     let mut next_id = solids;
     let (mut n_membranes, mut n_shells) = (0, 0);
+    let mut n_membrane_triangles = 0;
     let mut shell_nodes = std::collections::BTreeSet::new();
     for (part, name) in mesh.parts.iter().zip(&names.parts) {
+        if let Some(&first) = part.tri_membranes.first() {
+            // An imported mesh's sheet, on the tetrahedra's 6-node faces: M3D6.
+            let section = m.tri_membranes[first].section;
+            n_membrane_triangles += part.tri_membranes.len();
+            let _ = writeln!(s, "*ELEMENT, TYPE=M3D6, ELSET={name}");
+            for &i in &part.tri_membranes {
+                next_id += 1;
+                let nodes = m.tri_membranes[i].nodes;
+                let _ = writeln!(s, "{next_id}, {}", join_ids(nodes.iter().map(|n| n + 1)));
+            }
+            let _ = writeln!(
+                s,
+                "*MATERIAL, NAME={name}\n*ELASTIC\n{:.9e}, {:.6}\n*MEMBRANE SECTION, ELSET={name}, MATERIAL={name}\n{:.9e}",
+                section.youngs_modulus_mpa, section.poisson_ratio, section.thickness_mm
+            );
+        }
         let Some(&first) = part.membranes.first() else {
             continue;
         };
@@ -540,6 +564,7 @@ pub fn inp_from_mesh(
         elements: m.elements.len(),
         tets: m.tets.elements.len(),
         membranes: n_membranes,
+        membrane_triangles: n_membrane_triangles,
         shells: n_shells,
         springs: m.trusses.len(),
         equations: 3 * points.len(),

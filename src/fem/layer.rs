@@ -451,6 +451,7 @@ mod tests {
             }
         }
         let model = Model {
+            tri_membranes: Vec::new(),
             nodes,
             elements,
             material: silicone,

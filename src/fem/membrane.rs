@@ -70,7 +70,11 @@ impl MembraneSection {
     /// the in-plane frame `frame` at the Green strain `strain` (Voigt): the plane-stress
     /// isotropic sheet, or E m mᵀ along the threads, m = (a₁², a₂², a₁ a₂) (zero for
     /// tension-only threads shortened).
-    fn elasticity(&self, frame: &[Vector3<f64>; 2], strain: &Vector3<f64>) -> SMatrix<f64, 3, 3> {
+    pub(super) fn elasticity(
+        &self,
+        frame: &[Vector3<f64>; 2],
+        strain: &Vector3<f64>,
+    ) -> SMatrix<f64, 3, 3> {
         if let Some(f) = &self.fibres {
             let a = Vector3::from(f.direction);
             let a = Vector2::new(a.dot(&frame[0]), a.dot(&frame[1]));
@@ -274,7 +278,7 @@ fn point_strain(
 }
 
 /// Green-Lagrange strain (Voigt: E11, E22, 2 E12) of an in-plane deformation gradient.
-fn green_strain(f: &[Vector3<f64>; 2]) -> Vector3<f64> {
+pub(super) fn green_strain(f: &[Vector3<f64>; 2]) -> Vector3<f64> {
     Vector3::new(
         0.5 * (f[0].dot(&f[0]) - 1.0),
         0.5 * (f[1].dot(&f[1]) - 1.0),
@@ -594,6 +598,7 @@ mod tests {
             element_material: Vec::new(),
             extra_materials: Vec::new(),
             membranes,
+            tri_membranes: Vec::new(),
             trusses: Vec::new(),
             plates: Vec::new(),
             incompatible_modes: false,

@@ -104,6 +104,8 @@ pub struct Part {
     pub plate: Option<PlateSection>,
     /// Fibre segments (indices into [`Model::trusses`]).
     pub trusses: Vec<usize>,
+    /// 6-node membranes (indices into [`Model::tri_membranes`]: an imported mesh's sheet).
+    pub tri_membranes: Vec<usize>,
 }
 
 impl Part {
@@ -116,6 +118,7 @@ impl Part {
             membranes: Vec::new(),
             plate: None,
             trusses: Vec::new(),
+            tri_membranes: Vec::new(),
         }
     }
 }

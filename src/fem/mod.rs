@@ -47,6 +47,7 @@ pub mod inp;
 pub mod layer;
 pub mod material;
 pub mod membrane;
+pub mod membrane_tri6;
 pub mod mesh;
 pub mod output;
 pub mod params;

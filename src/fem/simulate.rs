@@ -13,6 +13,7 @@ use serde::{Deserialize, Serialize};
 use super::actuator::ActuatorMesh;
 use super::contact::{min_gap_mm, ContactConfig};
 use super::membrane::{membrane_stress, MembraneGeometry};
+use super::membrane_tri6::{tri6_membrane_stress, Tri6Geometry};
 use super::plate::surface_bending_stress;
 use super::solve::{LoadState, NewtonSettings, Solver};
 use super::truss::truss_strain_stress;
@@ -415,6 +416,11 @@ fn step_result(
     })
 }
 
+/// Largest eigenvalue of a membrane stress [[s11, s12], [s12, s22]] (Voigt s11, s22, s12).
+fn largest_in_plane(s: &Vector3<f64>) -> f64 {
+    0.5 * (s[0] + s[1]) + (0.25 * (s[0] - s[1]).powi(2) + s[2] * s[2]).sqrt()
+}
+
 /// The largest first principal stress of every part of `mesh` and its safety factor.
 pub fn part_stresses(
     mesh: &ActuatorMesh,
@@ -441,12 +447,16 @@ pub fn part_stresses(
                 let x = el.nodes.map(|n| model.nodes[n]);
                 if let Some(geom) = MembraneGeometry::new(&x) {
                     let s = membrane_stress(&geom, &el.section, &el.nodes.map(at));
-                    // Largest eigenvalue of [[s11, s12], [s12, s22]].
-                    let (m, r) = (
-                        0.5 * (s[0] + s[1]),
-                        (0.25 * (s[0] - s[1]).powi(2) + s[2] * s[2]).sqrt(),
-                    );
-                    max = max.max(m + r);
+                    max = max.max(largest_in_plane(&s));
+                }
+            }
+            for &k in &part.tri_membranes {
+                let el = &model.tri_membranes[k];
+                let x = el.nodes.map(|n| model.nodes[n]);
+                if let Some(geom) = Tri6Geometry::new(&x) {
+                    for s in tri6_membrane_stress(&geom, &el.section, &el.nodes.map(at)) {
+                        max = max.max(largest_in_plane(&s));
+                    }
                 }
             }
             // A plate's surfaces carry its bending stress beside the membrane stress (an

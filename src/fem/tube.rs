@@ -139,6 +139,7 @@ pub fn tube_mesh(spec: TubeSpec, material: Yeoh) -> Result<TubeMesh, FemError> {
             element_material: Vec::new(),
             extra_materials: Vec::new(),
             membranes: Vec::new(),
+            tri_membranes: Vec::new(),
             trusses: Vec::new(),
             plates: Vec::new(),
             incompatible_modes: false,

@@ -332,9 +332,13 @@ pub(crate) fn assemble(file: &str, raw: &RawMesh) -> Result<ImportedMesh, FemErr
             }
             Part::Layer(sheet) => {
                 let k = entry(&mut layers, sheet);
+                // A triangle listed twice (two surfaces of one group) is one sheet.
+                let mut seen = BTreeSet::new();
                 for e in &g.elements {
                     let f = tri6(name, e)?;
-                    layers[k].1.push(f);
+                    if seen.insert(sorted3([f[0], f[1], f[2]])) {
+                        layers[k].1.push(f);
+                    }
                 }
             }
             Part::Thread(fibre) => {

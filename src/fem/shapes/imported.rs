@@ -13,7 +13,9 @@
 //! to the markers' x and z.
 //!
 //! `thread.NAME` curves are threads bonded along the tetrahedra's edges, their section
-//! from `[threads.NAME]`. Not yet taken: `layer.NAME` surfaces (refused).
+//! from `[threads.NAME]`; `layer.NAME` surfaces are sheets bonded to the tetrahedra's
+//! faces (the sheet's mid-surface) as 6-node membranes ([`crate::fem::membrane_tri6`]),
+//! their section from the `[[layer]]` table named NAME.
 
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
@@ -22,7 +24,9 @@ use std::time::SystemTime;
 use super::Shape;
 use crate::fem::config::{ActuatorConfig, Family, Geometry, MaterialConfig};
 use crate::fem::import::{gmsh, msh, Completion, ImportedMesh};
+use crate::fem::layer::{LayerConfig, LayerElement};
 use crate::fem::material::Yeoh;
+use crate::fem::membrane_tri6::Tri6Membrane;
 use crate::fem::mesh::{gravity_loads_tets, ActuatorMesh, Part};
 use crate::fem::pressure::CLOSED;
 use crate::fem::solve::{Cavity, Model, Tetrahedra};
@@ -239,8 +243,31 @@ impl Shape for Imported {
         }
     }
 
+    /// A layer lies where its `layer.NAME` surface is, as membranes: the keys that place
+    /// or mesh a built-in family's layer are refused.
     fn validate_layers(&self, cfg: &ActuatorConfig) -> Result<(), FemError> {
-        super::no_layers(cfg, "an imported mesh takes no [[layer]] tables yet: remove them (its layers would be `layer.NAME` surfaces of the mesh, not yet read either)")
+        let placed = LayerConfig::default();
+        for layer in &cfg.layer {
+            let given = [
+                ("height_mm", layer.height_mm != placed.height_mm),
+                ("width_mm", layer.width_mm.is_some()),
+                ("strips", layer.strips != placed.strips),
+                ("spacing_mm", layer.spacing_mm != placed.spacing_mm),
+            ];
+            if let Some((key, _)) = given.iter().find(|(_, g)| *g) {
+                return Err(crate::fem::config::bad(
+                    &format!("layer.{}.{key}", layer.name),
+                    format!("an imported mesh's layer lies where its surface `layer.{}` is: remove {key}", layer.name),
+                ));
+            }
+            if layer.element != LayerElement::Membrane {
+                return Err(crate::fem::config::bad(
+                    &format!("layer.{}.element", layer.name),
+                    "an imported mesh's layers are membranes (a sheet's stretch; no plate or solid element on triangles yet): remove element, or draw a solid strip as a volume with its own [material.NAME]".into(),
+                ));
+            }
+        }
+        Ok(())
     }
 
     fn validate(&self, cfg: &ActuatorConfig) -> Result<(), FemError> {
@@ -308,11 +335,6 @@ pub fn from_imported(cfg: &ActuatorConfig, m: ImportedMesh) -> Result<ActuatorMe
     let refuse = |why: String| FemError::Input {
         why: format!("{name}{why}"),
     };
-    if let Some((layer, _)) = m.layers.first() {
-        return Err(refuse(format!(
-            "layer `{layer}`: layers of an imported mesh are not simulated yet: remove the group"
-        )));
-    }
     if m.markers.len() < 3 {
         return Err(refuse(format!(
             "{} `markers` point(s): the radius is fitted to at least 3 (Physical Point(\"markers\") = {{...}}, or a line of them: [geometry.markers] from = [x, y, z], to = [x, y, z], count = 8)",
@@ -334,6 +356,7 @@ pub fn from_imported(cfg: &ActuatorConfig, m: ImportedMesh) -> Result<ActuatorMe
     let materials = volume_materials(cfg, &m, &refuse)?;
     let mut parts = materials.parts;
     let trusses = threads_of(cfg, &m, &mut parts, &refuse)?;
+    let tri_membranes = layers_of(cfg, &m, &mut parts, &refuse)?;
     let mut pressure_faces = Vec::new();
     let mut cavities = Vec::new();
     for (group, faces) in m.cavities {
@@ -373,6 +396,7 @@ pub fn from_imported(cfg: &ActuatorConfig, m: ImportedMesh) -> Result<ActuatorMe
     model.tets = tets;
     model.extra_materials = materials.extra;
     model.trusses = trusses;
+    model.tri_membranes = tri_membranes;
     Ok(ActuatorMesh {
         model,
         markers: m.markers,
@@ -511,7 +535,58 @@ fn threads_of(
             membranes: Vec::new(),
             plate: None,
             trusses: (start..trusses.len()).collect(),
+            tri_membranes: Vec::new(),
         });
     }
     Ok(trusses)
+}
+
+/// The membranes of the mesh's `layer.NAME` surfaces, a 6-node membrane on each of their
+/// triangles, with the section of the `[[layer]]` table named NAME; a part per layer
+/// joins `parts`. A surface without its
+/// table, a table without its surface and a layer named as another part are refused.
+fn layers_of(
+    cfg: &ActuatorConfig,
+    m: &ImportedMesh,
+    parts: &mut Vec<Part>,
+    refuse: &dyn Fn(String) -> FemError,
+) -> Result<Vec<Tri6Membrane>, FemError> {
+    let names: Vec<&str> = m.layers.iter().map(|(n, _)| n.as_str()).collect();
+    if let Some(l) = cfg.layer.iter().find(|l| !names.contains(&l.name.as_str())) {
+        let have = if names.is_empty() {
+            "none".to_string()
+        } else {
+            names.join(", ")
+        };
+        return Err(refuse(format!(
+            "[[layer]] `{}`: the mesh has no surface `layer.{}` (its layers: {have}): name the table after one",
+            l.name, l.name
+        )));
+    }
+    let mut membranes = Vec::new();
+    for (name, faces) in &m.layers {
+        let layer = cfg.layer.iter().find(|l| l.name == *name).ok_or_else(|| {
+            refuse(format!(
+                "layer `{name}` has no section: give it, e.g. [[layer]] name = \"{name}\", thickness_mm = 0.1, youngs_modulus_mpa = 3000 (paper)"
+            ))
+        })?;
+        if parts.iter().any(|p| p.name == *name) {
+            return Err(refuse(format!(
+                "layer `{name}` is named as a material or a thread: rename one of the groups"
+            )));
+        }
+        let section = layer.section();
+        let start = membranes.len();
+        membranes.extend(faces.iter().map(|&nodes| Tri6Membrane { nodes, section }));
+        parts.push(Part {
+            name: name.clone(),
+            tensile_strength_mpa: layer.tensile_strength_mpa,
+            solid_material: None,
+            membranes: Vec::new(),
+            plate: None,
+            trusses: Vec::new(),
+            tri_membranes: (start..membranes.len()).collect(),
+        });
+    }
+    Ok(membranes)
 }

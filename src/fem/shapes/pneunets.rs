@@ -663,6 +663,7 @@ pub fn build_pneunets(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
             membranes,
             plate: None,
             trusses: Vec::new(),
+            tri_membranes: Vec::new(),
         });
     }
     let twist_pair = (tip, at(g.b, 0.0, a));
@@ -705,6 +706,7 @@ pub fn build_pneunets(cfg: &ActuatorConfig) -> Result<ActuatorMesh, FemError> {
             element_material,
             extra_materials: solid_layers.iter().map(|(l, _)| l.material()).collect(),
             membranes,
+            tri_membranes: Vec::new(),
             trusses: Vec::new(),
             plates,
             contact: cfg.contact.as_ref().filter(|c| c.enabled).map(|c| Contact {

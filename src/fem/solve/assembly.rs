@@ -17,6 +17,7 @@ use crate::fem::hex::{
 };
 use crate::fem::material::Yeoh;
 use crate::fem::membrane::{membrane_response, MembraneMatrix, MembraneVector};
+use crate::fem::membrane_tri6::{tri6_membrane_response, Tri6MembraneMatrix, Tri6MembraneVector};
 use crate::fem::plate::PLATE_NODES;
 use crate::fem::pressure::{face_volume, FaceMatrix, FaceVector};
 use crate::fem::pressure_tri6::{self, Tri6Matrix, Tri6Vector};
@@ -385,6 +386,12 @@ impl<'m> Solver<'m> {
             .zip(&self.membrane_geom)
             .map(|(m, g)| membrane_response(g, &m.section, &gather(u, &m.nodes)))
             .collect();
+        let tri_membranes: Vec<(f64, Tri6MembraneVector, Tri6MembraneMatrix)> = model
+            .tri_membranes
+            .par_iter()
+            .zip(&self.tri_membrane_geom)
+            .map(|(m, g)| tri6_membrane_response(g, &m.section, &gather(u, &m.nodes)))
+            .collect();
         let trusses: Vec<(f64, TrussVector, TrussMatrix)> = model
             .trusses
             .par_iter()
@@ -438,6 +445,23 @@ impl<'m> Solver<'m> {
             .zip(&self.pattern.membrane_slots)
         {
             for a in 0..12 {
+                if let Some(i) = eq[3 * m.nodes[a / 3] + a % 3] {
+                    r[i] += f[a];
+                }
+            }
+            for (s, v) in slots.iter().zip(k.as_slice()) {
+                if *s != SKIP {
+                    values[*s as usize] += v;
+                }
+            }
+        }
+        for ((m, (_, f, k)), slots) in model
+            .tri_membranes
+            .iter()
+            .zip(&tri_membranes)
+            .zip(&self.pattern.tri_membrane_slots)
+        {
+            for a in 0..18 {
                 if let Some(i) = eq[3 * m.nodes[a / 3] + a % 3] {
                     r[i] += f[a];
                 }

@@ -6,6 +6,7 @@ use nalgebra::Vector3;
 use crate::fem::contact::Contact;
 use crate::fem::material::Yeoh;
 use crate::fem::membrane::MembraneElement;
+use crate::fem::membrane_tri6::Tri6Membrane;
 use crate::fem::plate::PlateTerm;
 use crate::fem::truss::TrussElement;
 
@@ -36,6 +37,8 @@ pub struct Model {
     pub extra_materials: Vec<Yeoh>,
     /// Membrane elements (thin stiff sheets bonded to the solid, [`crate::fem::membrane`]).
     pub membranes: Vec<MembraneElement>,
+    /// 6-node membranes on tetrahedra's faces ([`crate::fem::membrane_tri6`]).
+    pub tri_membranes: Vec<Tri6Membrane>,
     /// Fibre segments embedded in the hexahedra ([`crate::fem::truss`]).
     pub trusses: Vec<TrussElement>,
     /// Bending terms of sheets meshed as membranes with their bending stiffness
@@ -112,6 +115,7 @@ impl Model {
             element_material: Vec::new(),
             extra_materials: Vec::new(),
             membranes: Vec::new(),
+            tri_membranes: Vec::new(),
             trusses: Vec::new(),
             plates: Vec::new(),
             contact: None,

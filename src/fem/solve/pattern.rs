@@ -34,6 +34,8 @@ pub(super) struct Pattern {
     pub(super) face_slots: Vec<[u32; 144]>,
     /// `membrane_slots[m][a + 12 b]`: value index of entry (a, b) of membrane m, or SKIP.
     pub(super) membrane_slots: Vec<[u32; 144]>,
+    /// `tri_membrane_slots[m][a + 18 b]`: the same for 6-node membrane m.
+    pub(super) tri_membrane_slots: Vec<Box<[u32; 324]>>,
     /// `truss_slots[t][a + 48 b]`: value index of entry (a, b) of fibre segment t, or SKIP.
     pub(super) truss_slots: Vec<Box<[u32; TRUSS_DOFS * TRUSS_DOFS]>>,
     /// `plate_slots[t][a + 15 b]`: value index of entry (a, b) of bending term t, or SKIP.
@@ -86,6 +88,9 @@ impl Pattern {
             add(&dofs(f));
         }
         for m in &model.membranes {
+            add(&dofs(&m.nodes));
+        }
+        for m in &model.tri_membranes {
             add(&dofs(&m.nodes));
         }
         for t in &model.trusses {
@@ -174,6 +179,15 @@ impl Pattern {
                 s
             })
             .collect();
+        let tri_membrane_slots = model
+            .tri_membranes
+            .iter()
+            .map(|m| {
+                let mut s = Box::new([SKIP; 324]);
+                slots(&dofs(&m.nodes), &mut s[..]);
+                s
+            })
+            .collect();
         let truss_slots = model
             .trusses
             .iter()
@@ -216,6 +230,7 @@ impl Pattern {
             active,
             face_slots,
             membrane_slots,
+            tri_membrane_slots,
             truss_slots,
             plate_slots,
             tet_slots,

@@ -16,6 +16,7 @@ use super::pattern::Pattern;
 use crate::fem::contact::contact_terms;
 use crate::fem::hex::{element_cauchy_stress, element_response, HexGeometry, Modes};
 use crate::fem::membrane::{membrane_response, MembraneGeometry};
+use crate::fem::membrane_tri6::{tri6_membrane_response, Tri6Geometry};
 use crate::fem::pressure::face_volume;
 use crate::fem::pressure_tri6;
 use crate::fem::tet10::taylor_hood;
@@ -39,6 +40,8 @@ pub struct Solver<'m> {
     pub(super) geom: Vec<HexGeometry>,
     pub(super) tet_geom: Vec<Tet10Geometry>,
     pub(super) membrane_geom: Vec<MembraneGeometry>,
+    /// Reference geometry of each 6-node membrane.
+    pub(super) tri_membrane_geom: Vec<Tri6Geometry>,
     pub(super) eq: Vec<Option<usize>>,
     /// Free displacements (equations 0..n_eq).
     pub(super) n_eq: usize,
@@ -140,6 +143,7 @@ impl<'m> Solver<'m> {
             .chain(model.tets.elements.iter().flatten())
             .chain(model.tets.pressure_faces.iter().flatten())
             .chain(model.membranes.iter().flat_map(|m| &m.nodes))
+            .chain(model.tri_membranes.iter().flat_map(|m| &m.nodes))
             .chain(model.plates.iter().flat_map(|t| &t.nodes))
             .chain(
                 model
@@ -179,6 +183,13 @@ impl<'m> Solver<'m> {
                 why: format!("membrane {i} is degenerate"),
             })?);
         }
+        let mut tri_membrane_geom = Vec::with_capacity(model.tri_membranes.len());
+        for (i, m) in model.tri_membranes.iter().enumerate() {
+            let x: [Vector3<f64>; 6] = std::array::from_fn(|a| model.nodes[m.nodes[a]]);
+            tri_membrane_geom.push(Tri6Geometry::new(&x).ok_or(FemError::Model {
+                why: format!("6-node membrane {i} is degenerate"),
+            })?);
+        }
         let mut eq = vec![None; 3 * n];
         let mut n_eq = 0;
         for (d, fixed) in model.fixed.iter().enumerate() {
@@ -216,6 +227,7 @@ impl<'m> Solver<'m> {
             geom,
             tet_geom,
             membrane_geom,
+            tri_membrane_geom,
             eq,
             n_eq,
             tet_pressure,
@@ -413,6 +425,12 @@ impl<'m> Solver<'m> {
         for (m, g) in self.model.membranes.iter().zip(&self.membrane_geom) {
             let (_, fm, _) = membrane_response(g, &m.section, &gather(&self.u, &m.nodes));
             for a in 0..12 {
+                f[3 * m.nodes[a / 3] + a % 3] += fm[a];
+            }
+        }
+        for (m, g) in self.model.tri_membranes.iter().zip(&self.tri_membrane_geom) {
+            let (_, fm, _) = tri6_membrane_response(g, &m.section, &gather(&self.u, &m.nodes));
+            for a in 0..18 {
                 f[3 * m.nodes[a / 3] + a % 3] += fm[a];
             }
         }

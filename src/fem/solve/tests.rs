@@ -361,6 +361,7 @@ fn cylinder_inner_stretch(material: Yeoh, p_mpa: f64) -> f64 {
         element_material: Vec::new(),
         extra_materials: Vec::new(),
         membranes: Vec::new(),
+        tri_membranes: Vec::new(),
         trusses: Vec::new(),
         plates: Vec::new(),
         incompatible_modes: false,
