@@ -31,7 +31,8 @@ youngs_modulus_mpa poisson_ratio height_mm element (membrane, plate or solid) wi
 [geometry] family = pneunets, glove, strap, fibre-reinforced or segmented-finger picks the published design whose values fill what the file leaves out \
 ([tube] for fibre-reinforced, [finger] height_mm bellows wall_mm foot_mm length_mm width_mm gap_mm for segmented-finger); family = mesh reads [geometry] file \
 (.msh, or .geo/.step/.stp/.iges/.igs/.brep meshed by gmsh) with parameters (a .geo's numbers), clamp (x-min .. z-max) and [geometry.markers] from to count; \
-its physical volume NAME takes [material.NAME] (else [material]) and its curve thread.NAME is a thread of [threads.NAME] diameter_mm youngs_modulus_mpa tension_only strength_mpa. \
+its physical volume NAME takes [material.NAME] (else [material]), its curve thread.NAME is a thread of [threads.NAME] diameter_mm youngs_modulus_mpa tension_only strength_mpa, \
+and its surface layer.NAME a sheet of the [[layer]] table name = NAME (thickness_mm youngs_modulus_mpa poisson_ratio tensile_strength_mpa). \
 Print a family's whole config with --family NAME --print-config."
 )]
 pub struct SimulateArgs {
