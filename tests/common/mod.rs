@@ -3,6 +3,7 @@
 
 pub mod calculix;
 pub mod cvscene;
+pub mod mesh;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
