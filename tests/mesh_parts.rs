@@ -499,15 +499,16 @@ fn layers_of_an_imported_mesh_bend_it_as_calculix_does() {
 }
 
 /// A layer of an imported mesh is placed and meshed by its surface: a table naming no
-/// surface, a surface without its table, the keys that place a built-in family's layer
-/// and another element are each refused in one line naming the key, exit 2, no results.
+/// surface, a surface without its table, the keys that place a built-in family's layer,
+/// another element, and a NaN, negative, out-of-range or absurdly large number are each
+/// refused in one line naming the key, exit 2, no results.
 #[test]
 fn imported_layers_are_refused_by_key() {
     let dir = tempfile::tempdir().unwrap();
     let file = concat!(env!("CARGO_MANIFEST_DIR"), "/fixtures/mesh/layer.geo");
     let mesh = format!("[geometry]\nfamily = \"mesh\"\nfile = \"{file}\"\nclamp = \"x-min\"\n[geometry.markers]\nfrom = [3.0, 5.0, 8.0]\nto = [30.0, 5.0, 8.0]\ncount = 6\n[mesh]\nsize_mm = 4.0\n");
     let sheet = "thickness_mm = 0.1\nyoungs_modulus_mpa = 3000.0\n";
-    let cases: [(String, &[&str]); 5] = [
+    let cases: [(String, &[&str]); 10] = [
         (
             format!("{mesh}[[layer]]\nname = \"card\"\n{sheet}"),
             &["[[layer]] `card`", "no surface `layer.card`", "paper"],
@@ -524,6 +525,26 @@ fn imported_layers_are_refused_by_key() {
         (
             format!("{mesh}[[layer]]\nname = \"paper\"\n{sheet}element = \"plate\"\n"),
             &["layer.paper.element", "membranes"],
+        ),
+        (
+            format!("{mesh}[[layer]]\nname = \"paper\"\nthickness_mm = nan\nyoungs_modulus_mpa = 3000.0\n"),
+            &["[layer.1] thickness_mm", "nan"],
+        ),
+        (
+            format!("{mesh}[[layer]]\nname = \"paper\"\nthickness_mm = 0.1\nyoungs_modulus_mpa = -3000.0\n"),
+            &["layer.youngs_modulus_mpa", "must be positive"],
+        ),
+        (
+            format!("{mesh}[[layer]]\nname = \"paper\"\n{sheet}poisson_ratio = 0.7\n"),
+            &["layer.poisson_ratio", "0.7"],
+        ),
+        (
+            format!("{mesh}[[layer]]\nname = \"paper\"\nthickness_mm = 12.0\nyoungs_modulus_mpa = 3000.0\n"),
+            &["layer.paper.thickness_mm", "at most 5 mm"],
+        ),
+        (
+            format!("{mesh}[[layer]]\nname = \"paper\"\nthickness_mm = 0.1\nyoungs_modulus_mpa = 3e9\n"),
+            &["layer.paper.youngs_modulus_mpa", "not Pa"],
         ),
     ];
     for (config, needles) in &cases {

@@ -42,6 +42,12 @@ impl Family {
 /// The user's own geometry, from a file.
 pub struct Imported;
 
+/// Thickest sheet a `layer.NAME` surface takes, mm: a membrane carries a sheet's stretch,
+/// not the bending of a slab.
+const MAX_SHEET_MM: f64 = 5.0;
+/// Stiffest sheet, MPa (ten times steel's modulus: a value in Pa is refused).
+const MAX_SHEET_MPA: f64 = 1e6;
+
 /// Extensions gmsh meshes (CAD and its own .geo).
 const CAD: [&str; 6] = ["geo", "step", "stp", "iges", "igs", "brep"];
 
@@ -258,6 +264,21 @@ impl Shape for Imported {
                 return Err(crate::fem::config::bad(
                     &format!("layer.{}.{key}", layer.name),
                     format!("an imported mesh's layer lies where its surface `layer.{}` is: remove {key}", layer.name),
+                ));
+            }
+            // The sheet's numbers (no base to fit in: the surface is where it is).
+            layer.validate(f64::INFINITY)?;
+            let at = |key: &str| format!("layer.{}.{key}", layer.name);
+            if layer.thickness_mm > MAX_SHEET_MM {
+                return Err(crate::fem::config::bad(
+                    &at("thickness_mm"),
+                    format!("{}: a sheet is at most {MAX_SHEET_MM} mm thick here: draw a thicker layer as a volume with its own [material.NAME]", layer.thickness_mm),
+                ));
+            }
+            if layer.youngs_modulus_mpa > MAX_SHEET_MPA {
+                return Err(crate::fem::config::bad(
+                    &at("youngs_modulus_mpa"),
+                    format!("{}: above {MAX_SHEET_MPA} MPa (steel is 2e5): the modulus is in MPa, not Pa", layer.youngs_modulus_mpa),
                 ));
             }
             if layer.element != LayerElement::Membrane {
