@@ -186,10 +186,10 @@ impl MembraneGeometry {
 
 /// In-plane deformation gradient F = ∂x/∂X (3x2, columns along e₁, e₂) where the
 /// shape functions have gradients `grads`, from the nodal displacements.
-fn gradient_at(
+pub(super) fn gradient_at<const N: usize>(
     frame: &[Vector3<f64>; 2],
-    grads: &[Vector2<f64>; 4],
-    u: &[Vector3<f64>; 4],
+    grads: &[Vector2<f64>; N],
+    u: &[Vector3<f64>; N],
 ) -> [Vector3<f64>; 2] {
     let mut f = *frame;
     for (ua, ga) in u.iter().zip(grads) {

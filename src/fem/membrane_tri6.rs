@@ -14,7 +14,7 @@
 
 use nalgebra::{Matrix2, SMatrix, SVector, Vector2, Vector3};
 
-use super::membrane::{green_strain, MembraneSection};
+use super::membrane::{gradient_at, green_strain, MembraneSection};
 
 /// Force vector of a 6-node membrane (6 nodes x 3).
 pub type Tri6MembraneVector = SVector<f64, 18>;
@@ -106,20 +106,6 @@ impl Tri6Geometry {
     pub fn area(&self) -> f64 {
         self.weights.iter().sum()
     }
-}
-
-/// F = ∂x/∂X (its two columns along the frame) at a point with gradients `grads`.
-fn gradient_at(
-    frame: &[Vector3<f64>; 2],
-    grads: &[Vector2<f64>; 6],
-    u: &[Vector3<f64>; 6],
-) -> [Vector3<f64>; 2] {
-    let mut f = *frame;
-    for (ua, ga) in u.iter().zip(grads) {
-        f[0] += ua * ga[0];
-        f[1] += ua * ga[1];
-    }
-    f
 }
 
 /// Energy (N mm), internal force (N) and tangent (N/mm) of a 6-node membrane at nodal
