@@ -2,7 +2,8 @@
 # Builds ccx_peer: CalculiX ccx 2.20 from Debian's own source package (calculix-ccx) with a
 # patch to e_c3d.f (scripts/calculix/ccx_pressure_stiffness.patch) that adds the
 # follower-pressure load stiffness to the Newton tangent of NLGEOM static steps, and prints
-# its path. Reused once built from the same patch (about 1-2 minutes on 2 cores).
+# its path. Reused once built from the same patch (about 2 minutes on 2 cores), also from
+# ~/.cache/bendscope/ccx-peer where a build of the same patch is kept for other checkouts.
 #
 # The patch enables the load stiffness stock ccx computes for dynamic steps, and computes
 # the gradients along the loaded face it needs from the face's dual basis: the shape
@@ -26,6 +27,15 @@ OUT="$(realpath -m "${1:-target/ccx-peer}")"
 # beside it (ccx_peer.sha256), so a changed patch rebuilds it.
 STAMP="$(cat "$HERE/ccx_pressure_stiffness.patch" "$HERE/Makefile_peer" | sha256sum | cut -d' ' -f1)"
 if [ -x "$OUT/ccx_peer" ] && [ "$(cat "$OUT/ccx_peer.sha256" 2>/dev/null)" = "$STAMP" ]; then
+  echo "$OUT/ccx_peer"
+  exit 0
+fi
+# A build of this patch kept in the user's cache by an earlier checkout is copied.
+CACHE="${XDG_CACHE_HOME:-$HOME/.cache}/bendscope/ccx-peer/$STAMP"
+if [ -x "$CACHE/ccx_peer" ]; then
+  mkdir -p "$OUT"
+  cp "$CACHE/ccx_peer" "$OUT/ccx_peer.tmp" && mv "$OUT/ccx_peer.tmp" "$OUT/ccx_peer"
+  echo "$STAMP" >"$OUT/ccx_peer.sha256"
   echo "$OUT/ccx_peer"
   exit 0
 fi
@@ -63,4 +73,6 @@ cp ccx_peer "$OUT/ccx_peer.tmp"
 mv "$OUT/ccx_peer.tmp" "$OUT/ccx_peer"
 echo "$STAMP" >"$OUT/ccx_peer.sha256.tmp"
 mv "$OUT/ccx_peer.sha256.tmp" "$OUT/ccx_peer.sha256"
+# Kept for other checkouts (best effort: a cache that cannot be written is no error).
+(mkdir -p "$CACHE" && cp ccx_peer "$CACHE/ccx_peer.tmp" && mv "$CACHE/ccx_peer.tmp" "$CACHE/ccx_peer") 2>/dev/null || true
 echo "$OUT/ccx_peer"
