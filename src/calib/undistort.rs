@@ -46,9 +46,11 @@ use super::{CalibError, Calibration, CameraModel};
 
 /// Iteration limit of the iterative point undistortion.
 pub const UNDISTORT_MAX_ITER: i32 = 100;
-/// Convergence threshold (normalized coordinates) of the point undistortion: far below
-/// 1e-6 px for any focal length up to 10^5 px.
-pub const UNDISTORT_EPS: f64 = 1e-14;
+/// Convergence threshold of the point undistortion: OpenCV's pinhole iteration stops when
+/// the point's reprojection error is below it in pixels, its fisheye Newton iteration when
+/// the step in the incidence angle is (radians, the error then its square). A pinhole
+/// threshold near round-off is never met and spends all [`UNDISTORT_MAX_ITER`] iterations.
+pub const UNDISTORT_EPS: f64 = 1e-9;
 /// Samples per raw-frame edge used to find the scale.
 pub const EDGE_SAMPLES: usize = 64;
 /// Tolerance, px, with which an output pixel's raw position may sit outside the raw
