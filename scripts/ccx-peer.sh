@@ -32,10 +32,9 @@ if [ -x "$OUT/ccx_peer" ] && [ "$(cat "$OUT/ccx_peer.sha256" 2>/dev/null)" = "$S
 fi
 # A build of this patch kept in the user's cache by an earlier checkout is copied.
 CACHE="${XDG_CACHE_HOME:-$HOME/.cache}/bendscope/ccx-peer/$STAMP"
-if [ -x "$CACHE/ccx_peer" ]; then
-  mkdir -p "$OUT"
-  cp "$CACHE/ccx_peer" "$OUT/ccx_peer.tmp" && mv "$OUT/ccx_peer.tmp" "$OUT/ccx_peer"
-  echo "$STAMP" >"$OUT/ccx_peer.sha256"
+if [ -x "$CACHE/ccx_peer" ] && mkdir -p "$OUT" &&
+  cp "$CACHE/ccx_peer" "$OUT/ccx_peer.tmp" && mv "$OUT/ccx_peer.tmp" "$OUT/ccx_peer" &&
+  echo "$STAMP" >"$OUT/ccx_peer.sha256.tmp" && mv "$OUT/ccx_peer.sha256.tmp" "$OUT/ccx_peer.sha256"; then
   echo "$OUT/ccx_peer"
   exit 0
 fi
