@@ -30,11 +30,14 @@ if [ -x "$OUT/ccx_peer" ] && [ "$(cat "$OUT/ccx_peer.sha256" 2>/dev/null)" = "$S
   echo "$OUT/ccx_peer"
   exit 0
 fi
+# place BINARY: BINARY as $OUT/ccx_peer beside its stamp, each written whole (.tmp, mv).
+place() {
+  mkdir -p "$OUT" && cp "$1" "$OUT/ccx_peer.tmp" && mv "$OUT/ccx_peer.tmp" "$OUT/ccx_peer" &&
+    echo "$STAMP" >"$OUT/ccx_peer.sha256.tmp" && mv "$OUT/ccx_peer.sha256.tmp" "$OUT/ccx_peer.sha256"
+}
 # A build of this patch kept in the user's cache by an earlier checkout is copied.
 CACHE="${XDG_CACHE_HOME:-$HOME/.cache}/bendscope/ccx-peer/$STAMP"
-if [ -x "$CACHE/ccx_peer" ] && mkdir -p "$OUT" &&
-  cp "$CACHE/ccx_peer" "$OUT/ccx_peer.tmp" && mv "$OUT/ccx_peer.tmp" "$OUT/ccx_peer" &&
-  echo "$STAMP" >"$OUT/ccx_peer.sha256.tmp" && mv "$OUT/ccx_peer.sha256.tmp" "$OUT/ccx_peer.sha256"; then
+if [ -x "$CACHE/ccx_peer" ] && place "$CACHE/ccx_peer"; then
   echo "$OUT/ccx_peer"
   exit 0
 fi
@@ -67,11 +70,10 @@ make -f Makefile_peer -j"$(nproc)" ccx_peer >build.log 2>&1 || {
   tail -30 build.log >&2
   exit 1
 }
-mkdir -p "$OUT"
-cp ccx_peer "$OUT/ccx_peer.tmp"
-mv "$OUT/ccx_peer.tmp" "$OUT/ccx_peer"
-echo "$STAMP" >"$OUT/ccx_peer.sha256.tmp"
-mv "$OUT/ccx_peer.sha256.tmp" "$OUT/ccx_peer.sha256"
+place ccx_peer || {
+  echo "ccx-peer: cannot write $OUT/ccx_peer" >&2
+  exit 1
+}
 # Kept for other checkouts (best effort: a cache that cannot be written is no error).
 (mkdir -p "$CACHE" && cp ccx_peer "$CACHE/ccx_peer.tmp" && mv "$CACHE/ccx_peer.tmp" "$CACHE/ccx_peer") 2>/dev/null || true
 echo "$OUT/ccx_peer"
