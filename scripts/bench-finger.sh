@@ -2,17 +2,32 @@
 # The segmented finger (family `segmented-finger`) against the finger-design study's
 # published ANSYS bending angles at 90 kPa: its 11 designs (H = 10/15/20/25 mm at N = 12;
 # N = 12/14/18/20 at H = 10; TSB = 1/1.25/1.5/1.75 mm at H = 15, N = 14; TOF = 1.25 mm),
-# one simulation each with the family's chosen values, the study's Yeoh set and 2 mm
-# tetrahedra (SIZE_MM to change). Prints per design the circle-fit bending angle of the
-# bottom markers (steps.csv) and the tip angle (the chord of the last two markers turned
-# from +x), the study's angle and the tip angle's error. PROFILE=test uses the test
-# profile's build (opt-level 2) instead of release; OUT (default target/bench/finger)
-# holds each run.
+# one simulation each with the study's Yeoh set and 2 mm tetrahedra (SIZE_MM to change).
+# Prints per design the circle-fit bending angle of the bottom markers (steps.csv) and the
+# tip angle (the chord of the last two markers turned from +x), the study's angle and the
+# tip angle's error. PROFILE=test uses the test profile's build (opt-level 2) instead of
+# release; OUT (default target/bench/finger) holds each run; DESIGNS (e.g. "H10 H15") runs
+# some; PRESSURES (default 15:90:15) is the ramp.
+# READING picks how the study's open values are read (docs/src/validation.md, "The
+# segmented finger"): `family` (default) the family's chosen values; the others draw
+# scripts/finger-readings/finger.geo through `family = "mesh"` with bellows BELLOW_MM long
+# (default 6) whatever N is: `bellow` alone, `bottom-sheet` with a strain-limiting sheet on
+# the bottom face, `outer-sheet` a sheet on the bellows' tops and sides, `outer-sheet-ends`
+# also on their end walls; a sheet is SHEET_MM thick (default 0.5) of SHEET_MPA (1000).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 profile=${PROFILE:-release}
 size=${SIZE_MM:-2}
 out=${OUT:-target/bench/finger}
+reading=${READING:-family}
+pressures=${PRESSURES:-15:90:15}
+case "$reading" in
+family | bellow) sheet=0 ;;
+outer-sheet) sheet=1 ;;
+outer-sheet-ends) sheet=2 ;;
+bottom-sheet) sheet=3 ;;
+*) echo "bench-finger: READING=$reading is none of family, bellow, bottom-sheet, outer-sheet, outer-sheet-ends" >&2; exit 2 ;;
+esac
 cargo build --profile "$profile" --locked --bin bendscope
 case "$profile" in dev | test) sub=debug ;; *) sub=$profile ;; esac
 bin="${CARGO_TARGET_DIR:-target}/$sub/bendscope"
@@ -31,9 +46,26 @@ T150 15 14 1.5 1.25 92.25
 T175 15 14 1.75 1.25 85.72"
 printf '%-5s %5s %3s %5s %5s %9s %9s %9s %8s %7s\n' design H N TSB TOF circle tip study error s
 while read -r name h n tsb tof study; do
+    case " ${DESIGNS:-$name} " in *" $name "*) ;; *) continue ;; esac
     cfg="$out/$name.toml"
-    printf '[geometry]\nfamily = "segmented-finger"\n[finger]\nheight_mm = %s\nbellows = %s\nwall_mm = %s\nfoot_mm = %s\n[mesh]\nsize_mm = %s\n' \
-        "$h" "$n" "$tsb" "$tof" "$size" >"$cfg"
+    if [ "$reading" = family ]; then
+        printf '[geometry]\nfamily = "segmented-finger"\n[finger]\nheight_mm = %s\nbellows = %s\nwall_mm = %s\nfoot_mm = %s\n' \
+            "$h" "$n" "$tsb" "$tof" >"$cfg"
+    else
+        # The family's values, its .geo with a fixed bellow length and the sheet.
+        {
+            printf '[geometry]\nfamily = "mesh"\nfile = "%s"\n' "$PWD/scripts/finger-readings/finger.geo"
+            printf '[geometry.parameters]\nH = %s\nN = %s\nTSB = %s\nTOF = %s\nNMCP = %s\nB = %s\nSHEET = %s\n' \
+                "$h" "$n" "$tsb" "$tof" $(((n + 2) / 3)) "${BELLOW_MM:-6}" "$sheet"
+            printf '[material]\nc1 = 3.061\nc2 = -0.637651\nc3 = 0.098623\ndensity_g_cm3 = 1.1\ntensile_strength_mpa = 5\n'
+            printf '[cavities]\nmcp = 1.0\npip_dip = 1.0\n'
+            if [ "$sheet" != 0 ]; then
+                printf '[[layer]]\nname = "sheet"\nthickness_mm = %s\nyoungs_modulus_mpa = %s\npoisson_ratio = 0.45\n' \
+                    "${SHEET_MM:-0.5}" "${SHEET_MPA:-1000}"
+            fi
+        } >"$cfg"
+    fi
+    printf '[mesh]\nsize_mm = %s\n[load]\npressures_kpa = "%s"\ngravity = false\n' "$size" "$pressures" >>"$cfg"
     start=$(date +%s.%N)
     "$bin" simulate --config "$cfg" --no-vtu -o "$out/$name" >"$out/$name.log" 2>&1 || true
     secs=$(echo "$(date +%s.%N) - $start" | bc)

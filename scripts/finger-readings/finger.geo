@@ -1,0 +1,101 @@
+// The segmented finger's readings (docs/src/validation.md, "The segmented finger"):
+// the family's script (examples/geo/segmented_finger.geo) with two more numbers, B, a
+// bellow length kept whatever N is (the gap then takes the rest of the pitch), and
+// SHEET, a `layer.sheet` surface for a stiffer second material as a membrane: on the
+// bellows' outer tops and sides (1), also on their end walls (2), or on the finger's
+// bottom face (3, a strain-limiting sheet). Run by scripts/bench-finger.sh READING=...
+SetFactory("OpenCASCADE");
+DefineConstant[
+  H = {10, Name "Parameters/H bellow height (mm)"},
+  N = {12, Name "Parameters/N bellows"},
+  TSB = {1, Name "Parameters/TSB bellow wall (mm)"},
+  TOF = {1.25, Name "Parameters/TOF foot thickness (mm)"},
+  L = {130, Name "Parameters/L length (mm)"},
+  W = {20, Name "Parameters/W width (mm)"},
+  gap = {1.5, Name "Parameters/gap between bellows (mm)"},
+  NMCP = {4, Name "Parameters/NMCP bellows of the MCP segment"},
+  B = {0, Name "Parameters/B bellow length (mm), 0: the pitch less the gap"},
+  SHEET = {0, Name "Parameters/SHEET 0 none, 1 bellows' tops and sides, 2 and ends, 3 bottom"}
+];
+R = W / 2;
+Ri = R - TSB;
+zc = TOF + H - R;
+p = L / N;
+tb = p - gap;
+If (B > 0)
+  tb = B;
+EndIf
+e = 1e-4;
+
+Box(1) = {0, 0, 0, L, R, TOF};
+outer() = {};
+inner() = {};
+For k In {0 : N - 1}
+  x0 = k * p;
+  c = newv; Cylinder(c) = {x0, 0, zc, tb, 0, 0, R};
+  b = newv; Box(b) = {x0, 0, zc, tb, R, R};
+  outer() += BooleanIntersection{ Volume{c}; Delete; }{ Volume{b}; Delete; };
+  ci = newv; Cylinder(ci) = {x0 + TSB, 0, zc, tb - 2 * TSB, 0, 0, Ri};
+  bi = newv; Box(bi) = {x0 + TSB, 0, zc, tb - 2 * TSB, Ri, Ri};
+  inner() += BooleanIntersection{ Volume{ci}; Delete; }{ Volume{bi}; Delete; };
+  If (zc - TOF > e)
+    s = newv; Box(s) = {x0, 0, TOF, tb, R, zc - TOF};
+    outer() += s;
+    si = newv; Box(si) = {x0 + TSB, 0, TOF, tb - 2 * TSB, Ri, zc - TOF};
+    inner() += si;
+  EndIf
+EndFor
+body() = BooleanUnion{ Volume{1}; Delete; }{ Volume{outer()}; Delete; };
+If (#inner() > 1)
+  cavities() = BooleanUnion{ Volume{inner(0)}; Delete; }{ Volume{inner({1 : #inner() - 1})}; Delete; };
+Else
+  cavities() = inner();
+EndIf
+solid() = BooleanDifference{ Volume{body()}; Delete; }{ Volume{cavities()}; Delete; };
+
+// Markers on the bottom face, a quarter of the width from the symmetry plane.
+bottom() = Surface In BoundingBox{-e, -e, -e, L + e, R + e, e};
+nm = N + 1;
+marks() = {};
+For k In {0 : nm - 1}
+  q = newp; Point(q) = {1 + k * (L - 2) / (nm - 1), R / 2, 0};
+  marks() += q;
+EndFor
+Point{marks()} In Surface{bottom(0)};
+
+Physical Volume("silicone") = solid();
+Physical Surface("symmetry.y") = Surface In BoundingBox{-e, -e, -e, L + e, e, TOF + H + e};
+Physical Surface("clamp") = Surface In BoundingBox{-e, -e, -e, e, R + e, TOF + H + e};
+mcp() = {};
+pd() = {};
+For k In {0 : N - 1}
+  x0 = k * p;
+  If (k < NMCP)
+    mcp() += Surface In BoundingBox{x0 + TSB - e, -e, TOF - e, x0 + tb - TSB + e, Ri + e, TOF + H - TSB + e};
+  Else
+    pd() += Surface In BoundingBox{x0 + TSB - e, -e, TOF - e, x0 + tb - TSB + e, Ri + e, TOF + H - TSB + e};
+  EndIf
+EndFor
+Physical Surface("cavity.mcp") = mcp();
+Physical Surface("cavity.pip_dip") = pd();
+Physical Point("markers") = marks();
+Physical Point("tip") = Point In BoundingBox{L - e, -e, -e, L + e, e, e};
+
+If (SHEET == 3)
+  Physical Surface("layer.sheet") = Surface In BoundingBox{-e, -e, -e, L + e, R + e, e};
+EndIf
+If (SHEET > 0 && SHEET < 3)
+  sh() = {};
+  For k In {0 : N - 1}
+    x0 = k * p;
+    all() = Surface In BoundingBox{x0 - e, -e, TOF - e, x0 + tb + e, R + e, TOF + H + e};
+    all() -= Surface In BoundingBox{x0 + TSB - e, -e, TOF - e, x0 + tb - TSB + e, Ri + e, TOF + H - TSB + e};
+    all() -= Surface In BoundingBox{x0 - e, -e, -e, x0 + tb + e, e, TOF + H + e};
+    If (SHEET < 2)
+      all() -= Surface In BoundingBox{x0 - e, -e, -e, x0 + e, R + e, TOF + H + e};
+      all() -= Surface In BoundingBox{x0 + tb - e, -e, -e, x0 + tb + e, R + e, TOF + H + e};
+    EndIf
+    sh() += all();
+  EndFor
+  Physical Surface("layer.sheet") = sh();
+EndIf
