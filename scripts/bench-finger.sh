@@ -10,10 +10,14 @@
 # some; PRESSURES (default 15:90:15) is the ramp.
 # READING picks how the study's open values are read (docs/src/validation.md, "The
 # segmented finger"): `family` (default) the family's chosen values; the others draw
-# scripts/finger-readings/finger.geo through `family = "mesh"` with bellows BELLOW_MM long
-# (default 6) whatever N is: `bellow` alone, `bottom-sheet` with a strain-limiting sheet on
-# the bottom face, `outer-sheet` a sheet on the bellows' tops and sides, `outer-sheet-ends`
-# also on their end walls; a sheet is SHEET_MM thick (default 0.5) of SHEET_MPA (1000).
+# scripts/finger-readings/finger.geo through `family = "mesh"`: `bellow` alone,
+# `bottom-sheet` with a strain-limiting sheet on the bottom face, `outer-sheet` a sheet on
+# the bellows' tops and sides, `outer-sheet-ends` also on their end walls. Their numbers:
+#   BELLOW_MM  bellows this long whatever N is (default 6; 0: gaps GAP_MM, default 1.5)
+#   SHEET_MM, SHEET_MPA  the sheet's thickness and modulus (default 0.5 mm, 1000 MPa)
+#   SIDE=1     each bellow's top a half cylinder across the finger (seen from the side)
+#   CHANNEL_MM a channel that high joins a segment's bellows (default 0: none), under a
+#              roof ROOF_MM thick (default 0: TSB)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 profile=${PROFILE:-release}
@@ -55,8 +59,8 @@ while read -r name h n tsb tof study; do
         # The family's values, its .geo with a fixed bellow length and the sheet.
         {
             printf '[geometry]\nfamily = "mesh"\nfile = "%s"\n' "$PWD/scripts/finger-readings/finger.geo"
-            printf '[geometry.parameters]\nH = %s\nN = %s\nTSB = %s\nTOF = %s\nNMCP = %s\nB = %s\nSHEET = %s\n' \
-                "$h" "$n" "$tsb" "$tof" $(((n + 2) / 3)) "${BELLOW_MM:-6}" "$sheet"
+            printf '[geometry.parameters]\nH = %s\nN = %s\nTSB = %s\nTOF = %s\nNMCP = %s\nB = %s\nSHEET = %s\nSIDE = %s\nCHANNEL = %s\nROOF = %s\ngap = %s\n' \
+                "$h" "$n" "$tsb" "$tof" $(((n + 2) / 3)) "${BELLOW_MM:-6}" "$sheet" "${SIDE:-0}" "${CHANNEL_MM:-0}" "${ROOF_MM:-0}" "${GAP_MM:-1.5}"
             printf '[material]\nc1 = 3.061\nc2 = -0.637651\nc3 = 0.098623\ndensity_g_cm3 = 1.1\ntensile_strength_mpa = 5\n'
             printf '[cavities]\nmcp = 1.0\npip_dip = 1.0\n'
             if [ "$sheet" != 0 ]; then

@@ -1,9 +1,12 @@
 // The segmented finger's readings (docs/src/validation.md, "The segmented finger"):
-// the family's script (examples/geo/segmented_finger.geo) with two more numbers, B, a
-// bellow length kept whatever N is (the gap then takes the rest of the pitch), and
-// SHEET, a `layer.sheet` surface for a stiffer second material as a membrane: on the
-// bellows' outer tops and sides (1), also on their end walls (2), or on the finger's
-// bottom face (3, a strain-limiting sheet). Run by scripts/bench-finger.sh READING=...
+// the family's script (examples/geo/segmented_finger.geo) with more numbers: B, a bellow
+// length kept whatever N is (the gap then takes the rest of the pitch); SIDE = 1, each
+// bellow's top a half cylinder across the finger, radius B / 2 (seen from the side),
+// instead of along it; CHANNEL, a channel that high joining each segment's bellows
+// under a roof ROOF thick; and SHEET, a `layer.sheet` surface for a stiffer second
+// material as a membrane: on the bellows' outer tops and sides (1), also on their end
+// walls (2), or on the finger's bottom face (3, strain-limiting).
+// Run by scripts/bench-finger.sh (READING=...).
 SetFactory("OpenCASCADE");
 DefineConstant[
   H = {10, Name "Parameters/H bellow height (mm)"},
@@ -15,6 +18,9 @@ DefineConstant[
   gap = {1.5, Name "Parameters/gap between bellows (mm)"},
   NMCP = {4, Name "Parameters/NMCP bellows of the MCP segment"},
   B = {0, Name "Parameters/B bellow length (mm), 0: the pitch less the gap"},
+  SIDE = {0, Name "Parameters/SIDE 1: each bellow's top a half cylinder across the finger (radius B / 2)"},
+  CHANNEL = {0, Name "Parameters/CHANNEL height of a channel joining a segment's bellows under a TSB roof (mm), 0: none"},
+  ROOF = {0, Name "Parameters/ROOF the channel's roof between bellows (mm), 0: TSB"},
   SHEET = {0, Name "Parameters/SHEET 0 none, 1 bellows' tops and sides, 2 and ends, 3 bottom"}
 ];
 R = W / 2;
@@ -27,24 +33,52 @@ If (B > 0)
 EndIf
 e = 1e-4;
 
-Box(1) = {0, 0, 0, L, R, TOF};
+base = TOF;
+roof = TSB;
+If (ROOF > 0)
+  roof = ROOF;
+EndIf
+If (CHANNEL > 0)
+  base = TOF + CHANNEL + roof;
+EndIf
+Box(1) = {0, 0, 0, L, R, base};
 outer() = {};
 inner() = {};
 For k In {0 : N - 1}
   x0 = k * p;
-  c = newv; Cylinder(c) = {x0, 0, zc, tb, 0, 0, R};
-  b = newv; Box(b) = {x0, 0, zc, tb, R, R};
-  outer() += BooleanIntersection{ Volume{c}; Delete; }{ Volume{b}; Delete; };
-  ci = newv; Cylinder(ci) = {x0 + TSB, 0, zc, tb - 2 * TSB, 0, 0, Ri};
-  bi = newv; Box(bi) = {x0 + TSB, 0, zc, tb - 2 * TSB, Ri, Ri};
-  inner() += BooleanIntersection{ Volume{ci}; Delete; }{ Volume{bi}; Delete; };
-  If (zc - TOF > e)
-    s = newv; Box(s) = {x0, 0, TOF, tb, R, zc - TOF};
-    outer() += s;
-    si = newv; Box(si) = {x0 + TSB, 0, TOF, tb - 2 * TSB, Ri, zc - TOF};
-    inner() += si;
+  If (SIDE == 0)
+    c = newv; Cylinder(c) = {x0, 0, zc, tb, 0, 0, R};
+    b = newv; Box(b) = {x0, 0, zc, tb, R, R};
+    outer() += BooleanIntersection{ Volume{c}; Delete; }{ Volume{b}; Delete; };
+    ci = newv; Cylinder(ci) = {x0 + TSB, 0, zc, tb - 2 * TSB, 0, 0, Ri};
+    bi = newv; Box(bi) = {x0 + TSB, 0, zc, tb - 2 * TSB, Ri, Ri};
+    inner() += BooleanIntersection{ Volume{ci}; Delete; }{ Volume{bi}; Delete; };
+    If (zc - TOF > e)
+      s = newv; Box(s) = {x0, 0, TOF, tb, R, zc - TOF};
+      outer() += s;
+      si = newv; Box(si) = {x0 + TSB, 0, TOF, tb - 2 * TSB, Ri, zc - TOF};
+      inner() += si;
+    EndIf
+  Else
+    // Seen from the side each bellow is a half cylinder of radius tb / 2 across the
+    // width on straight walls; its sides are flat.
+    rs = tb / 2;
+    zs = TOF + H - rs;
+    c = newv; Cylinder(c) = {x0 + rs, 0, zs, 0, R, 0, rs};
+    b = newv; Box(b) = {x0, 0, TOF, tb, R, H - rs};
+    outer() += BooleanUnion{ Volume{b}; Delete; }{ Volume{c}; Delete; };
+    ci = newv; Cylinder(ci) = {x0 + rs, 0, zs, 0, Ri, 0, rs - TSB};
+    bi = newv; Box(bi) = {x0 + TSB, 0, TOF, tb - 2 * TSB, Ri, H - rs};
+    inner() += BooleanUnion{ Volume{bi}; Delete; }{ Volume{ci}; Delete; };
   EndIf
 EndFor
+// The channels: under the MCP segment's bellows, and under the PIP and DIP segments'.
+If (CHANNEL > 0)
+  ch = newv; Box(ch) = {TSB, 0, TOF, (NMCP - 1) * p + tb - 2 * TSB, Ri, CHANNEL};
+  inner() += ch;
+  ch = newv; Box(ch) = {NMCP * p + TSB, 0, TOF, (N - NMCP - 1) * p + tb - 2 * TSB, Ri, CHANNEL};
+  inner() += ch;
+EndIf
 body() = BooleanUnion{ Volume{1}; Delete; }{ Volume{outer()}; Delete; };
 If (#inner() > 1)
   cavities() = BooleanUnion{ Volume{inner(0)}; Delete; }{ Volume{inner({1 : #inner() - 1})}; Delete; };
@@ -66,16 +100,8 @@ Point{marks()} In Surface{bottom(0)};
 Physical Volume("silicone") = solid();
 Physical Surface("symmetry.y") = Surface In BoundingBox{-e, -e, -e, L + e, e, TOF + H + e};
 Physical Surface("clamp") = Surface In BoundingBox{-e, -e, -e, e, R + e, TOF + H + e};
-mcp() = {};
-pd() = {};
-For k In {0 : N - 1}
-  x0 = k * p;
-  If (k < NMCP)
-    mcp() += Surface In BoundingBox{x0 + TSB - e, -e, TOF - e, x0 + tb - TSB + e, Ri + e, TOF + H - TSB + e};
-  Else
-    pd() += Surface In BoundingBox{x0 + TSB - e, -e, TOF - e, x0 + tb - TSB + e, Ri + e, TOF + H - TSB + e};
-  EndIf
-EndFor
+mcp() = Surface In BoundingBox{TSB - e, -e, TOF - e, (NMCP - 1) * p + tb - TSB + e, Ri + e, TOF + H - TSB + e};
+pd() = Surface In BoundingBox{NMCP * p + TSB - e, -e, TOF - e, (N - 1) * p + tb - TSB + e, Ri + e, TOF + H - TSB + e};
 Physical Surface("cavity.mcp") = mcp();
 Physical Surface("cavity.pip_dip") = pd();
 Physical Point("markers") = marks();
