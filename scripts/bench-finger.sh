@@ -18,6 +18,7 @@
 #   SIDE=1     each bellow's top a half cylinder across the finger (seen from the side)
 #   CHANNEL_MM a channel that high joins a segment's bellows (default 0: none), under a
 #              roof ROOF_MM thick (default 0: TSB)
+#   PITCH_MM   bellows this far apart from the clamp, bare foot beyond (default 0: L / N)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 profile=${PROFILE:-release}
@@ -59,8 +60,8 @@ while read -r name h n tsb tof study; do
         # The family's values, its .geo with a fixed bellow length and the sheet.
         {
             printf '[geometry]\nfamily = "mesh"\nfile = "%s"\n' "$PWD/scripts/finger-readings/finger.geo"
-            printf '[geometry.parameters]\nH = %s\nN = %s\nTSB = %s\nTOF = %s\nNMCP = %s\nB = %s\nSHEET = %s\nSIDE = %s\nCHANNEL = %s\nROOF = %s\ngap = %s\n' \
-                "$h" "$n" "$tsb" "$tof" $(((n + 2) / 3)) "${BELLOW_MM:-6}" "$sheet" "${SIDE:-0}" "${CHANNEL_MM:-0}" "${ROOF_MM:-0}" "${GAP_MM:-1.5}"
+            printf '[geometry.parameters]\nH = %s\nN = %s\nTSB = %s\nTOF = %s\nNMCP = %s\nB = %s\nSHEET = %s\nSIDE = %s\nCHANNEL = %s\nROOF = %s\ngap = %s\nPITCH = %s\n' \
+                "$h" "$n" "$tsb" "$tof" $(((n + 2) / 3)) "${BELLOW_MM:-6}" "$sheet" "${SIDE:-0}" "${CHANNEL_MM:-0}" "${ROOF_MM:-0}" "${GAP_MM:-1.5}" "${PITCH_MM:-0}"
             printf '[material]\nc1 = 3.061\nc2 = -0.637651\nc3 = 0.098623\ndensity_g_cm3 = 1.1\ntensile_strength_mpa = 5\n'
             printf '[cavities]\nmcp = 1.0\npip_dip = 1.0\n'
             if [ "$sheet" != 0 ]; then

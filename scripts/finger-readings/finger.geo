@@ -21,12 +21,16 @@ DefineConstant[
   SIDE = {0, Name "Parameters/SIDE 1: each bellow's top a half cylinder across the finger (radius B / 2)"},
   CHANNEL = {0, Name "Parameters/CHANNEL height of a channel joining a segment's bellows under a TSB roof (mm), 0: none"},
   ROOF = {0, Name "Parameters/ROOF the channel's roof between bellows (mm), 0: TSB"},
+  PITCH = {0, Name "Parameters/PITCH bellows this far apart from the clamp, the rest of L bare foot (mm), 0: L / N"},
   SHEET = {0, Name "Parameters/SHEET 0 none, 1 bellows' tops and sides, 2 and ends, 3 bottom"}
 ];
 R = W / 2;
 Ri = R - TSB;
 zc = TOF + H - R;
 p = L / N;
+If (PITCH > 0)
+  p = PITCH;
+EndIf
 tb = p - gap;
 If (B > 0)
   tb = B;
