@@ -19,6 +19,8 @@
 #   CHANNEL_MM a channel that high joins a segment's bellows (default 0: none), under a
 #              roof ROOF_MM thick (default 0: TSB)
 #   PITCH_MM   bellows this far apart from the clamp, bare foot beyond (default 0: L / N)
+#   CAVITY_MM  each bellow's cavity this long, its walls TSB outside it and GAP_MM between
+#              bellows (sets BELLOW_MM and PITCH_MM from TSB)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 profile=${PROFILE:-release}
@@ -58,10 +60,15 @@ while read -r name h n tsb tof study; do
             "$h" "$n" "$tsb" "$tof" >"$cfg"
     else
         # The family's values, its .geo with a fixed bellow length and the sheet.
+        bellow=${BELLOW_MM:-6} pitch=${PITCH_MM:-0}
+        if [ -n "${CAVITY_MM:-}" ]; then
+            bellow=$(echo "$CAVITY_MM + 2 * $tsb" | bc -l)
+            pitch=$(echo "$bellow + ${GAP_MM:-1.5}" | bc -l)
+        fi
         {
             printf '[geometry]\nfamily = "mesh"\nfile = "%s"\n' "$PWD/scripts/finger-readings/finger.geo"
             printf '[geometry.parameters]\nH = %s\nN = %s\nTSB = %s\nTOF = %s\nNMCP = %s\nB = %s\nSHEET = %s\nSIDE = %s\nCHANNEL = %s\nROOF = %s\ngap = %s\nPITCH = %s\n' \
-                "$h" "$n" "$tsb" "$tof" $(((n + 2) / 3)) "${BELLOW_MM:-6}" "$sheet" "${SIDE:-0}" "${CHANNEL_MM:-0}" "${ROOF_MM:-0}" "${GAP_MM:-1.5}" "${PITCH_MM:-0}"
+                "$h" "$n" "$tsb" "$tof" $(((n + 2) / 3)) "$bellow" "$sheet" "${SIDE:-0}" "${CHANNEL_MM:-0}" "${ROOF_MM:-0}" "${GAP_MM:-1.5}" "$pitch"
             printf '[material]\nc1 = 3.061\nc2 = -0.637651\nc3 = 0.098623\ndensity_g_cm3 = 1.1\ntensile_strength_mpa = 5\n'
             printf '[cavities]\nmcp = 1.0\npip_dip = 1.0\n'
             if [ "$sheet" != 0 ]; then
