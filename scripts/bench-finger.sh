@@ -15,12 +15,14 @@
 # the bellows' tops and sides, `outer-sheet-ends` also on their end walls. Their numbers:
 #   BELLOW_MM  bellows this long whatever N is (default 6; 0: gaps GAP_MM, default 1.5)
 #   SHEET_MM, SHEET_MPA  the sheet's thickness and modulus (default 0.5 mm, 1000 MPa)
-#   SIDE=1     each bellow's top a half cylinder across the finger (seen from the side)
+#   SIDE=1     each bellow's top a half cylinder across the finger (seen from the side),
+#              its flat side walls SIDEWALL_MM thick (default 0: TSB)
 #   CHANNEL_MM a channel that high joins a segment's bellows (default 0: none), under a
 #              roof ROOF_MM thick (default 0: TSB)
 #   PITCH_MM   bellows this far apart from the clamp, bare foot beyond (default 0: L / N)
 #   CAVITY_MM  each bellow's cavity this long, its walls TSB outside it and GAP_MM between
-#              bellows (sets BELLOW_MM and PITCH_MM from TSB)
+#              bellows (sets BELLOW_MM and PITCH_MM from TSB); with CAVITY_WIDTH_MM the
+#              cavity that wide too, the finger 2 TSB wider (else WIDTH_MM, default 20)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 profile=${PROFILE:-release}
@@ -60,15 +62,18 @@ while read -r name h n tsb tof study; do
             "$h" "$n" "$tsb" "$tof" >"$cfg"
     else
         # The family's values, its .geo with a fixed bellow length and the sheet.
-        bellow=${BELLOW_MM:-6} pitch=${PITCH_MM:-0}
+        bellow=${BELLOW_MM:-6} pitch=${PITCH_MM:-0} width=${WIDTH_MM:-20}
         if [ -n "${CAVITY_MM:-}" ]; then
             bellow=$(echo "$CAVITY_MM + 2 * $tsb" | bc -l)
             pitch=$(echo "$bellow + ${GAP_MM:-1.5}" | bc -l)
+            if [ -n "${CAVITY_WIDTH_MM:-}" ]; then
+                width=$(echo "$CAVITY_WIDTH_MM + 2 * $tsb" | bc -l)
+            fi
         fi
         {
             printf '[geometry]\nfamily = "mesh"\nfile = "%s"\n' "$PWD/scripts/finger-readings/finger.geo"
-            printf '[geometry.parameters]\nH = %s\nN = %s\nTSB = %s\nTOF = %s\nNMCP = %s\nB = %s\nSHEET = %s\nSIDE = %s\nCHANNEL = %s\nROOF = %s\ngap = %s\nPITCH = %s\n' \
-                "$h" "$n" "$tsb" "$tof" $(((n + 2) / 3)) "$bellow" "$sheet" "${SIDE:-0}" "${CHANNEL_MM:-0}" "${ROOF_MM:-0}" "${GAP_MM:-1.5}" "$pitch"
+            printf '[geometry.parameters]\nH = %s\nN = %s\nTSB = %s\nTOF = %s\nNMCP = %s\nB = %s\nSHEET = %s\nSIDE = %s\nCHANNEL = %s\nROOF = %s\ngap = %s\nPITCH = %s\nSIDEWALL = %s\nW = %s\n' \
+                "$h" "$n" "$tsb" "$tof" $(((n + 2) / 3)) "$bellow" "$sheet" "${SIDE:-0}" "${CHANNEL_MM:-0}" "${ROOF_MM:-0}" "${GAP_MM:-1.5}" "$pitch" "${SIDEWALL_MM:-0}" "$width"
             printf '[material]\nc1 = 3.061\nc2 = -0.637651\nc3 = 0.098623\ndensity_g_cm3 = 1.1\ntensile_strength_mpa = 5\n'
             printf '[cavities]\nmcp = 1.0\npip_dip = 1.0\n'
             if [ "$sheet" != 0 ]; then

@@ -22,10 +22,14 @@ DefineConstant[
   CHANNEL = {0, Name "Parameters/CHANNEL height of a channel joining a segment's bellows under a TSB roof (mm), 0: none"},
   ROOF = {0, Name "Parameters/ROOF the channel's roof between bellows (mm), 0: TSB"},
   PITCH = {0, Name "Parameters/PITCH bellows this far apart from the clamp, the rest of L bare foot (mm), 0: L / N"},
+  SIDEWALL = {0, Name "Parameters/SIDEWALL with SIDE = 1, the flat side walls' thickness (mm), 0: TSB"},
   SHEET = {0, Name "Parameters/SHEET 0 none, 1 bellows' tops and sides, 2 and ends, 3 bottom"}
 ];
 R = W / 2;
 Ri = R - TSB;
+If (SIDE == 1 && SIDEWALL > 0)
+  Ri = R - SIDEWALL;
+EndIf
 zc = TOF + H - R;
 p = L / N;
 If (PITCH > 0)
