@@ -40,6 +40,9 @@ esac
 cargo build --profile "$profile" --locked --bin bendscope
 case "$profile" in dev | test) sub=debug ;; *) sub=$profile ;; esac
 bin="${CARGO_TARGET_DIR:-target}/$sub/bendscope"
+# The readings take the family's material as the program states it.
+material=$("$bin" simulate --family segmented-finger --print-config |
+    awk '/^\[material\]/ { p = 1; print; next } /^\[/ { p = 0 } p')
 mkdir -p "$out"
 # name H N TSB TOF study_angle_deg
 designs="H10 10 12 1 1.25 78.94
@@ -61,7 +64,7 @@ while read -r name h n tsb tof study; do
         printf '[geometry]\nfamily = "segmented-finger"\n[finger]\nheight_mm = %s\nbellows = %s\nwall_mm = %s\nfoot_mm = %s\n' \
             "$h" "$n" "$tsb" "$tof" >"$cfg"
     else
-        # The family's values, its .geo with a fixed bellow length and the sheet.
+        # The readings' .geo with the numbers above, the family's material and channels.
         bellow=${BELLOW_MM:-6} pitch=${PITCH_MM:-0} width=${WIDTH_MM:-20}
         if [ -n "${CAVITY_MM:-}" ]; then
             bellow=$(echo "$CAVITY_MM + 2 * $tsb" | bc -l)
@@ -74,7 +77,7 @@ while read -r name h n tsb tof study; do
             printf '[geometry]\nfamily = "mesh"\nfile = "%s"\n' "$PWD/scripts/finger-readings/finger.geo"
             printf '[geometry.parameters]\nH = %s\nN = %s\nTSB = %s\nTOF = %s\nNMCP = %s\nB = %s\nSHEET = %s\nSIDE = %s\nCHANNEL = %s\nROOF = %s\ngap = %s\nPITCH = %s\nSIDEWALL = %s\nW = %s\n' \
                 "$h" "$n" "$tsb" "$tof" $(((n + 2) / 3)) "$bellow" "$sheet" "${SIDE:-0}" "${CHANNEL_MM:-0}" "${ROOF_MM:-0}" "${GAP_MM:-1.5}" "$pitch" "${SIDEWALL_MM:-0}" "$width"
-            printf '[material]\nc1 = 3.061\nc2 = -0.637651\nc3 = 0.098623\ndensity_g_cm3 = 1.1\ntensile_strength_mpa = 5\n'
+            printf '%s\n' "$material"
             printf '[cavities]\nmcp = 1.0\npip_dip = 1.0\n'
             if [ "$sheet" != 0 ]; then
                 printf '[[layer]]\nname = "sheet"\nthickness_mm = %s\nyoungs_modulus_mpa = %s\npoisson_ratio = 0.45\n' \
