@@ -9,10 +9,11 @@
 # release; OUT (default target/bench/finger) holds each run; DESIGNS (e.g. "H10 H15") runs
 # some; PRESSURES (default 15:90:15) is the ramp.
 # READING picks how the study's open values are read (docs/src/validation.md, "The
-# segmented finger"): `family` (default) the family's chosen values; the others draw
-# scripts/finger-readings/finger.geo through `family = "mesh"`: `bellow` alone,
-# `bottom-sheet` with a strain-limiting sheet on the bottom face, `outer-sheet` a sheet on
-# the bellows' tops and sides, `outer-sheet-ends` also on their end walls. Their numbers:
+# segmented finger"): `family` (default) the family's chosen values; the others, the
+# earlier readings, draw the family's script (examples/geo/segmented_finger.geo) with
+# other numbers through `family = "mesh"`: `bellow` alone, `bottom-sheet` with a
+# strain-limiting sheet on the bottom face, `outer-sheet` a sheet on the bellows' tops and
+# sides, `outer-sheet-ends` also on their end walls. Their numbers:
 #   BELLOW_MM  bellows this long whatever N is (default 6; 0: gaps GAP_MM, default 1.5)
 #   SHEET_MM, SHEET_MPA  the sheet's thickness and modulus (default 0.5 mm, 1000 MPa)
 #   SIDE=1     each bellow's top a half cylinder across the finger (seen from the side),
@@ -65,7 +66,7 @@ while read -r name h n tsb tof study; do
             "$h" "$n" "$tsb" "$tof" >"$cfg"
     else
         # The readings' .geo with the numbers above, the family's material and channels.
-        bellow=${BELLOW_MM:-6} pitch=${PITCH_MM:-0} width=${WIDTH_MM:-20}
+        bellow=${BELLOW_MM:-6} pitch=${PITCH_MM:-$(echo "130 / $n" | bc -l)} width=${WIDTH_MM:-20}
         if [ -n "${CAVITY_MM:-}" ]; then
             bellow=$(echo "$CAVITY_MM + 2 * $tsb" | bc -l)
             pitch=$(echo "$bellow + ${GAP_MM:-1.5}" | bc -l)
@@ -73,9 +74,10 @@ while read -r name h n tsb tof study; do
                 width=$(echo "$CAVITY_WIDTH_MM + 2 * $tsb" | bc -l)
             fi
         fi
+        [ "$bellow" = 0 ] && bellow=$(echo "$pitch - ${GAP_MM:-1.5}" | bc -l)
         {
-            printf '[geometry]\nfamily = "mesh"\nfile = "%s"\n' "$PWD/scripts/finger-readings/finger.geo"
-            printf '[geometry.parameters]\nH = %s\nN = %s\nTSB = %s\nTOF = %s\nNMCP = %s\nB = %s\nSHEET = %s\nSIDE = %s\nCHANNEL = %s\nROOF = %s\ngap = %s\nPITCH = %s\nSIDEWALL = %s\nW = %s\n' \
+            printf '[geometry]\nfamily = "mesh"\nfile = "%s"\n' "$PWD/examples/geo/segmented_finger.geo"
+            printf '[geometry.parameters]\nH = %s\nN = %s\nTSB = %s\nTOF = %s\nNMCP = %s\nB = %s\nSHEET = %s\nSIDE = %s\nCHANNEL = %s\nROOF = %s\nGAP = %s\nPITCH = %s\nSIDEWALL = %s\nW = %s\n' \
                 "$h" "$n" "$tsb" "$tof" $(((n + 2) / 3)) "$bellow" "$sheet" "${SIDE:-0}" "${CHANNEL_MM:-0}" "${ROOF_MM:-0}" "${GAP_MM:-1.5}" "$pitch" "${SIDEWALL_MM:-0}" "$width"
             printf '%s\n' "$material"
             printf '[cavities]\nmcp = 1.0\npip_dip = 1.0\n'

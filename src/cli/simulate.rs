@@ -29,7 +29,7 @@ Config sections: [geometry] chambers b i f m p r c g d e l n top_wall roof (mm, 
 youngs_modulus_mpa poisson_ratio height_mm element (membrane, plate or solid) width_mm strips spacing_mm tensile_strength_mpa; [contact]; \
 [cavities] NAME = factor (a named cavity's pressure over the ramp's: the segmented finger's mcp and pip_dip, a mesh's cavity.NAME groups). \
 [geometry] family = pneunets, glove, strap, fibre-reinforced or segmented-finger picks the published design whose values fill what the file leaves out \
-([tube] for fibre-reinforced, [finger] height_mm bellows wall_mm foot_mm length_mm width_mm gap_mm for segmented-finger); family = mesh reads [geometry] file \
+([tube] for fibre-reinforced, [finger] height_mm bellows wall_mm foot_mm length_mm cavity_mm cavity_width_mm side_wall_mm gap_mm channel_mm roof_mm sheet_mm sheet_mpa for segmented-finger); family = mesh reads [geometry] file \
 (.msh, or .geo/.step/.stp/.iges/.igs/.brep meshed by gmsh) with parameters (a .geo's numbers), clamp (x-min .. z-max) and [geometry.markers] from to count; \
 its physical volume NAME takes [material.NAME] (else [material]), its curve thread.NAME is a thread of [threads.NAME] diameter_mm youngs_modulus_mpa tension_only strength_mpa, \
 and its surface layer.NAME a sheet of the [[layer]] table name = NAME (thickness_mm youngs_modulus_mpa poisson_ratio tensile_strength_mpa). \

@@ -17,17 +17,41 @@ pub struct FingerConfig {
     pub height_mm: f64,
     /// Number of bellows N.
     pub bellows: usize,
-    /// Bellow wall thickness TSB, mm.
+    /// Bellow wall thickness TSB (end walls and the top), mm.
     pub wall_mm: f64,
     /// Foot thickness TOF, mm.
     pub foot_mm: f64,
     /// Length, mm.
     pub length_mm: f64,
-    /// Width, mm (not given by the study); the bellow's top is a half cylinder across it.
-    pub width_mm: f64,
+    /// Each bellow's cavity along the finger, mm (not given by the study).
+    pub cavity_mm: f64,
+    /// The cavities' width across the finger, mm (not given by the study).
+    pub cavity_width_mm: f64,
+    /// The bellows' flat side walls, mm (not given by the study); absent:
+    /// [`FingerConfig::side_wall`]'s rule.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub side_wall_mm: Option<f64>,
     /// Gap between bellows, mm (not given by the study).
     pub gap_mm: f64,
+    /// Height of the channel joining a segment's bellows, mm (not given by the study).
+    pub channel_mm: f64,
+    /// The channel's roof between bellows, mm (not given by the study).
+    pub roof_mm: f64,
+    /// The strain-limiting sheet on the bottom face: thickness, mm.
+    pub sheet_mm: f64,
+    /// The sheet's Young's modulus, MPa (the study's second, stiffer material, not given);
+    /// 0: no sheet.
+    pub sheet_mpa: f64,
 }
+
+/// The side walls' thickness at TSB = 1 mm, and the share of TSB beyond 1 mm they take
+/// ([`FingerConfig::side_wall`]).
+pub const SIDE_WALL_BASE_MM: f64 = 1.0;
+/// See [`SIDE_WALL_BASE_MM`].
+pub const SIDE_WALL_SHARE: f64 = 0.5;
+
+/// The sheet's Poisson's ratio (a paper or fabric sheet's order).
+pub const SHEET_POISSON: f64 = 0.45;
 
 /// The study's first design (H 10 mm, N 12, TSB 1 mm, TOF 1.25 mm, 130 mm) and the
 /// values chosen where it is silent (docs/src/validation.md, "The segmented finger").
@@ -39,8 +63,14 @@ impl Default for FingerConfig {
             wall_mm: 1.0,
             foot_mm: 1.25,
             length_mm: 130.0,
-            width_mm: 20.0,
+            cavity_mm: 3.0,
+            cavity_width_mm: 18.0,
+            side_wall_mm: None,
             gap_mm: 1.5,
+            channel_mm: 2.0,
+            roof_mm: 1.0,
+            sheet_mm: 0.5,
+            sheet_mpa: 20.0,
         }
     }
 }
@@ -53,6 +83,45 @@ fn bad(name: &str, why: String) -> FemError {
 }
 
 impl FingerConfig {
+    /// The flat side walls' thickness, mm: `side_wall_mm`, or 1 mm at TSB = 1 mm and half of
+    /// TSB's growth beyond it (chosen so that the TSB series falls as the study's).
+    pub fn side_wall(&self) -> f64 {
+        self.side_wall_mm
+            .unwrap_or(SIDE_WALL_BASE_MM + SIDE_WALL_SHARE * (self.wall_mm - SIDE_WALL_BASE_MM))
+    }
+
+    /// Each bellow's length along the finger, mm: its cavity and two end walls.
+    pub fn bellow_mm(&self) -> f64 {
+        self.cavity_mm + 2.0 * self.wall_mm
+    }
+
+    /// The gap drawn between bellows, mm: `gap_mm`, or less where N bellows that far
+    /// apart would overrun the finger (the last one then ends at the tip; 0: they touch).
+    pub fn drawn_gap_mm(&self) -> f64 {
+        let n = self.bellows as f64;
+        let room = (self.length_mm - n * self.bellow_mm()) / (n - 1.0).max(1.0);
+        self.gap_mm.min(room).max(0.0)
+    }
+
+    /// The bellows' pitch from the clamp on, mm.
+    pub fn pitch_mm(&self) -> f64 {
+        self.bellow_mm() + self.drawn_gap_mm()
+    }
+
+    /// The finger's width, mm: the cavities' and two side walls.
+    pub fn width_mm(&self) -> f64 {
+        self.cavity_width_mm + 2.0 * self.side_wall()
+    }
+
+    /// How far the channel and its roof raise the foot between bellows, mm.
+    fn raised_mm(&self) -> f64 {
+        if self.channel_mm > 0.0 {
+            self.channel_mm + self.roof_mm
+        } else {
+            0.0
+        }
+    }
+
     /// The .geo's numbers (`examples/geo/segmented_finger.geo`'s DefineConstants; NMCP
     /// the MCP segment's bellows, the first channel's).
     pub fn geo_numbers(&self) -> Vec<(String, f64)> {
@@ -62,26 +131,47 @@ impl FingerConfig {
             ("TSB", self.wall_mm),
             ("TOF", self.foot_mm),
             ("L", self.length_mm),
-            ("W", self.width_mm),
-            ("gap", self.gap_mm),
             ("NMCP", self.segments()[0] as f64),
+            ("CAVITY", self.cavity_mm),
+            ("CAVITY_W", self.cavity_width_mm),
+            ("SIDEWALL", self.side_wall()),
+            ("GAP", self.drawn_gap_mm()),
+            ("CHANNEL", self.channel_mm),
+            ("ROOF", self.roof_mm),
+            ("SIDE", 1.0),
+            ("SHEET", if self.sheet_mpa > 0.0 { 3.0 } else { 0.0 }),
         ]
         .into_iter()
         .map(|(k, v)| (k.to_string(), v))
         .collect()
     }
 
-    /// The drawn solid's volume (the half model's), mm³: the foot, and each bellow's
-    /// half-cylinder top and straight sides less its cavity.
+    /// The half model's cavity volume, mm³: per bellow a box CAVITY long, half the
+    /// cavities' width across, up to the half cylinder of radius CAVITY / 2 under the top,
+    /// and the two channels where they run between bellows.
+    pub fn cavity_volume_mm3(&self) -> f64 {
+        let n = self.bellows as f64;
+        let half = 0.5 * self.cavity_width_mm;
+        let c = self.cavity_mm;
+        let rs = 0.5 * self.bellow_mm();
+        let bellow = half * (c * (self.height_mm - rs) + std::f64::consts::PI * c * c / 8.0);
+        // Both channels together run from the first bellow's cavity to the last's but
+        // across the MCP segment's last gap.
+        let channels = (n - 2.0) * self.pitch_mm() + 2.0 * c;
+        n * bellow + half * self.channel_mm * (channels - n * c)
+    }
+
+    /// The drawn solid's volume (the half model's), mm³: the foot (under the channels'
+    /// roof along the bellows), each bellow's outline, less the cavities.
     pub fn solid_volume_mm3(&self) -> f64 {
         let n = self.bellows as f64;
-        let r = 0.5 * self.width_mm;
-        let ri = r - self.wall_mm;
-        let sides = self.height_mm - r;
-        let tb = self.length_mm / n - self.gap_mm;
-        let section = |radius: f64| std::f64::consts::FRAC_PI_4 * radius * radius + radius * sides;
-        self.length_mm * r * self.foot_mm
-            + n * (tb * section(r) - (tb - 2.0 * self.wall_mm) * section(ri))
+        let r = 0.5 * self.width_mm();
+        let b = self.bellow_mm();
+        let rs = 0.5 * b;
+        let base = self.foot_mm + self.raised_mm();
+        let bellow = r * (b * (self.height_mm - rs) + std::f64::consts::PI * rs * rs / 2.0);
+        let outline = self.length_mm * r * base + n * (bellow - r * b * (base - self.foot_mm));
+        outline - self.cavity_volume_mm3()
     }
 
     /// Bellows per segment (MCP, PIP, DIP): MCP and PIP ceil(N / 3) each, DIP the rest
@@ -93,14 +183,19 @@ impl FingerConfig {
 
     /// Checks that the numbers describe a finger the .geo can draw.
     pub fn validate(&self) -> Result<(), FemError> {
-        for (name, v) in [
+        let sizes = [
             ("height_mm", self.height_mm),
             ("wall_mm", self.wall_mm),
             ("foot_mm", self.foot_mm),
             ("length_mm", self.length_mm),
-            ("width_mm", self.width_mm),
+            ("cavity_mm", self.cavity_mm),
+            ("cavity_width_mm", self.cavity_width_mm),
             ("gap_mm", self.gap_mm),
-        ] {
+            ("roof_mm", self.roof_mm),
+            ("sheet_mm", self.sheet_mm),
+        ];
+        let side = self.side_wall_mm.map(|v| ("side_wall_mm", v));
+        for (name, v) in sizes.into_iter().chain(side) {
             if !(v.is_finite() && v > 0.0 && v < 1e4) {
                 return Err(bad(
                     name,
@@ -108,39 +203,50 @@ impl FingerConfig {
                 ));
             }
         }
+        if !(self.channel_mm.is_finite() && (0.0..1e4).contains(&self.channel_mm)) {
+            return Err(bad(
+                "channel_mm",
+                format!(
+                    "{} mm: give 0 (no channel) or a size below 10 m",
+                    self.channel_mm
+                ),
+            ));
+        }
+        if !(self.sheet_mpa.is_finite() && (0.0..=2e5).contains(&self.sheet_mpa)) {
+            return Err(bad(
+                "sheet_mpa",
+                format!(
+                    "{} MPa: give 0 (no sheet) or a modulus up to 2e5 MPa (steel's)",
+                    self.sheet_mpa
+                ),
+            ));
+        }
         if !(3..=MAX_BELLOWS).contains(&self.bellows) {
             return Err(bad(
                 "bellows",
                 format!("{}: give 3 to {MAX_BELLOWS} bellows", self.bellows),
             ));
         }
-        let radius = 0.5 * self.width_mm;
-        if self.height_mm < radius {
+        let rs = 0.5 * self.bellow_mm();
+        let base = self.raised_mm();
+        if self.height_mm <= (rs + base).max(2.0 * rs) {
             return Err(bad(
                 "height_mm",
                 format!(
-                    "{} mm is lower than the half-cylinder top's radius (width_mm / 2 = {radius} mm): raise it or narrow the finger",
+                    "{} mm leaves no straight wall under the bellow's top (radius {rs} mm) above the channel and roof ({base} mm): raise it or shorten the cavities",
                     self.height_mm
                 ),
             ));
         }
-        if self.wall_mm >= radius {
-            return Err(bad(
-                "wall_mm",
-                format!(
-                    "{} mm leaves no cavity in a bellow {} mm wide",
-                    self.wall_mm, self.width_mm
-                ),
-            ));
-        }
-        let pitch = self.length_mm / self.bellows as f64;
-        let cavity = pitch - self.gap_mm - 2.0 * self.wall_mm;
-        if cavity <= 0.0 {
+        let used = self.bellows as f64 * self.bellow_mm();
+        if used > self.length_mm + 1e-9 {
             return Err(bad(
                 "bellows",
                 format!(
-                    "{} bellows of {pitch:.2} mm with {} mm gaps and {} mm walls leave no cavity: fewer bellows, thinner walls or smaller gaps",
-                    self.bellows, self.gap_mm, self.wall_mm
+                    "{} bellows {:.2} mm long need {used:.2} mm, more than the {} mm finger: fewer bellows, shorter cavities or thinner walls",
+                    self.bellows,
+                    self.bellow_mm(),
+                    self.length_mm
                 ),
             ));
         }
@@ -169,47 +275,102 @@ mod tests {
 
     #[test]
     fn undrawable_fingers_are_refused_naming_the_key() {
-        let cases: [(FingerConfig, &str); 5] = [
+        let d = FingerConfig::default;
+        let cases: [(FingerConfig, &str); 9] = [
             (
                 FingerConfig {
                     wall_mm: f64::NAN,
-                    ..Default::default()
+                    ..d()
                 },
                 "finger.wall_mm",
             ),
             (
                 FingerConfig {
-                    bellows: 2,
-                    ..Default::default()
+                    side_wall_mm: Some(f64::NAN),
+                    ..d()
                 },
-                "finger.bellows",
+                "finger.side_wall_mm",
             ),
             (
                 FingerConfig {
-                    height_mm: 8.0,
-                    ..Default::default()
+                    cavity_mm: -3.0,
+                    ..d()
+                },
+                "finger.cavity_mm",
+            ),
+            (
+                FingerConfig {
+                    channel_mm: f64::INFINITY,
+                    ..d()
+                },
+                "finger.channel_mm",
+            ),
+            (
+                FingerConfig {
+                    sheet_mpa: -20.0,
+                    ..d()
+                },
+                "finger.sheet_mpa",
+            ),
+            (FingerConfig { bellows: 2, ..d() }, "finger.bellows"),
+            // The top's radius 2.5 mm on a 2 mm channel under a 1 mm roof.
+            (
+                FingerConfig {
+                    height_mm: 5.5,
+                    ..d()
                 },
                 "finger.height_mm",
             ),
             (
                 FingerConfig {
                     wall_mm: 10.0,
-                    ..Default::default()
+                    ..d()
                 },
-                "finger.wall_mm",
+                "finger.height_mm",
             ),
-            (
-                FingerConfig {
-                    bellows: 60,
-                    ..Default::default()
-                },
-                "finger.bellows",
-            ),
+            // 27 bellows 5 mm long need 135 mm.
+            (FingerConfig { bellows: 27, ..d() }, "finger.bellows"),
         ];
         for (cfg, key) in cases {
             let e = cfg.validate().unwrap_err().to_string();
             assert!(e.contains(key), "{key}: {e}");
         }
-        FingerConfig::default().validate().unwrap();
+        d().validate().unwrap();
+    }
+
+    /// The bellows keep their pitch (cavity, two walls, gap) from the clamp while they
+    /// fit, and the gaps close where they would not: 20 bellows of TSB 1.75 mm fill the
+    /// finger.
+    #[test]
+    fn gaps_close_only_where_the_bellows_would_overrun() {
+        let at = |bellows, wall_mm| FingerConfig {
+            bellows,
+            wall_mm,
+            ..FingerConfig::default()
+        };
+        let cases = [
+            (12, 1.0, 1.5, 6.5),
+            (20, 1.0, 1.5, 6.5),
+            (14, 1.75, 1.5, 8.0),
+            (20, 1.5, 10.0 / 19.0, 6.0 + 10.0 / 19.0),
+            (20, 1.75, 0.0, 6.5),
+        ];
+        for (n, tsb, gap, pitch) in cases {
+            let f = at(n, tsb);
+            f.validate().unwrap();
+            assert!(
+                (f.drawn_gap_mm() - gap).abs() < 1e-12,
+                "N {n} TSB {tsb}: gap {}",
+                f.drawn_gap_mm()
+            );
+            assert!(
+                (f.pitch_mm() - pitch).abs() < 1e-12,
+                "N {n} TSB {tsb}: pitch {}",
+                f.pitch_mm()
+            );
+        }
+        // The side walls: 1 mm at TSB 1 mm, half of TSB's growth beyond.
+        assert_eq!(at(14, 1.75).side_wall(), 1.375);
+        assert_eq!(at(14, 1.75).width_mm(), 20.75);
     }
 }

@@ -11,11 +11,12 @@ use std::path::PathBuf;
 
 use super::imported::{made, model_of};
 use super::Shape;
-use crate::fem::config::finger::FingerConfig;
+use crate::fem::config::finger::{FingerConfig, SHEET_POISSON};
 use crate::fem::config::{
     ActuatorConfig, Family, Geometry, LoadConfig, MaterialConfig, MeshConfig,
 };
 use crate::fem::import::Completion;
+use crate::fem::layer::LayerConfig;
 use crate::fem::material::MaterialPreset;
 use crate::fem::mesh::ActuatorMesh;
 use crate::fem::FemError;
@@ -132,7 +133,7 @@ impl Shape for Finger {
     /// (the 2-4 mm meshes of the default have 0.6-0.9 times this).
     fn element_estimate(&self, cfg: &ActuatorConfig, h: f64) -> f64 {
         cfg.finger.as_ref().map_or(0.0, |f| {
-            let thinnest = f.wall_mm.min(f.foot_mm);
+            let thinnest = f.wall_mm.min(f.foot_mm).min(f.side_wall());
             1.5 * f.solid_volume_mm3() * 6.0 * std::f64::consts::SQRT_2 / h.powi(3)
                 * (h / thinnest).max(1.0)
         })
@@ -146,7 +147,18 @@ impl Shape for Finger {
             cfg.mesh.size_mm,
             &Completion::default(),
         )?;
-        model_of(cfg, &m)
+        // The bottom sheet is the .geo's `layer.sheet` surface, as a membrane.
+        let mut with_sheet = cfg.clone();
+        if f.sheet_mpa > 0.0 {
+            with_sheet.layer = vec![LayerConfig {
+                name: "sheet".into(),
+                thickness_mm: f.sheet_mm,
+                youngs_modulus_mpa: f.sheet_mpa,
+                poisson_ratio: SHEET_POISSON,
+                ..LayerConfig::default()
+            }];
+        }
+        model_of(&with_sheet, &m)
     }
 
     fn height_mm(&self, cfg: &ActuatorConfig) -> f64 {
@@ -165,12 +177,12 @@ mod tests {
     use super::*;
     use crate::fem::pressure_tri6::face_volume;
 
-    /// The default finger meshed by gmsh: its cavities' volume is that of N quarter
-    /// cylinders of radius W/2 - TSB, each (130 / N - gap - 2 TSB) long (the half model
-    /// of N half-cylinder bellows, H = W/2), to the 2 mm quadratic mesh's 0.2%; its
-    /// height is the foot and the bellow.
+    /// The default finger meshed by gmsh: its cavities' volume is the drawn one
+    /// ([`FingerConfig::cavity_volume_mm3`]: N bellows' box and half-cylinder top, the
+    /// channels between them) to the 2 mm quadratic mesh's 0.2%; its sheet covers the
+    /// bottom face (130 x 10 mm in the half model); its height is the foot and the bellow.
     #[test]
-    fn the_default_finger_has_its_drawn_cavities() {
+    fn the_default_finger_has_its_drawn_cavities_and_sheet() {
         let cfg = ActuatorConfig::for_family(Family::SegmentedFinger);
         cfg.validate().unwrap();
         let mesh = Finger.build(&cfg).unwrap();
@@ -184,11 +196,19 @@ mod tests {
             .map(|f| face_volume(&f.map(|i| nodes[i]), &w).0)
             .sum();
         let f = cfg.finger.as_ref().unwrap();
-        let n = f.bellows as f64;
-        let r = 0.5 * f.width_mm - f.wall_mm;
-        let length = f.length_mm / n - f.gap_mm - 2.0 * f.wall_mm;
-        let drawn = n * std::f64::consts::PI * r * r / 4.0 * length;
+        let drawn = f.cavity_volume_mm3();
         assert!((volume / drawn - 1.0).abs() < 2e-3, "{volume} vs {drawn}");
+        let sheet: f64 = mesh
+            .model
+            .tri_membranes
+            .iter()
+            .map(|m| {
+                let [a, b, c] = [0, 1, 2].map(|k| nodes[m.nodes[k]]);
+                0.5 * (b - a).cross(&(c - a)).norm()
+            })
+            .sum();
+        let bottom = f.length_mm * 0.5 * f.width_mm();
+        assert!((sheet / bottom - 1.0).abs() < 1e-9, "{sheet} vs {bottom}");
         assert_eq!(mesh.markers.len(), f.bellows + 1);
         assert!(mesh.half_model);
         assert_eq!(Finger.height_mm(&cfg), 11.25);
