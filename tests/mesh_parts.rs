@@ -259,6 +259,41 @@ fn a_finger_with_its_pip_dip_channel_off_bends_at_mcp_alone() {
     );
 }
 
+/// The segmented finger's exported deck solved by stock CalculiX (C3D10, its bottom sheet
+/// as M3D6 on the same nodes): the default finger at 2.5 mm, bulk modulus 3 mu0 (18.366
+/// MPa, mu0 = 2 C10, where C3D10 does not lock), 5 kPa. CalculiX's marker radius and tip
+/// deflection within 3% of bendscope's (measured -0.91% and +2.50%; at 10 kPa -0.35% and
+/// +2.45%).
+#[test]
+fn calculix_agrees_with_the_finger_on_its_exported_deck() {
+    let config = "[geometry]\nfamily = \"segmented-finger\"\n[mesh]\nsize_mm = 2.5\n";
+    let args = [
+        "--pressures",
+        "5",
+        "--no-gravity",
+        "--bulk-modulus",
+        "18.366",
+    ];
+    let (h, _, steps, deck) = simulate_and_calculix_with_deck(&args, Some(config));
+    assert!(deck.contains("*ELEMENT, TYPE=C3D10") && deck.contains("TYPE=M3D6, ELSET=SHEET"));
+    assert_eq!(steps.len(), 1);
+    let s = &steps[0];
+    let (r, r_ccx) = (s.row[col(&h, "radius_mm")], s.calculix_radius_mm());
+    // The tip lies at (130, 0, 0) at rest.
+    let (d, d_ccx) = (-s.row[col(&h, "tip_z_mm")], -s.tip[2]);
+    eprintln!(
+        "radius bendscope {r:.2} mm, CalculiX {r_ccx:.2} mm ({:+.2}%); tip deflection {d:.3} / {d_ccx:.3} mm ({:+.2}%)",
+        100.0 * (r_ccx / r - 1.0),
+        100.0 * (d_ccx / d - 1.0)
+    );
+    assert!(d > 5.0, "the finger hardly bent: {d} mm");
+    assert!((r_ccx / r - 1.0).abs() < 0.03, "radius {r_ccx} vs {r}");
+    assert!(
+        (d_ccx / d - 1.0).abs() < 0.03,
+        "tip deflection {d_ccx} vs {d}"
+    );
+}
+
 /// An imported mesh's named volumes take their own materials (`[material.NAME]`): the
 /// two-material block (`fixtures/mesh/two-materials.geo`, `silicone` near the clamp and
 /// `stiff` beyond x = 15, 5 times the coefficients) against CalculiX C3D10 on the exported
