@@ -136,12 +136,25 @@ pub fn simulate_and_calculix_peer(
     args: &[&str],
     config: Option<&str>,
 ) -> (Vec<String>, Vec<[f64; 3]>, Vec<BothSolvers>) {
+    simulate_and_solve_with(ccx_peer(), args, config)
+}
+
+/// [`simulate_and_calculix_peer`] that also returns the deck's text.
+pub fn simulate_and_calculix_peer_with_deck(
+    args: &[&str],
+    config: Option<&str>,
+) -> (Vec<String>, Vec<[f64; 3]>, Vec<BothSolvers>, String) {
+    simulate_and_solve_keeping_the_deck(ccx_peer(), args, config)
+}
+
+/// The ccx_peer binary `scripts/ccx-peer.sh` builds, asserted present.
+fn ccx_peer() -> &'static str {
     let peer = concat!(env!("CARGO_MANIFEST_DIR"), "/target/ccx-peer/ccx_peer");
     assert!(
         std::path::Path::new(peer).is_file(),
         "{peer} is missing: run scripts/ccx-peer.sh (scripts/test.sh does)"
     );
-    simulate_and_solve_with(peer, args, config)
+    peer
 }
 
 /// [`simulate_and_calculix`] with the CalculiX binary `ccx`.
