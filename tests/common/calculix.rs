@@ -273,6 +273,25 @@ pub fn assert_radius_and_tip_agree(
     }
 }
 
+/// The markers' radius (Pratt, x-z) and the tip's deflection (-z, the tip on z = 0 at
+/// rest) of both solvers at one pressure, printed and asserted within `tol` of each other;
+/// returns bendscope's deflection, mm.
+pub fn assert_radius_and_deflection_agree(h: &[String], s: &BothSolvers, tol: f64) -> f64 {
+    let (r, r_ccx) = (s.row[col(h, "radius_mm")], s.calculix_radius_mm());
+    let (d, d_ccx) = (-s.row[col(h, "tip_z_mm")], -s.tip[2]);
+    eprintln!(
+        "radius bendscope {r:.2} mm, CalculiX {r_ccx:.2} mm ({:+.2}%); tip deflection {d:.3} / {d_ccx:.3} mm ({:+.2}%)",
+        100.0 * (r_ccx / r - 1.0),
+        100.0 * (d_ccx / d - 1.0)
+    );
+    assert!((r_ccx / r - 1.0).abs() < tol, "radius {r_ccx} vs {r}");
+    assert!(
+        (d_ccx / d - 1.0).abs() < tol,
+        "tip deflection {d_ccx} vs {d}"
+    );
+    d
+}
+
 /// The volume, mm³, that the first `*DLOAD`'s faces of a deck's C3D10 elements enclose
 /// with the plane y = 0 (the half model's symmetry plane, which closes the cavity): the
 /// divergence theorem with the field (0, y, 0), whose flux through y = 0 is nil, over
