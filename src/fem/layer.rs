@@ -42,6 +42,11 @@ pub enum LayerElement {
     Plate,
 }
 
+/// Thickest sheet taken as membranes on a tetrahedral mesh's faces (an imported mesh's
+/// `layer.NAME`, the segmented finger's sheet), mm: a membrane carries a sheet's stretch,
+/// not the bending of a slab.
+pub const MAX_SHEET_MM: f64 = 5.0;
+
 /// A strain-limiting layer in the base (`[layer]` in the config, or several as
 /// `[[layer]]`): a sheet across the whole width, or one or two strips along the length.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

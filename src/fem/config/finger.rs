@@ -4,6 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::fem::layer::MAX_SHEET_MM;
 use crate::fem::FemError;
 
 /// Most bellows a finger may have.
@@ -203,6 +204,15 @@ impl FingerConfig {
                 ));
             }
         }
+        if self.sheet_mm > MAX_SHEET_MM {
+            return Err(bad(
+                "sheet_mm",
+                format!(
+                    "{} mm: the sheet is a membrane, at most {MAX_SHEET_MM} mm thick",
+                    self.sheet_mm
+                ),
+            ));
+        }
         if !(self.channel_mm.is_finite() && (0.0..1e4).contains(&self.channel_mm)) {
             return Err(bad(
                 "channel_mm",
@@ -276,7 +286,14 @@ mod tests {
     #[test]
     fn undrawable_fingers_are_refused_naming_the_key() {
         let d = FingerConfig::default;
-        let cases: [(FingerConfig, &str); 9] = [
+        let cases: [(FingerConfig, &str); 10] = [
+            (
+                FingerConfig {
+                    sheet_mm: 6.0,
+                    ..d()
+                },
+                "finger.sheet_mm",
+            ),
             (
                 FingerConfig {
                     wall_mm: f64::NAN,

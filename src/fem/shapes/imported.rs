@@ -24,7 +24,7 @@ use std::time::SystemTime;
 use super::Shape;
 use crate::fem::config::{ActuatorConfig, Family, Geometry, MaterialConfig};
 use crate::fem::import::{gmsh, msh, Completion, ImportedMesh};
-use crate::fem::layer::{LayerConfig, LayerElement};
+use crate::fem::layer::{LayerConfig, LayerElement, MAX_SHEET_MM};
 use crate::fem::material::Yeoh;
 use crate::fem::membrane_tri6::Tri6Membrane;
 use crate::fem::mesh::{gravity_loads_tets, ActuatorMesh, Part};
@@ -42,9 +42,6 @@ impl Family {
 /// The user's own geometry, from a file.
 pub struct Imported;
 
-/// Thickest sheet a `layer.NAME` surface takes, mm: a membrane carries a sheet's stretch,
-/// not the bending of a slab.
-const MAX_SHEET_MM: f64 = 5.0;
 /// Stiffest sheet, MPa (ten times steel's modulus: a value in Pa is refused).
 const MAX_SHEET_MPA: f64 = 1e6;
 
