@@ -52,6 +52,7 @@ pub mod mesh;
 pub mod output;
 pub mod params;
 pub mod plate;
+pub mod plate_tri;
 pub mod pressure;
 pub mod pressure_tri6;
 pub mod shapes;

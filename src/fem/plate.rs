@@ -30,8 +30,9 @@ use serde::Serialize;
 
 use super::membrane::{MembraneElement, MembraneGeometry};
 
-/// Nodes of one bending term: a node and its neighbours on up to two grid lines.
-pub const PLATE_NODES: usize = 5;
+/// Nodes of one bending term: a node and its neighbours on up to two grid lines (5), or
+/// a node and the neighbours of its fit on triangles ([`super::plate_tri`], up to 11).
+pub const PLATE_NODES: usize = 12;
 
 /// What a bending term's second derivative is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -75,7 +76,7 @@ impl PlateTerm {
         0.5 * self.stiffness * self.value(u).norm_squared()
     }
 
-    /// Internal force on the term's nodes (15 entries, node-major), N.
+    /// Internal force on the term's nodes (3 per node, node-major), N.
     pub fn force(&self, u: &[f64]) -> [f64; 3 * PLATE_NODES] {
         let l = self.value(u) * self.stiffness;
         let mut f = [0.0; 3 * PLATE_NODES];
@@ -96,7 +97,7 @@ impl PlateTerm {
         }
     }
 
-    fn new(stencil: &[(usize, [f64; 3])], stiffness: f64, curvature: Curvature) -> Self {
+    pub(crate) fn new(stencil: &[(usize, [f64; 3])], stiffness: f64, curvature: Curvature) -> Self {
         let mut term = Self {
             nodes: [stencil[0].0; PLATE_NODES],
             weights: [[0.0; 3]; PLATE_NODES],

@@ -38,7 +38,7 @@ pub(super) struct Pattern {
     pub(super) tri_membrane_slots: Vec<Box<[u32; 324]>>,
     /// `truss_slots[t][a + 48 b]`: value index of entry (a, b) of fibre segment t, or SKIP.
     pub(super) truss_slots: Vec<Box<[u32; TRUSS_DOFS * TRUSS_DOFS]>>,
-    /// `plate_slots[t][a + 15 b]`: value index of entry (a, b) of bending term t, or SKIP.
+    /// `plate_slots[t][a + 3 PLATE_NODES b]`: value index of entry (a, b) of bending term t, or SKIP.
     pub(super) plate_slots: Vec<[u32; 9 * PLATE_NODES * PLATE_NODES]>,
     /// `tet_slots[t][a + 34 b]`: value index of entry (a, b) of tetrahedron t (30
     /// displacements, then its 4 corner pressures), or SKIP.
