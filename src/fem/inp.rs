@@ -10,9 +10,10 @@
 //! a solid layer as Yeoh with C20 = C30 = 0) and density per solid material; thin layers
 //! as `M3D4` membranes on the same nodes (an imported mesh's sheets as `M3D6`; `*ELASTIC`
 //! E ν, `*MEMBRANE SECTION` thickness),
-//! plate layers as `S4` shells there (`*SHELL SECTION` thickness: CalculiX expands them
-//! into C3D8I through the thickness, the mid-plane tied to the silicone's nodes, and on a
-//! half model holds their rotations 4 and 6 on y = 0, `SYMMETRY_SHELL`);
+//! plate layers as `S4` shells there (an imported mesh's as `S6`; `*SHELL SECTION`
+//! thickness: CalculiX expands them through the thickness, the mid-plane tied to the
+//! silicone's nodes, and on a half model holds their rotations 4 and 6 on y = 0,
+//! `SYMMETRY_SHELL`);
 //! thread segments as `SPRINGA` between a node per thread point, stiffness E A / L0
 //! (bendscope's bar at the thread's small strain; a cable as a `NONLINEAR` spring that
 //! carries nothing shortened), each point tied to its host hexahedron by `*EQUATION`s
@@ -77,6 +78,8 @@ pub struct InpSummary {
     pub membrane_triangles: usize,
     /// S4 shells (thin layers with their bending stiffness: plate layers).
     pub shells: usize,
+    /// S6 shells (an imported mesh's plate layers, on its 6-node triangles).
+    pub shell_triangles: usize,
     /// SPRINGA thread segments.
     pub springs: usize,
     /// `*EQUATION`s tying the thread points to their host hexahedra (3 per point).
@@ -106,6 +109,9 @@ impl std::fmt::Display for InpSummary {
         }
         if self.shells > 0 {
             write!(f, ", {} S4", self.shells)?;
+        }
+        if self.shell_triangles > 0 {
+            write!(f, ", {} S6", self.shell_triangles)?;
         }
         if self.springs > 0 {
             write!(
@@ -327,22 +333,32 @@ pub fn inp_from_mesh(
     // C3D8I through the thickness, tied to the silicone's nodes at their mid-plane).
     let mut next_id = solids;
     let (mut n_membranes, mut n_shells) = (0, 0);
-    let mut n_membrane_triangles = 0;
+    let (mut n_membrane_triangles, mut n_shell_triangles) = (0, 0);
     let mut shell_nodes = std::collections::BTreeSet::new();
     for (part, name) in mesh.parts.iter().zip(&names.parts) {
         if let Some(&first) = part.tri_membranes.first() {
-            // An imported mesh's sheet, on the tetrahedra's 6-node faces: M3D6.
+            // An imported mesh's sheet, on the tetrahedra's 6-node faces: M3D6, or S6
+            // shells for a plate layer.
             let section = m.tri_membranes[first].section;
-            n_membrane_triangles += part.tri_membranes.len();
-            let _ = writeln!(s, "*ELEMENT, TYPE=M3D6, ELSET={name}");
+            let (kind, card) = if part.plate.is_some() {
+                n_shell_triangles += part.tri_membranes.len();
+                ("S6", "SHELL SECTION")
+            } else {
+                n_membrane_triangles += part.tri_membranes.len();
+                ("M3D6", "MEMBRANE SECTION")
+            };
+            let _ = writeln!(s, "*ELEMENT, TYPE={kind}, ELSET={name}");
             for &i in &part.tri_membranes {
                 next_id += 1;
                 let nodes = m.tri_membranes[i].nodes;
+                if part.plate.is_some() {
+                    shell_nodes.extend(nodes);
+                }
                 let _ = writeln!(s, "{next_id}, {}", join_ids(nodes.iter().map(|n| n + 1)));
             }
             let _ = writeln!(
                 s,
-                "*MATERIAL, NAME={name}\n*ELASTIC\n{:.9e}, {:.6}\n*MEMBRANE SECTION, ELSET={name}, MATERIAL={name}\n{:.9e}",
+                "*MATERIAL, NAME={name}\n*ELASTIC\n{:.9e}, {:.6}\n*{card}, ELSET={name}, MATERIAL={name}\n{:.9e}",
                 section.youngs_modulus_mpa, section.poisson_ratio, section.thickness_mm
             );
         }
@@ -566,6 +582,7 @@ pub fn inp_from_mesh(
         membranes: n_membranes,
         membrane_triangles: n_membrane_triangles,
         shells: n_shells,
+        shell_triangles: n_shell_triangles,
         springs: m.trusses.len(),
         equations: 3 * points.len(),
         pressure_faces: loads.len(),

@@ -15,7 +15,8 @@
 //! `thread.NAME` curves are threads bonded along the tetrahedra's edges, their section
 //! from `[threads.NAME]`; `layer.NAME` surfaces are sheets bonded to the tetrahedra's
 //! faces (the sheet's mid-surface) as 6-node membranes ([`crate::fem::membrane_tri6`]),
-//! their section from the `[[layer]]` table named NAME.
+//! their section from the `[[layer]]` table named NAME; a flat one with
+//! `element = "plate"` also bends ([`crate::fem::plate_tri`]).
 
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
@@ -27,7 +28,9 @@ use crate::fem::import::{gmsh, msh, Completion, ImportedMesh};
 use crate::fem::layer::{LayerConfig, LayerElement, MAX_SHEET_MM};
 use crate::fem::material::Yeoh;
 use crate::fem::membrane_tri6::Tri6Membrane;
-use crate::fem::mesh::{gravity_loads_tets, ActuatorMesh, Part};
+use crate::fem::mesh::{gravity_loads_tets, ActuatorMesh, Part, PlateSection};
+use crate::fem::plate::{Mirror, PlateTerm};
+use crate::fem::plate_tri::tri_plate_terms;
 use crate::fem::pressure::CLOSED;
 use crate::fem::solve::{Cavity, Model, Tetrahedra};
 use crate::fem::truss::{EmbeddedPoint, TrussElement};
@@ -246,8 +249,9 @@ impl Shape for Imported {
         }
     }
 
-    /// A layer lies where its `layer.NAME` surface is, as membranes: the keys that place
-    /// or mesh a built-in family's layer are refused.
+    /// A layer lies where its `layer.NAME` surface is, as membranes (a plate: also its
+    /// bending): the keys that place a built-in family's layer, and a solid layer, are
+    /// refused.
     fn validate_layers(&self, cfg: &ActuatorConfig) -> Result<(), FemError> {
         let placed = LayerConfig::default();
         for layer in &cfg.layer {
@@ -278,10 +282,10 @@ impl Shape for Imported {
                     format!("{}: above {MAX_SHEET_MPA} MPa (steel is 2e5): the modulus is in MPa, not Pa", layer.youngs_modulus_mpa),
                 ));
             }
-            if layer.element != LayerElement::Membrane {
+            if layer.element == LayerElement::Solid {
                 return Err(crate::fem::config::bad(
                     &format!("layer.{}.element", layer.name),
-                    "an imported mesh's layers are membranes (a sheet's stretch; no plate or solid element on triangles yet): remove element, or draw a solid strip as a volume with its own [material.NAME]".into(),
+                    "an imported mesh's layer is a surface: membrane or plate (its bending too); draw a solid strip as a volume with its own [material.NAME]".into(),
                 ));
             }
         }
@@ -374,7 +378,17 @@ pub fn from_imported(cfg: &ActuatorConfig, m: ImportedMesh) -> Result<ActuatorMe
     let materials = volume_materials(cfg, &m, &refuse)?;
     let mut parts = materials.parts;
     let trusses = threads_of(cfg, &m, &mut parts, &refuse)?;
-    let tri_membranes = layers_of(cfg, &m, &mut parts, &refuse)?;
+    // Each symmetry plane at its nodes' mean coordinate (a plate's mirror there).
+    let mirrors: Vec<Mirror> = m
+        .symmetry
+        .iter()
+        .filter(|(_, nodes)| !nodes.is_empty())
+        .map(|(axis, nodes)| Mirror {
+            axis: *axis,
+            at: nodes.iter().map(|&a| m.nodes[a][*axis]).sum::<f64>() / nodes.len() as f64,
+        })
+        .collect();
+    let (tri_membranes, plates) = layers_of(cfg, &m, &mirrors, &mut parts, &refuse)?;
     let mut pressure_faces = Vec::new();
     let mut cavities = Vec::new();
     for (group, faces) in m.cavities {
@@ -415,6 +429,7 @@ pub fn from_imported(cfg: &ActuatorConfig, m: ImportedMesh) -> Result<ActuatorMe
     model.extra_materials = materials.extra;
     model.trusses = trusses;
     model.tri_membranes = tri_membranes;
+    model.plates = plates;
     Ok(ActuatorMesh {
         model,
         markers: m.markers,
@@ -560,15 +575,17 @@ fn threads_of(
 }
 
 /// The membranes of the mesh's `layer.NAME` surfaces, a 6-node membrane on each of their
-/// triangles, with the section of the `[[layer]]` table named NAME; a part per layer
-/// joins `parts`. A surface without its
-/// table, a table without its surface and a layer named as another part are refused.
+/// triangles, with the section of the `[[layer]]` table named NAME, and a plate layer's
+/// bending terms ([`crate::fem::plate_tri`], mirrored at `mirrors`); a part per layer
+/// joins `parts`. A surface without its table, a table without its surface, a layer
+/// named as another part and a plate that is not flat are refused.
 fn layers_of(
     cfg: &ActuatorConfig,
     m: &ImportedMesh,
+    mirrors: &[Mirror],
     parts: &mut Vec<Part>,
     refuse: &dyn Fn(String) -> FemError,
-) -> Result<Vec<Tri6Membrane>, FemError> {
+) -> Result<(Vec<Tri6Membrane>, Vec<PlateTerm>), FemError> {
     let names: Vec<&str> = m.layers.iter().map(|(n, _)| n.as_str()).collect();
     if let Some(l) = cfg.layer.iter().find(|l| !names.contains(&l.name.as_str())) {
         let have = if names.is_empty() {
@@ -582,6 +599,7 @@ fn layers_of(
         )));
     }
     let mut membranes = Vec::new();
+    let mut plates = Vec::new();
     for (name, faces) in &m.layers {
         let layer = cfg.layer.iter().find(|l| l.name == *name).ok_or_else(|| {
             refuse(format!(
@@ -596,15 +614,30 @@ fn layers_of(
         let section = layer.section();
         let start = membranes.len();
         membranes.extend(faces.iter().map(|&nodes| Tri6Membrane { nodes, section }));
+        let plate = match layer.plate_rigidity() {
+            Some(d) => {
+                let first = plates.len();
+                let terms = tri_plate_terms(&m.nodes, faces, d, layer.poisson_ratio, mirrors)
+                    .map_err(|why| refuse(format!("layer `{name}` cannot be a plate: {why}")))?;
+                plates.extend(terms);
+                Some(PlateSection {
+                    thickness_mm: layer.thickness_mm,
+                    youngs_modulus_mpa: layer.youngs_modulus_mpa,
+                    poisson_ratio: layer.poisson_ratio,
+                    terms: first..plates.len(),
+                })
+            }
+            None => None,
+        };
         parts.push(Part {
             name: name.clone(),
             tensile_strength_mpa: layer.tensile_strength_mpa,
             solid_material: None,
             membranes: Vec::new(),
-            plate: None,
+            plate,
             trusses: Vec::new(),
             tri_membranes: (start..membranes.len()).collect(),
         });
     }
-    Ok(membranes)
+    Ok((membranes, plates))
 }
