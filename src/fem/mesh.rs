@@ -99,8 +99,9 @@ pub struct Part {
     pub solid_material: Option<u8>,
     /// Membrane elements (indices into [`Model::membranes`]).
     pub membranes: Vec<usize>,
-    /// The membranes carry the sheet's bending stiffness ([`Model::plates`], a layer
-    /// with `element = "plate"`): its section and its terms there.
+    /// The membranes (or 6-node membranes) carry the sheet's bending stiffness
+    /// ([`Model::plates`], a layer with `element = "plate"`): its section and its terms
+    /// there.
     pub plate: Option<PlateSection>,
     /// Fibre segments (indices into [`Model::trusses`]).
     pub trusses: Vec<usize>,

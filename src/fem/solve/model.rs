@@ -42,7 +42,8 @@ pub struct Model {
     /// Fibre segments embedded in the hexahedra ([`crate::fem::truss`]).
     pub trusses: Vec<TrussElement>,
     /// Bending terms of sheets meshed as membranes with their bending stiffness
-    /// ([`crate::fem::plate`]): a constant stiffness.
+    /// ([`crate::fem::plate`] on quadrilaterals, [`crate::fem::plate_tri`] on
+    /// triangles): a constant stiffness.
     pub plates: Vec<PlateTerm>,
     /// Frictionless contact between surfaces ([`crate::fem::contact`]); `None`: no contact.
     pub contact: Option<Contact>,
