@@ -88,6 +88,15 @@ impl PlateTerm {
         f
     }
 
+    /// How many of the node entries are the term's (the rest are padding: the first
+    /// node again, weight 0).
+    pub fn used(&self) -> usize {
+        (1..PLATE_NODES)
+            .rev()
+            .find(|&k| self.nodes[k] != self.nodes[0] || self.weights[k] != [0.0; 3])
+            .map_or(1, |k| k + 1)
+    }
+
     /// Tangent entry between dof (a, i) and (b, k) of the term's nodes, N/mm.
     pub fn tangent(&self, a: usize, i: usize, b: usize, k: usize) -> f64 {
         if i == k {

@@ -496,11 +496,13 @@ impl<'m> Solver<'m> {
                     r[i] += fa;
                 }
             }
-            let n = 3 * PLATE_NODES;
-            for (ab, s) in slots.iter().enumerate() {
-                if *s != SKIP {
-                    let (a, b) = (ab % n, ab / n);
-                    values[*s as usize] += t.tangent(a / 3, a % 3, b / 3, b % 3);
+            let (n, m) = (3 * PLATE_NODES, 3 * t.used());
+            for b in 0..m {
+                for a in 0..m {
+                    let s = slots[a + n * b];
+                    if s != SKIP {
+                        values[s as usize] += t.tangent(a / 3, a % 3, b / 3, b % 3);
+                    }
                 }
             }
         }

@@ -65,6 +65,16 @@ impl Pattern {
                 .map(|a| eq[3 * nodes[a / 3] + a % 3])
                 .collect()
         };
+        // A bending term's padding (its unused node entries) takes no slot.
+        let plate_dofs = |t: &crate::fem::plate::PlateTerm| -> Vec<Option<usize>> {
+            (0..3 * PLATE_NODES)
+                .map(|a| {
+                    (a / 3 < t.used())
+                        .then(|| eq[3 * t.nodes[a / 3] + a % 3])
+                        .flatten()
+                })
+                .collect()
+        };
         let tet_dofs = |t: usize| -> Vec<Option<usize>> {
             let mut d = dofs(&model.tets.elements[t]);
             d.extend(tet_pressure[t].iter().map(|k| Some(n_eq + k)));
@@ -97,7 +107,7 @@ impl Pattern {
             add(&dofs(&t.nodes()));
         }
         for t in &model.plates {
-            add(&dofs(&t.nodes));
+            add(&plate_dofs(t));
         }
         for t in 0..model.tets.elements.len() {
             add(&tet_dofs(t));
@@ -202,7 +212,7 @@ impl Pattern {
             .iter()
             .map(|t| {
                 let mut s = [SKIP; 9 * PLATE_NODES * PLATE_NODES];
-                slots(&dofs(&t.nodes), &mut s);
+                slots(&plate_dofs(t), &mut s);
                 s
             })
             .collect();
