@@ -43,13 +43,16 @@ use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
-use super::config::{ActuatorConfig, MaterialConfig};
+use super::config::ActuatorConfig;
 use super::membrane::MembraneSection;
 use super::mesh::{ActuatorMesh, Part, GRAVITY_M_S2};
 use super::truss::EmbeddedPoint;
 use super::FemError;
 
 pub use super::hex::C3D8_FACES;
+
+mod bulk;
+pub use bulk::{caveats, for_calculix, CALCULIX_DECK_BULK_TO_SHEAR};
 
 /// Initial increment of each `*STATIC` step, as a fraction of the step.
 pub const INITIAL_INCREMENT: f64 = 0.25;
@@ -698,68 +701,9 @@ fn join_ids(ids: impl Iterator<Item = usize>) -> String {
     ids.map(|n| n.to_string()).collect::<Vec<_>>().join(", ")
 }
 
-/// Bulk modulus, as a multiple of the initial shear modulus, above which [`caveats`] warns
-/// that CalculiX's C3D8I may lock (it ran the strap's deck at 1000 mu0 but stopped the
-/// reference's at 10 kPa; at 100 mu0 the reference's got to 100 kPa).
-const CALCULIX_BULK_TO_SHEAR: f64 = 200.0;
-
-/// What to know before running the deck of `cfg` in CalculiX 2.20, one line each (measured
-/// in tests/simulate.rs and docs/src/howto/fem.md): its C3D8I may lock on silicone at the
-/// default bulk modulus of 1000 mu0, and it stalls on smeared threads' membranes near 10 kPa.
-pub fn caveats(cfg: &ActuatorConfig) -> Vec<String> {
-    let mut out = Vec::new();
-    let shape = cfg.shape();
-    let stiff = shape
-        .silicones(cfg)
-        .into_iter()
-        .filter_map(|(_, m)| m.yeoh().ok())
-        .any(|y| y.bulk_modulus > CALCULIX_BULK_TO_SHEAR * 2.0 * y.c1);
-    if stiff {
-        out.push(
-            format!("a bulk modulus above {CALCULIX_BULK_TO_SHEAR} mu0, where CalculiX's C3D8I may lock (the reference's default deck, 1000 mu0, stops at 10 kPa in CalculiX; at 100 mu0 it gets to 100 kPa): for CalculiX set about 100 mu0 (--bulk-modulus, or bulk_modulus_mpa in [material] and [tube.outer_material])"),
-        );
-    }
-    out.extend(shape.deck_caveats(cfg));
-    out
-}
-
 /// `text` as one `**` comment line of the deck (line breaks folded to spaces).
 fn comment_line(text: &str) -> String {
     format!("** {}", text.replace(['\n', '\r'], " "))
-}
-
-/// Bulk modulus of a deck for CalculiX ([`for_calculix`]), as a multiple of the initial
-/// shear modulus: where its C3D8I gets the reference to 100 kPa.
-pub const CALCULIX_DECK_BULK_TO_SHEAR: f64 = 100.0;
-
-/// `cfg` as CalculiX's C3D8I takes it without locking: every silicone ([material], and
-/// [tube.outer_material]) whose bulk modulus is above [`CALCULIX_BULK_TO_SHEAR`] mu0 (where
-/// C3D8I locks) gets [`CALCULIX_DECK_BULK_TO_SHEAR`] mu0; a note per change, for the deck
-/// and the output (`simulate --export-exact` writes the model as solved instead).
-pub fn for_calculix(cfg: &ActuatorConfig) -> (ActuatorConfig, Vec<String>) {
-    let mut deck = cfg.clone();
-    let mut notes = Vec::new();
-    let soften = |m: &mut MaterialConfig, key: &str, notes: &mut Vec<String>| {
-        let Ok(y) = m.yeoh() else { return };
-        let mu0 = 2.0 * y.c1;
-        if y.bulk_modulus <= CALCULIX_BULK_TO_SHEAR * mu0 {
-            return;
-        }
-        // The coefficients are scaled by `scale` in yeoh(): the ratio to mu0 is not.
-        let c1 = m.c1.unwrap_or(m.preset.yeoh().c1);
-        m.bulk_modulus_mpa = Some(CALCULIX_DECK_BULK_TO_SHEAR * 2.0 * c1);
-        notes.push(format!(
-            "the deck's {key} bulk modulus is {:.4} MPa ({CALCULIX_DECK_BULK_TO_SHEAR} mu0), not the {:.4} MPa ({:.0} mu0) solved here: CalculiX's C3D8I locks above {CALCULIX_BULK_TO_SHEAR} mu0 (--export-exact writes the model as solved)",
-            CALCULIX_DECK_BULK_TO_SHEAR * mu0,
-            y.bulk_modulus,
-            y.bulk_modulus / mu0
-        ));
-    };
-    let shape = deck.shape();
-    for (key, m) in shape.silicones_mut(&mut deck) {
-        soften(m, key, &mut notes);
-    }
-    (deck, notes)
 }
 
 /// Writes the deck of `mesh` (built from `cfg`) to `path` atomically
