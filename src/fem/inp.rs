@@ -12,15 +12,16 @@
 //! E ν, `*MEMBRANE SECTION` thickness),
 //! plate layers as `S4` shells there (an imported mesh's as `S6`; `*SHELL SECTION`
 //! thickness: CalculiX expands them through the thickness, the mid-plane tied to the
-//! silicone's nodes, and on a half model holds their rotations 4 and 6 on y = 0,
-//! `SYMMETRY_SHELL`);
+//! silicone's nodes, and on a symmetry plane holds their rotations about its two axes,
+//! `SYMMETRY_SHELL` 4 and 6 on y = 0);
 //! thread segments as `SPRINGA` between a node per thread point, stiffness E A / L0
 //! (bendscope's bar at the thread's small strain; a cable as a `NONLINEAR` spring that
 //! carries nothing shortened), each point tied to its host hexahedron by `*EQUATION`s
 //! u_p − Σ w_a u_a = 0 (the embedding, exact for trilinear hosts); smeared threads as
 //! `M3D4` of an `*ELASTIC, TYPE=ORTHO` material, an `*ORIENTATION` per direction (local 1
 //! along the thread; [`SMEARED_ACROSS`] of its modulus across); the clamp and the
-//! symmetry plane y = 0 (half models) as `*BOUNDARY`; `[contact]` as node-to-surface
+//! symmetry planes (a family's y = 0, `SYMMETRY`; an imported mesh's x and z planes too,
+//! `SYMMETRY_X`, `SYMMETRY_Z`) as `*BOUNDARY`; `[contact]` as node-to-surface
 //! penalty contact (each chamber wall a `*SURFACE` of element faces, a `*CONTACT PAIR`
 //! per bendscope pair, the linear pressure-overclosure slope half bendscope's penalty, as
 //! bendscope pairs the walls both ways with half a node's area in each); gravity along the config's
@@ -510,21 +511,33 @@ pub fn inp_from_mesh(
     let clamped: Vec<usize> = (0..m.nodes.len())
         .filter(|a| (0..3).all(|d| m.fixed[3 * a + d]))
         .collect();
-    let symmetry: Vec<usize> = fixed_nodes(1)
-        .into_iter()
-        .filter(|a| !clamped.contains(a))
-        .collect();
     let one_based = |v: &[usize]| -> Vec<usize> { v.iter().map(|a| a + 1).collect() };
     write_set(&mut s, "NSET", "CLAMPED", &one_based(&clamped));
-    write_set(&mut s, "NSET", "SYMMETRY", &one_based(&symmetry));
-    // A shell's rotations about x and z vanish on the symmetry plane y = 0 (bendscope's
-    // plate takes its mirrored neighbour there).
-    let symmetry_shell: Vec<usize> = symmetry
-        .iter()
-        .filter(|a| shell_nodes.contains(*a))
-        .map(|a| a + 1)
-        .collect();
-    write_set(&mut s, "NSET", "SYMMETRY_SHELL", &symmetry_shell);
+    // Nodes held along one axis alone lie on a symmetry plane (a family's y = 0, an
+    // imported mesh's symmetry.x|y|z); a shell there also holds its rotations about the
+    // plane's two axes (bendscope's plate takes its mirrored neighbour there).
+    let mut held = String::new();
+    for (name, axis) in [("SYMMETRY_X", 0), ("SYMMETRY", 1), ("SYMMETRY_Z", 2)] {
+        let on_plane: Vec<usize> = fixed_nodes(axis)
+            .into_iter()
+            .filter(|a| !clamped.contains(a))
+            .collect();
+        let shells: Vec<usize> = on_plane
+            .iter()
+            .filter(|a| shell_nodes.contains(*a))
+            .map(|a| a + 1)
+            .collect();
+        write_set(&mut s, "NSET", name, &one_based(&on_plane));
+        write_set(&mut s, "NSET", &format!("{name}_SHELL"), &shells);
+        if !on_plane.is_empty() {
+            let _ = writeln!(held, "{name}, {0}, {0}", axis + 1);
+        }
+        if !shells.is_empty() {
+            for rotation in (4..=6).filter(|r| *r != 4 + axis) {
+                let _ = writeln!(held, "{name}_SHELL, {rotation}, {rotation}");
+            }
+        }
+    }
     write_set(&mut s, "NSET", "MARKERS", &one_based(&mesh.markers));
     write_set(&mut s, "NSET", "TIP", &[mesh.tip + 1]);
     let (below, above) = mesh.twist_pair;
@@ -533,12 +546,7 @@ pub fn inp_from_mesh(
     if !clamped.is_empty() {
         s.push_str("CLAMPED, 1, 3\n");
     }
-    if !symmetry.is_empty() {
-        s.push_str("SYMMETRY, 2, 2\n");
-    }
-    if !symmetry_shell.is_empty() {
-        s.push_str("SYMMETRY_SHELL, 4, 4\nSYMMETRY_SHELL, 6, 6\n");
-    }
+    s.push_str(&held);
     let contact_pairs = write_contact(&mut s, mesh, &faces)?;
     let step_head = format!(
         "*STEP, NLGEOM, INC={MAX_INCREMENTS}\n*STATIC\n{INITIAL_INCREMENT}, 1., {MIN_INCREMENT:e}, 1.\n"
@@ -1137,6 +1145,61 @@ mod tests {
             (mesh.model.membranes.len(), 0)
         );
         assert!(!text.contains("S4") && !text.contains("SYMMETRY_SHELL"));
+    }
+
+    /// A node held along x or z alone (an imported mesh's symmetry.x or .z plane) is
+    /// held so in the deck as along y, and a shell node there holds its rotations about
+    /// the plane's two axes: 5 and 6 on an x plane, 4 and 5 on a z plane.
+    #[test]
+    fn every_symmetry_plane_goes_out_held_with_its_shells_rotations() {
+        use crate::fem::family::Family;
+        let mut glove = ActuatorConfig::for_family(Family::Glove);
+        glove.mesh.size_mm = 4.0;
+        glove.load.pressures_kpa = "1".into();
+        glove.contact = None;
+        let mut mesh = build_mesh(&glove).unwrap();
+        let sheet: std::collections::BTreeSet<usize> =
+            mesh.model.membranes.iter().flat_map(|m| m.nodes).collect();
+        let free = |m: &ActuatorMesh, a: usize| (0..3).all(|d| !m.model.fixed[3 * a + d]);
+        let on_x: Vec<usize> = sheet
+            .iter()
+            .copied()
+            .filter(|&a| free(&mesh, a))
+            .take(3)
+            .collect();
+        let on_z: Vec<usize> = (0..mesh.model.nodes.len())
+            .filter(|a| !sheet.contains(a) && free(&mesh, *a))
+            .take(2)
+            .collect();
+        for &a in &on_x {
+            mesh.model.fixed[3 * a] = true;
+        }
+        for &a in &on_z {
+            mesh.model.fixed[3 * a + 2] = true;
+        }
+        let (text, _) = inp_from_mesh(&mesh, &glove).unwrap();
+        let set = |name: &str| -> Vec<usize> {
+            let lines: Vec<&str> = text.lines().collect();
+            let Some(at) = lines
+                .iter()
+                .position(|l| *l == format!("*NSET, NSET={name}"))
+            else {
+                return Vec::new();
+            };
+            lines[at + 1..]
+                .iter()
+                .take_while(|l| !l.starts_with('*'))
+                .flat_map(|l| l.split(", ").map(|v| v.parse::<usize>().unwrap() - 1))
+                .collect()
+        };
+        assert_eq!(set("SYMMETRY_X"), on_x);
+        assert_eq!(set("SYMMETRY_X_SHELL"), on_x);
+        assert_eq!(set("SYMMETRY_Z"), on_z);
+        assert!(set("SYMMETRY_Z_SHELL").is_empty());
+        assert!(text.contains("SYMMETRY_X, 1, 1\nSYMMETRY_X_SHELL, 5, 5\nSYMMETRY_X_SHELL, 6, 6\n"));
+        assert!(text.contains("SYMMETRY_Z, 3, 3\n"));
+        // y = 0 as before.
+        assert!(text.contains("SYMMETRY, 2, 2\nSYMMETRY_SHELL, 4, 4\nSYMMETRY_SHELL, 6, 6\n"));
     }
 
     #[test]
