@@ -283,21 +283,32 @@ pub fn kinematics(
                 gp[3 * an + i] = w * j * q[an][i];
             }
         }
-        for an in 0..10 {
+        // The tangent's block (a, b) is ∇N_a · A · ∇N_b: A contracted with ∇N_a once per
+        // node (ca[a][(i, 3 k + l)] = Σ_j ∇N_a,j A_ij,kl), then with ∇N_b per pair. Both
+        // blocks are symmetric in (a, i) <-> (b, k) (A has major symmetry), so each pair
+        // a < b is computed once and mirrored.
+        let ca: [[f64; 27]; 10] = std::array::from_fn(|an| {
             let ga = grads[an];
-            for bn in 0..10 {
+            std::array::from_fn(|m| {
+                let (i, col) = (m / 9, m % 9);
+                ga[0] * a[(3 * i, col)] + ga[1] * a[(3 * i + 1, col)] + ga[2] * a[(3 * i + 2, col)]
+            })
+        });
+        for an in 0..10 {
+            for bn in an..10 {
                 let gb = grads[bn];
                 for i in 0..3 {
                     for kk in 0..3 {
-                        let mut s = 0.0;
-                        for jj in 0..3 {
-                            for l in 0..3 {
-                                s += ga[jj] * a[(3 * i + jj, 3 * kk + l)] * gb[l];
-                            }
+                        let c = &ca[an][9 * i + 3 * kk..9 * i + 3 * kk + 3];
+                        let s = w * (c[0] * gb[0] + c[1] * gb[1] + c[2] * gb[2]);
+                        let h = w * j * (q[an][i] * q[bn][kk] - q[bn][i] * q[an][kk]);
+                        let (r, col) = (3 * an + i, 3 * bn + kk);
+                        k.k_iso[(r, col)] += s;
+                        hp[(r, col)] = h;
+                        if bn != an {
+                            k.k_iso[(col, r)] += s;
+                            hp[(col, r)] = h;
                         }
-                        k.k_iso[(3 * an + i, 3 * bn + kk)] += w * s;
-                        hp[(3 * an + i, 3 * bn + kk)] =
-                            w * j * (q[an][i] * q[bn][kk] - q[bn][i] * q[an][kk]);
                     }
                 }
             }
