@@ -4,6 +4,8 @@
 //! pressure, contact and dead loads scattered into the condensed residual and the lower
 //! triangle of the tangent in the fixed [`super::pattern::Pattern`].
 
+use std::ops::Range;
+
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
@@ -32,8 +34,9 @@ pub(super) type ElementPart = (ElementVector, ElementMatrix, Condensed);
 pub(super) type TetPart = (ThVector, ThMatrix);
 
 /// Tetrahedra evaluated at once before their terms are scattered: bounds the scratch
-/// memory of their 7 kB tangents whatever the mesh size.
-pub(super) const TET_CHUNK: usize = 4096;
+/// memory of their 9 kB tangents whatever the mesh size (two chunks are held: one
+/// scattered while the next is evaluated).
+pub(super) const TET_CHUNK: usize = 2048;
 
 /// Per-element terms of the condensation, kept to update θ_e and p_e after a step.
 #[derive(Clone)]
@@ -280,7 +283,9 @@ impl<'m> Solver<'m> {
     /// corner pressure k at n_eq + k) and their Hessians to `values`, a chunk at a time,
     /// at corner pressures `corners`; the largest constraint residual over its corner
     /// volume (a volume strain), or `None` when one is inverted. Every tetrahedron is
-    /// evaluated, a clamped one too: its corners' pressures are unknowns.
+    /// evaluated, a clamped one too: its corners' pressures are unknowns. A chunk is
+    /// scattered (serially: its entries collide) while the next one is evaluated on the
+    /// other threads, so the scatter does not leave them idle.
     fn scatter_tets(
         &self,
         u: &[f64],
@@ -290,12 +295,12 @@ impl<'m> Solver<'m> {
     ) -> Option<f64> {
         let model = self.model;
         let tets = &model.tets.elements;
-        let mut parts = self.tet_parts.lock().ok()?;
+        let mut buffers = self.tet_parts.lock().ok()?;
+        let [ready, next] = &mut *buffers;
         let mut constraint = vec![0.0; self.n_p];
-        for start in (0..tets.len()).step_by(TET_CHUNK) {
-            let end = (start + TET_CHUNK).min(tets.len());
-            parts.clear();
-            parts.par_extend((start..end).into_par_iter().map(|t| {
+        let evaluate = |range: Range<usize>, out: &mut Vec<Option<TetPart>>| {
+            out.clear();
+            out.par_extend(range.into_par_iter().map(|t| {
                 let p = self.tet_pressure[t].map(|k| corners[k]);
                 let el = gather(u, &tets[t]);
                 let th = taylor_hood::element_response(
@@ -306,7 +311,14 @@ impl<'m> Solver<'m> {
                 )?;
                 Some((th.gradient, th.hessian))
             }));
-            for (t, part) in (start..end).zip(parts.iter()) {
+        };
+        let scatter = |range: Range<usize>,
+                       parts: &[Option<TetPart>],
+                       r: &mut [f64],
+                       values: &mut [f64],
+                       constraint: &mut [f64]|
+         -> Option<()> {
+            for (t, part) in range.zip(parts) {
                 let (f, k) = part.as_ref()?;
                 let el = &tets[t];
                 for a in 0..30 {
@@ -323,6 +335,26 @@ impl<'m> Solver<'m> {
                     }
                 }
             }
+            Some(())
+        };
+        let chunks: Vec<Range<usize>> = (0..tets.len())
+            .step_by(TET_CHUNK)
+            .map(|start| start..(start + TET_CHUNK).min(tets.len()))
+            .collect();
+        if let Some(first) = chunks.first() {
+            evaluate(first.clone(), ready);
+        }
+        for (c, range) in chunks.iter().enumerate() {
+            let (scattered, ()) = rayon::join(
+                || scatter(range.clone(), ready, r, values, &mut constraint),
+                || {
+                    if let Some(upcoming) = chunks.get(c + 1) {
+                        evaluate(upcoming.clone(), next);
+                    }
+                },
+            );
+            scattered?;
+            std::mem::swap(ready, next);
         }
         let mut volume_error: f64 = 0.0;
         for (k, (c, v)) in constraint.iter().zip(&self.corner_volume).enumerate() {

@@ -22,8 +22,8 @@
 //! a multiple of the round-off floor ε ‖ |K| |u| ‖: with a sheet thousands of times
 //! stiffer than the silicone the floor is above the absolute tolerance under gravity
 //! alone, and Newton, converged to round-off, used to stall there and cut the step
-//! until it gave up. `BENDSCOPE_DEBUG_NEWTON=1` prints every iteration's residual to
-//! stderr.
+//! until it gave up. `BENDSCOPE_DEBUG_NEWTON=1` prints every iteration's residual and
+//! the seconds of its assembly and linear solve to stderr.
 //!
 //! The rooms: `model` (the model and its load state), `pattern` (the sparsity
 //! pattern of the tangent), `assembly` (element, sheet, fibre, face and contact terms

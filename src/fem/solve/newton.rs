@@ -313,7 +313,15 @@ impl<'m> Solver<'m> {
                     .assemble(&u, &theta, &pressure, &modes, load)
                     .ok_or(NewtonFailure::Cut)?;
             }
-            let Some(du) = self.factor_and_solve(&cur.values, &cur.residual)? else {
+            let t0 = std::time::Instant::now();
+            let solved = self.factor_and_solve(&cur.values, &cur.residual)?;
+            if debug {
+                eprintln!(
+                    "newton {it}: factor and solve {:.3} s",
+                    t0.elapsed().as_secs_f64()
+                );
+            }
+            let Some(du) = solved else {
                 if debug {
                     eprintln!("newton {it}: singular tangent: cutting the step");
                 }
@@ -401,7 +409,12 @@ impl<'m> Solver<'m> {
                         None => *a,
                     })
                     .collect();
-                if let Some(next) = self.assemble(&tu, &tt, &tp, &tm, load) {
+                let t0 = std::time::Instant::now();
+                let assembled = self.assemble(&tu, &tt, &tp, &tm, load);
+                if debug {
+                    eprintln!("newton {it}: assembly {:.3} s", t0.elapsed().as_secs_f64());
+                }
+                if let Some(next) = assembled {
                     accepted = Some((tu, tt, tp, tm, next));
                     break;
                 }

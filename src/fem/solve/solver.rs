@@ -69,8 +69,9 @@ pub struct Solver<'m> {
     /// that an assembly allocates nothing (a fresh ~55 MB vector per Newton iteration at
     /// the default mesh cost page faults and moves).
     pub(super) parts: Mutex<Vec<Option<ElementPart>>>,
-    /// The same for a chunk of tetrahedra ([`super::assembly::TET_CHUNK`]).
-    pub(super) tet_parts: Mutex<Vec<Option<TetPart>>>,
+    /// The same for two chunks of tetrahedra ([`super::assembly::TET_CHUNK`]): one
+    /// scattered while the next is evaluated.
+    pub(super) tet_parts: Mutex<[Vec<Option<TetPart>>; 2]>,
     pub(super) u: Vec<f64>,
     /// Element dilatations θ_e.
     pub(super) theta: Vec<f64>,
@@ -239,7 +240,7 @@ impl<'m> Solver<'m> {
             factor: Vec::new(),
             scratch: None,
             parts: Mutex::new(Vec::new()),
-            tet_parts: Mutex::new(Vec::new()),
+            tet_parts: Mutex::new([Vec::new(), Vec::new()]),
             u: vec![0.0; 3 * n],
             theta: vec![1.0; points * model.elements.len()],
             pressure: vec![0.0; points * model.elements.len() + n_p],
