@@ -12,7 +12,7 @@
 //! at the next set point (fetching first a recording whose download failed). A rerun
 //! also records again every set point whose recording the log calls done but that is
 //! missing or not a playable video (a recorder left running by a killed run wrote over
-//! it), and stops such a recorder first ([`camera::stop_earlier_recorder`]); a GoPro
+//! it), and stops such a recorder first ([`webcam::stop_earlier_recorder`]); a GoPro
 //! still recording for a killed run is stopped first too
 //! ([`camera::Camera::stop_leftover_recording`]).
 //!
@@ -25,16 +25,18 @@ pub mod gopro_wifi;
 pub mod protocol;
 pub mod regulator;
 pub mod session;
+pub mod webcam;
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use camera::{Camera, CameraFile, GoPro, Webcam};
+use camera::{Camera, CameraFile, GoPro};
 use gopro_wifi::GoProWifi;
 use protocol::{CameraConfig, Plan, Protocol, RampPlan, SetPoint, StepPlan};
 use regulator::SerialRegulator;
 use session::{LogRow, PressureStats, RampSample, STATUS_NOT_DOWNLOADED, STATUS_OK};
+use webcam::Webcam;
 
 use crate::table::TableError;
 
@@ -248,7 +250,7 @@ pub fn acquire(
     // Before any device: a recorder an earlier, killed run left running must not write
     // into the session beside this run's.
     if let CameraConfig::Webcam(_) = &protocol.camera {
-        if let Some(pid) = camera::stop_earlier_recorder(session)? {
+        if let Some(pid) = webcam::stop_earlier_recorder(session)? {
             note(
                 NoteKind::Warning,
                 &format!("an earlier run's recorder (ffmpeg, pid {pid}) was still writing into the session: stopped it; its unfinished recording is recorded again"),
