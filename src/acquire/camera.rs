@@ -1,7 +1,8 @@
-//! The cameras: a GoPro driven through the Open GoPro HTTP API over USB or WiFi, or a UVC
-//! (V4L2) webcam recorded by the `ffmpeg` program (a HERO5-HERO8 through the older WiFi
-//! API: [`super::gopro_wifi`]). All sit behind [`Camera`]: start a recording, keep the
-//! camera awake, stop, then fetch the files of that recording into the session folder.
+//! The cameras: a GoPro driven through the Open GoPro HTTP API over USB or WiFi (a
+//! HERO5-HERO8 through the older WiFi API: [`super::gopro_wifi`]), or a UVC (V4L2) webcam
+//! recorded by the `ffmpeg` program ([`super::webcam`]). All sit behind [`Camera`]: start
+//! a recording, keep the camera awake, stop, then fetch the files of that recording into
+//! the session folder.
 //!
 //! # GoPro (Open GoPro HTTP API 2.0, wired USB or WiFi)
 //!
@@ -21,8 +22,6 @@
 //! is recording when a run begins (an earlier run was killed while recording) is stopped
 //! first ([`Camera::stop_leftover_recording`]). HTTP
 //! is `ureq` (plain http, no TLS: the camera's USB API is not encrypted).
-//!
-//! The webcam (a UVC device recorded by ffmpeg) is [`super::webcam`].
 
 use std::io::{Read, Write};
 use std::path::Path;

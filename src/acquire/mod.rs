@@ -17,8 +17,9 @@
 //! ([`camera::Camera::stop_leftover_recording`]).
 //!
 //! Modules: [`protocol`] (the TOML), [`regulator`] (the serial line protocol), [`camera`]
-//! (GoPro over the Open GoPro HTTP API, webcam through ffmpeg), [`gopro_wifi`] (HERO5-HERO8
-//! through the legacy WiFi API), [`session`] (the files written).
+//! (the camera trait, GoPro over the Open GoPro HTTP API), [`webcam`] (a UVC webcam
+//! through ffmpeg), [`gopro_wifi`] (HERO5-HERO8 through the legacy WiFi API), [`session`]
+//! (the files written).
 
 pub mod camera;
 pub mod gopro_wifi;
