@@ -761,6 +761,29 @@ mod tests {
     use nalgebra::Vector3;
 
     /// Normal of a quad (a, b, c, d) by the right-hand rule: (c − a) × (d − b).
+    /// The nodes (0-based) of the deck's node set `name`, empty when it has none.
+    fn node_set(text: &str, name: &str) -> Vec<usize> {
+        let lines: Vec<&str> = text.lines().collect();
+        let head = format!("*NSET, NSET={name}");
+        let Some(at) = lines.iter().position(|l| *l == head) else {
+            return Vec::new();
+        };
+        lines[at + 1..]
+            .iter()
+            .take_while(|l| !l.starts_with('*'))
+            .flat_map(|l| l.split(", ").map(|v| v.parse::<usize>().unwrap() - 1))
+            .collect()
+    }
+
+    /// The glove at a 4 mm mesh, one pressure, no contact: a small model with a plate.
+    fn coarse_glove() -> ActuatorConfig {
+        let mut glove = ActuatorConfig::for_family(crate::fem::family::Family::Glove);
+        glove.mesh.size_mm = 4.0;
+        glove.load.pressures_kpa = "1".into();
+        glove.contact = None;
+        glove
+    }
+
     fn normal(x: &[Vector3<f64>], q: [usize; 4]) -> Vector3<f64> {
         (x[q[2]] - x[q[0]]).cross(&(x[q[3]] - x[q[1]]))
     }
@@ -948,16 +971,7 @@ mod tests {
         assert_eq!(text.matches("*STEP, NLGEOM").count(), 2);
         assert_eq!(text.matches("*NODE PRINT, NSET=MARKERS").count(), 2);
         assert_eq!(text.matches("GRAV").count(), 0);
-        let lines: Vec<&str> = text.lines().collect();
-        let at = lines
-            .iter()
-            .position(|l| *l == "*NSET, NSET=MARKERS")
-            .unwrap();
-        let ids: Vec<usize> = lines[at + 1]
-            .split(", ")
-            .map(|v| v.parse::<usize>().unwrap() - 1)
-            .collect();
-        assert_eq!(ids, mesh.markers);
+        assert_eq!(node_set(&text, "MARKERS"), mesh.markers);
         let d1 = 2.0 / mesh.model.material.bulk_modulus;
         assert!(text.contains(&format!("{d1:.9e}, 0., 0.")));
         let mut with_gravity = cfg.clone();
@@ -1100,13 +1114,9 @@ mod tests {
 
     #[test]
     fn plate_layers_go_out_as_shells_held_at_the_symmetry_plane() {
-        use crate::fem::family::Family;
         // The glove's paper is a plate; the half model holds its rotations about x and z
         // on y = 0.
-        let mut glove = ActuatorConfig::for_family(Family::Glove);
-        glove.mesh.size_mm = 4.0;
-        glove.load.pressures_kpa = "1".into();
-        glove.contact = None;
+        let mut glove = coarse_glove();
         let mesh = build_mesh(&glove).unwrap();
         let (text, summary) = inp_from_config(&glove).unwrap();
         assert!(mesh.model.plates.len() > 10);
@@ -1118,16 +1128,7 @@ mod tests {
         assert!(text.contains("*SHELL SECTION, ELSET=PAPER, MATERIAL=PAPER\n1.000000000e-1"));
         assert!(!text.contains("M3D4") && !text.contains("MEMBRANE SECTION"));
         assert!(text.contains("SYMMETRY_SHELL, 4, 4\nSYMMETRY_SHELL, 6, 6\n"));
-        let lines: Vec<&str> = text.lines().collect();
-        let at = lines
-            .iter()
-            .position(|l| *l == "*NSET, NSET=SYMMETRY_SHELL")
-            .unwrap();
-        let held: Vec<usize> = lines[at + 1..]
-            .iter()
-            .take_while(|l| !l.starts_with('*'))
-            .flat_map(|l| l.split(", ").map(|v| v.parse::<usize>().unwrap() - 1))
-            .collect();
+        let held = node_set(&text, "SYMMETRY_SHELL");
         let sheet: std::collections::BTreeSet<usize> =
             mesh.model.membranes.iter().flat_map(|m| m.nodes).collect();
         let on_plane: Vec<usize> = sheet
@@ -1152,11 +1153,7 @@ mod tests {
     /// the plane's two axes: 5 and 6 on an x plane, 4 and 5 on a z plane.
     #[test]
     fn every_symmetry_plane_goes_out_held_with_its_shells_rotations() {
-        use crate::fem::family::Family;
-        let mut glove = ActuatorConfig::for_family(Family::Glove);
-        glove.mesh.size_mm = 4.0;
-        glove.load.pressures_kpa = "1".into();
-        glove.contact = None;
+        let glove = coarse_glove();
         let mut mesh = build_mesh(&glove).unwrap();
         let sheet: std::collections::BTreeSet<usize> =
             mesh.model.membranes.iter().flat_map(|m| m.nodes).collect();
@@ -1178,20 +1175,7 @@ mod tests {
             mesh.model.fixed[3 * a + 2] = true;
         }
         let (text, _) = inp_from_mesh(&mesh, &glove).unwrap();
-        let set = |name: &str| -> Vec<usize> {
-            let lines: Vec<&str> = text.lines().collect();
-            let Some(at) = lines
-                .iter()
-                .position(|l| *l == format!("*NSET, NSET={name}"))
-            else {
-                return Vec::new();
-            };
-            lines[at + 1..]
-                .iter()
-                .take_while(|l| !l.starts_with('*'))
-                .flat_map(|l| l.split(", ").map(|v| v.parse::<usize>().unwrap() - 1))
-                .collect()
-        };
+        let set = |name: &str| node_set(&text, name);
         assert_eq!(set("SYMMETRY_X"), on_x);
         assert_eq!(set("SYMMETRY_X_SHELL"), on_x);
         assert_eq!(set("SYMMETRY_Z"), on_z);
